@@ -1,0 +1,55 @@
+// diskchungs: the command-line front end. Errors end as one line on stderr and a non-zero exit.
+#include <algorithm>
+#include <cstdio>
+#include <map>
+
+#include "chungs/common/log.hpp"
+#include "command.hpp"
+
+namespace chungs::app {
+
+Command::Command(std::string n, std::string h, std::function<Action(CLI::App&)> s)
+    : name(std::move(n)), help(std::move(h)), setup(std::move(s)) {
+  commands().push_back(this);
+}
+
+std::vector<const Command*>& commands() {
+  static std::vector<const Command*> list;
+  return list;
+}
+
+}  // namespace chungs::app
+
+int main(int argc, char** argv) {
+  using namespace chungs;
+  CLI::App cli{"DiskChunGS: Gaussian-splatting SLAM with out-of-core chunked maps"};
+  cli.require_subcommand(1);
+  bool quiet = false, verbose = false;
+  cli.add_flag("-q,--quiet", quiet, "only warnings and errors");
+  cli.add_flag("-v,--verbose", verbose, "debug messages");
+
+  auto cmds = app::commands();
+  std::sort(cmds.begin(), cmds.end(), [](auto* a, auto* b) { return a->name < b->name; });
+  std::map<CLI::App*, app::Action> actions;
+  for (const auto* c : cmds) {
+    CLI::App* sub = cli.add_subcommand(c->name, c->help);
+    actions[sub] = c->setup(*sub);
+  }
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return cli.exit(e);
+  }
+  if (quiet) log::set_level(log::Level::Warn);
+  if (verbose) log::set_level(log::Level::Debug);
+  try {
+    for (auto& [sub, action] : actions)
+      if (sub->parsed()) return action();
+    return 2;
+  } catch (const CLI::ParseError& e) {
+    return cli.exit(e);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "diskchungs: error: %s\n", e.what());
+    return 1;
+  }
+}

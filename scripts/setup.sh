@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages DiskChunGS needs, then configures and builds it in Release.
+# Safe to run again: apt-get skips what is installed and the build is incremental.
+# Options through the environment: BUILD_DIR (default build), CHUNGS_CUDA (AUTO|ON|OFF),
+# CHUNGS_SKIP_APT=1 to skip the package step (no root needed then).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD_DIR=${BUILD_DIR:-build}
+
+if [ "${CHUNGS_SKIP_APT:-0}" != 1 ]; then
+  SUDO=""
+  [ "$(id -u)" = 0 ] || SUDO="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends build-essential cmake ninja-build ccache pkg-config libeigen3-dev libpng-dev libjpeg-dev zlib1g-dev libzstd-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-features2d-dev >/dev/null
+fi
+
+jobs=$(nproc)
+cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHUNGS_CUDA="${CHUNGS_CUDA:-AUTO}"
+cmake --build "$BUILD_DIR" -j "$jobs"
+echo "built: $BUILD_DIR/apps/diskchungs/diskchungs"

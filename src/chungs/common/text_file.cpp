@@ -1,0 +1,99 @@
+#include "chungs/common/text_file.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace chungs {
+
+namespace {
+bool parse(const std::string& s, double& out) {
+  const char* b = s.data();
+  const char* e = b + s.size();
+  auto r = std::from_chars(b, e, out);
+  return r.ec == std::errc() && r.ptr == e && std::isfinite(out);
+}
+}  // namespace
+
+bool is_number(const std::string& s) {
+  double v;
+  return parse(s, v);
+}
+
+double parse_double(const std::string& s, const std::string& what) {
+  double v;
+  if (!parse(s, v)) fail(what, ": '", s, "' is not a finite number");
+  return v;
+}
+
+void TextLine::fail_here(const std::string& msg) const {
+  fail(file.string(), ":", number, ": ", msg);
+}
+
+double TextLine::number_at(size_t i) const {
+  if (i >= tokens.size()) fail_here(cat("expected at least ", i + 1, " fields, found ", tokens.size()));
+  double v;
+  if (!parse(tokens[i], v)) fail_here(cat("field ", i + 1, " '", tokens[i], "' is not a finite number"));
+  return v;
+}
+
+long long TextLine::integer_at(size_t i) const {
+  if (i >= tokens.size()) fail_here(cat("expected at least ", i + 1, " fields, found ", tokens.size()));
+  long long v = 0;
+  const auto& s = tokens[i];
+  auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (r.ec != std::errc() || r.ptr != s.data() + s.size())
+    fail_here(cat("field ", i + 1, " '", s, "' is not an integer"));
+  return v;
+}
+
+void TextLine::expect_fields(size_t n, bool at_least) const {
+  if (tokens.size() == n || (at_least && tokens.size() > n)) return;
+  fail_here(cat("expected ", at_least ? "at least " : "", n, " fields, found ", tokens.size()));
+}
+
+std::string read_file_text(const std::filesystem::path& file) {
+  require_file(file);
+  std::ifstream in(file, std::ios::binary);
+  if (!in) fail(file.string(), ": cannot open for reading");
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
+std::vector<TextLine> read_text_table(const std::filesystem::path& file, bool comma_separated,
+                                      bool skip_header_if_not_numeric) {
+  std::istringstream in(read_file_text(file));
+  std::vector<TextLine> out;
+  std::string line;
+  int number = 0;
+  bool first_data_line = true;
+  while (std::getline(in, line)) {
+    ++number;
+    TextLine tl{file, number, {}};
+    std::string cur;
+    auto flush = [&] {
+      if (!cur.empty()) tl.tokens.push_back(cur);
+      cur.clear();
+    };
+    for (char c : line) {
+      if (c == ' ' || c == '\t' || c == '\r' || (comma_separated && c == ',')) {
+        flush();
+      } else {
+        cur.push_back(c);
+      }
+    }
+    flush();
+    if (tl.tokens.empty() || tl.tokens[0][0] == '#') continue;
+    if (first_data_line && skip_header_if_not_numeric && !is_number(tl.tokens[0])) {
+      first_data_line = false;
+      continue;
+    }
+    first_data_line = false;
+    out.push_back(std::move(tl));
+  }
+  return out;
+}
+
+}  // namespace chungs

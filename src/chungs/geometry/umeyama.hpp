@@ -1,0 +1,15 @@
+// Least-squares alignment of corresponding point sets (Umeyama 1991): dst ~ s R src + t.
+#pragma once
+#include <Eigen/Core>
+#include <vector>
+
+#include "chungs/geometry/se3.hpp"
+
+namespace chungs {
+
+// with_scale = false gives the SE3 solution (s = 1). Throws Error with fewer than 3 pairs, unequal
+// sizes, or a degenerate (collinear) configuration.
+Sim3 umeyama_align(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst,
+                   bool with_scale);
+
+}  // namespace chungs

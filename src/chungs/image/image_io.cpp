@@ -1,0 +1,273 @@
+#include "chungs/image/image_io.hpp"
+
+#include <jpeglib.h>
+#include <png.h>
+
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+
+#include "chungs/common/text_file.hpp"
+
+namespace chungs {
+
+namespace {
+
+// libpng and libjpeg report errors by longjmp. Everything between setjmp and a possible longjmp is
+// plain data owned outside these functions, so no destructor is skipped; we throw afterwards.
+struct ErrBuf {
+  std::jmp_buf jmp;
+  char msg[JMSG_LENGTH_MAX + 256] = {0};
+};
+
+void png_err(png_structp png, png_const_charp msg) {
+  auto* e = static_cast<ErrBuf*>(png_get_error_ptr(png));
+  std::snprintf(e->msg, sizeof e->msg, "%s", msg);
+  std::longjmp(e->jmp, 1);
+}
+void png_warn(png_structp, png_const_charp) {}
+
+struct MemReader {
+  const unsigned char* data;
+  size_t size, pos;
+};
+void png_read_mem(png_structp png, png_bytep out, png_size_t n) {
+  auto* r = static_cast<MemReader*>(png_get_io_ptr(png));
+  if (r->pos + n > r->size) png_error(png, "file is truncated");
+  std::memcpy(out, r->data + r->pos, n);
+  r->pos += n;
+}
+
+struct PngPixels {
+  int width = 0, height = 0, channels = 0, bit_depth = 0;
+  std::vector<unsigned char> bytes;  // rows as libpng delivers them (16-bit big-endian)
+};
+
+// Decodes a PNG after expanding palette/low-bit gray and dropping gray alpha; keeps 16-bit samples.
+bool decode_png(const std::string& file_bytes, PngPixels& out, ErrBuf& err) {
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, png_err, png_warn);
+  if (!png) {
+    std::snprintf(err.msg, sizeof err.msg, "cannot create PNG decoder");
+    return false;
+  }
+  png_infop info = png_create_info_struct(png);
+  MemReader reader{reinterpret_cast<const unsigned char*>(file_bytes.data()), file_bytes.size(), 0};
+  std::vector<png_bytep>* rows = new std::vector<png_bytep>();
+  if (setjmp(err.jmp)) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    delete rows;
+    return false;
+  }
+  png_set_read_fn(png, &reader, png_read_mem);
+  png_read_info(png, info);
+  int color = png_get_color_type(png, info);
+  int depth = png_get_bit_depth(png, info);
+  if (color == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+  if (color == PNG_COLOR_TYPE_GRAY && depth < 8) png_set_expand_gray_1_2_4_to_8(png);
+  if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
+  if (color == PNG_COLOR_TYPE_GRAY_ALPHA) png_set_strip_alpha(png);
+  png_read_update_info(png, info);
+  out.width = int(png_get_image_width(png, info));
+  out.height = int(png_get_image_height(png, info));
+  out.channels = png_get_channels(png, info);
+  out.bit_depth = png_get_bit_depth(png, info);
+  size_t stride = png_get_rowbytes(png, info);
+  out.bytes.resize(stride * out.height);
+  rows->resize(out.height);
+  for (int y = 0; y < out.height; ++y) (*rows)[y] = out.bytes.data() + stride * y;
+  png_read_image(png, rows->data());
+  png_read_end(png, nullptr);
+  png_destroy_read_struct(&png, &info, nullptr);
+  delete rows;
+  return true;
+}
+
+PngPixels load_png(const std::filesystem::path& file, const std::string& bytes) {
+  PngPixels px;
+  ErrBuf err;
+  if (!decode_png(bytes, px, err)) fail(file.string(), ": corrupt PNG (", err.msg, ")");
+  if (px.channels < 1 || px.channels > 4) fail(file.string(), ": unsupported PNG channel count ", px.channels);
+  return px;
+}
+
+void jpeg_err_exit(j_common_ptr cinfo) {
+  auto* e = static_cast<ErrBuf*>(cinfo->client_data);
+  (*cinfo->err->format_message)(cinfo, e->msg);
+  std::longjmp(e->jmp, 1);
+}
+
+bool decode_jpeg(const std::string& bytes, Image8& out, ErrBuf& err) {
+  jpeg_decompress_struct cinfo;
+  jpeg_error_mgr jerr;
+  cinfo.err = jpeg_std_error(&jerr);
+  jerr.error_exit = jpeg_err_exit;
+  cinfo.client_data = &err;
+  if (setjmp(err.jmp)) {
+    jpeg_destroy_decompress(&cinfo);
+    return false;
+  }
+  jpeg_create_decompress(&cinfo);
+  jpeg_mem_src(&cinfo, reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
+  jpeg_read_header(&cinfo, TRUE);
+  if (cinfo.jpeg_color_space != JCS_GRAYSCALE) cinfo.out_color_space = JCS_RGB;
+  jpeg_start_decompress(&cinfo);
+  out = Image8(int(cinfo.output_width), int(cinfo.output_height), int(cinfo.output_components));
+  while (cinfo.output_scanline < cinfo.output_height) {
+    JSAMPROW row = out.row(int(cinfo.output_scanline));
+    jpeg_read_scanlines(&cinfo, &row, 1);
+  }
+  jpeg_finish_decompress(&cinfo);
+  jpeg_destroy_decompress(&cinfo);
+  return true;
+}
+
+bool is_png(const std::string& b) { return b.size() >= 8 && std::memcmp(b.data(), "\x89PNG\r\n\x1a\n", 8) == 0; }
+bool is_jpeg(const std::string& b) { return b.size() >= 3 && std::memcmp(b.data(), "\xff\xd8\xff", 3) == 0; }
+
+}  // namespace
+
+Image8 read_image8(const std::filesystem::path& file) {
+  std::string bytes = read_file_text(file);
+  if (is_jpeg(bytes)) {
+    Image8 img;
+    ErrBuf err;
+    if (!decode_jpeg(bytes, img, err)) fail(file.string(), ": corrupt JPEG (", err.msg, ")");
+    return img;
+  }
+  if (!is_png(bytes)) fail(file.string(), ": not a PNG or JPEG file");
+  PngPixels px = load_png(file, bytes);
+  Image8 img(px.width, px.height, px.channels);
+  size_t n = img.size();
+  if (px.bit_depth == 16)
+    for (size_t i = 0; i < n; ++i) img.data()[i] = px.bytes[2 * i];  // big-endian high byte
+  else
+    std::memcpy(img.data(), px.bytes.data(), n);
+  return img;
+}
+
+Image16 read_png16(const std::filesystem::path& file) {
+  std::string bytes = read_file_text(file);
+  if (!is_png(bytes)) fail(file.string(), ": not a PNG file (16-bit depth must be PNG)");
+  PngPixels px = load_png(file, bytes);
+  if (px.channels != 1) fail(file.string(), ": expected a 1-channel (depth) PNG, found ", px.channels, " channels");
+  Image16 img(px.width, px.height, 1);
+  for (size_t i = 0; i < img.size(); ++i)
+    img.data()[i] = px.bit_depth == 16 ? uint16_t((px.bytes[2 * i] << 8) | px.bytes[2 * i + 1]) : px.bytes[i];
+  return img;
+}
+
+namespace {
+
+void prepare_parent(const std::filesystem::path& file) {
+  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+}
+
+struct FileCloser {
+  void operator()(FILE* f) const { std::fclose(f); }
+};
+
+bool encode_png(FILE* f, int w, int h, int channels, int depth, const unsigned char* const* rows, ErrBuf& err) {
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, png_err, png_warn);
+  if (!png) return false;
+  png_infop info = png_create_info_struct(png);
+  if (setjmp(err.jmp)) {
+    png_destroy_write_struct(&png, &info);
+    return false;
+  }
+  png_init_io(png, f);
+  // Fast zlib level: these are datasets and renders written in bulk, not archives.
+  png_set_compression_level(png, 3);
+  static const int types[] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB, PNG_COLOR_TYPE_RGBA};
+  png_set_IHDR(png, info, w, h, depth, types[channels], PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  png_write_image(png, const_cast<png_bytepp>(rows));
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  return true;
+}
+
+template <typename T>
+void write_png_any(const std::filesystem::path& file, const Image<T>& img, int depth) {
+  if (img.empty()) fail(file.string(), ": refusing to write an empty image");
+  prepare_parent(file);
+  size_t stride = size_t(img.width()) * img.channels() * sizeof(T);
+  std::vector<unsigned char> buf(stride * img.height());
+  for (size_t i = 0; i < img.size(); ++i) {
+    if constexpr (sizeof(T) == 2) {
+      buf[2 * i] = uint8_t(img.data()[i] >> 8);
+      buf[2 * i + 1] = uint8_t(img.data()[i] & 0xff);
+    } else {
+      buf[i] = img.data()[i];
+    }
+  }
+  std::vector<const unsigned char*> rows(img.height());
+  for (int y = 0; y < img.height(); ++y) rows[y] = buf.data() + stride * y;
+  std::unique_ptr<FILE, FileCloser> f(std::fopen(file.c_str(), "wb"));
+  if (!f) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
+  ErrBuf err;
+  if (!encode_png(f.get(), img.width(), img.height(), img.channels(), depth, rows.data(), err))
+    fail(file.string(), ": PNG write failed (", err.msg, ")");
+  if (std::fflush(f.get()) != 0) fail(file.string(), ": write failed (", std::strerror(errno), ")");
+}
+
+bool encode_jpeg(FILE* f, const Image8& img, int quality, ErrBuf& err) {
+  jpeg_compress_struct cinfo;
+  jpeg_error_mgr jerr;
+  cinfo.err = jpeg_std_error(&jerr);
+  jerr.error_exit = jpeg_err_exit;
+  cinfo.client_data = &err;
+  if (setjmp(err.jmp)) {
+    jpeg_destroy_compress(&cinfo);
+    return false;
+  }
+  jpeg_create_compress(&cinfo);
+  jpeg_stdio_dest(&cinfo, f);
+  cinfo.image_width = img.width();
+  cinfo.image_height = img.height();
+  cinfo.input_components = img.channels();
+  cinfo.in_color_space = img.channels() == 1 ? JCS_GRAYSCALE : JCS_RGB;
+  jpeg_set_defaults(&cinfo);
+  jpeg_set_quality(&cinfo, quality, TRUE);
+  jpeg_start_compress(&cinfo, TRUE);
+  while (cinfo.next_scanline < cinfo.image_height) {
+    JSAMPROW row = const_cast<JSAMPROW>(img.row(int(cinfo.next_scanline)));
+    jpeg_write_scanlines(&cinfo, &row, 1);
+  }
+  jpeg_finish_compress(&cinfo);
+  jpeg_destroy_compress(&cinfo);
+  return true;
+}
+
+}  // namespace
+
+void write_png(const std::filesystem::path& file, const Image8& img) { write_png_any(file, img, 8); }
+
+void write_png(const std::filesystem::path& file, const Image16& img) {
+  if (img.channels() != 1) fail(file.string(), ": 16-bit PNGs are written with 1 channel, got ", img.channels());
+  write_png_any(file, img, 16);
+}
+
+void write_jpeg(const std::filesystem::path& file, const Image8& img, int quality) {
+  if (img.empty()) fail(file.string(), ": refusing to write an empty image");
+  if (img.channels() != 1 && img.channels() != 3)
+    fail(file.string(), ": JPEG needs 1 or 3 channels, got ", img.channels());
+  prepare_parent(file);
+  std::unique_ptr<FILE, FileCloser> f(std::fopen(file.c_str(), "wb"));
+  if (!f) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
+  ErrBuf err;
+  if (!encode_jpeg(f.get(), img, quality, err)) fail(file.string(), ": JPEG write failed (", err.msg, ")");
+  if (std::fflush(f.get()) != 0) fail(file.string(), ": write failed (", std::strerror(errno), ")");
+}
+
+void write_image(const std::filesystem::path& file, const Image8& img) {
+  std::string ext = file.extension().string();
+  for (auto& c : ext) c = char(std::tolower(c));
+  if (ext == ".png") return write_png(file, img);
+  if (ext == ".jpg" || ext == ".jpeg") return write_jpeg(file, img);
+  fail(file.string(), ": unknown image extension '", ext, "' (use .png or .jpg)");
+}
+
+}  // namespace chungs

@@ -1,0 +1,46 @@
+// Helpers shared by the unit tests: where the real data excerpts are, and scratch folders.
+#pragma once
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+#include <string>
+
+namespace chungs::test {
+
+// ../shared/data beside the checkout; tests that need it skip with a message when it is absent.
+inline std::filesystem::path shared_data(const std::string& sub = "") {
+  std::filesystem::path p = CHUNGS_SHARED_DATA;
+  return sub.empty() ? p : p / sub;
+}
+
+#define CHUNGS_REQUIRE_DATA(sub)                                                              \
+  do {                                                                                        \
+    if (!std::filesystem::exists(::chungs::test::shared_data(sub)))                           \
+      GTEST_SKIP() << "real data not found at " << ::chungs::test::shared_data(sub)           \
+                   << " (../shared/data is absent in a plain clone)";                         \
+  } while (0)
+
+// A fresh empty folder under the system temp dir, removed when the object dies.
+class TempDir {
+ public:
+  TempDir() {
+    std::random_device rd;
+    path_ = std::filesystem::temp_directory_path() /
+            ("chungs_test_" + std::to_string(rd()) + std::to_string(rd()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& s) const { return path_ / s; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace chungs::test
