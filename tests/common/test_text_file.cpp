@@ -1,0 +1,32 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/text_file.hpp"
+#include "test_support.hpp"
+
+using namespace chungs;
+
+TEST(TextFile, SkipsCommentsAndHeadersAndNamesLines) {
+  test::TempDir dir;
+  std::ofstream(dir / "t.csv") << "#timestamp [ns],filename\n\n1,a.png\n2 , b.png\n";
+  auto lines = read_text_table(dir / "t.csv", true, true);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(lines[1].number, 4);
+  EXPECT_EQ(lines[1].tokens[1], "b.png");
+  EXPECT_EQ(lines[0].integer_at(0), 1);
+  try {
+    lines[1].number_at(1);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("t.csv:4"), std::string::npos) << e.what();
+  }
+}
+
+TEST(TextFile, RejectsNonFiniteNumbersAndMissingFiles) {
+  EXPECT_FALSE(is_number("nan"));
+  EXPECT_FALSE(is_number("1.0x"));
+  EXPECT_TRUE(is_number("-1e-3"));
+  EXPECT_THROW(read_text_table("/nonexistent/file.txt"), Error);
+}
