@@ -38,4 +38,8 @@ class Dataset {
 std::unique_ptr<Dataset> open_dataset(const std::string& spec);
 std::vector<std::string> dataset_kinds();
 
+// Length of the ground-truth path: sum of distances between the positions of consecutive frames
+// that have a ground-truth pose (frames without one are skipped, not counted as gaps of zero).
+double gt_path_length(const Dataset& dataset);
+
 }  // namespace chungs
