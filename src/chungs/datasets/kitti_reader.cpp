@@ -20,12 +20,11 @@ struct Layout {
   const char* left;
   const char* right;
   int p_left, p_right;
-  bool color;
 };
 
 Layout find_layout(const fs::path& dir) {
   static const Layout layouts[] = {
-      {"image_0", "image_1", 0, 1, false}, {"image_2", "image_3", 2, 3, true}, {"image_l", "image_r", 0, 1, false}};
+      {"image_0", "image_1", 0, 1}, {"image_2", "image_3", 2, 3}, {"image_l", "image_r", 0, 1}};
   std::error_code ec;
   for (const auto& l : layouts)
     if (fs::is_directory(dir / l.left, ec)) return l;
@@ -100,7 +99,7 @@ class KittiDataset : public SequenceDataset {
 
     Image8 first = load_image(left_[0]);  // sets the size every other image must have
     info_.camera = Camera(first.width(), first.height(), pl(0, 0), pl(1, 1), pl(0, 2), pl(1, 2));
-    info_.color = layout.color || first.channels() == 3;
+    info_.color = first.channels() == 3;
     channels_ = first.channels();
     info_.rate_hz = 10;
 
