@@ -159,6 +159,15 @@ TEST(Euroc, GroundTruthIsInRectifiedCameraAndStill) {
   double angle = std::acos(std::min(1.0, raw_axis.dot(rect_axis)));
   EXPECT_LT(angle, 0.05);
   EXPECT_GT(angle, 1e-4);
+  // In the rectified left camera the right camera's centre lies on the x axis, one baseline away:
+  // this pins the rectifying rotation's direction (its transpose would tilt the baseline).
+  Eigen::Vector3d t_bs1(-0.0198435579556, 0.0453689425024, 0.00786212447038);
+  Eigen::Vector3d b = p0->rotation().transpose() * (body * t_bs1 - p0->t);
+  std::printf("baseline in rectified camera: %.6f %.6f %.6f; raw-to-rectified axis angle %.5f rad\n", b.x(), b.y(),
+              b.z(), angle);
+  EXPECT_NEAR(b.x(), ds->info().baseline, 1e-4);
+  EXPECT_NEAR(b.y(), 0, 1e-4);
+  EXPECT_NEAR(b.z(), 0, 1e-4);
 }
 
 TEST(EurocBadInput, MissingSensorYamlAndBrokenCsvNameFiles) {

@@ -134,7 +134,7 @@ class EurocDataset : public SequenceDataset {
     if (stamps.size() < c0.stamps.size())
       log::info(mav.string(), ": ", c0.stamps.size() - stamps.size(), " cam0 images have no cam1 partner; skipped");
 
-    Eigen::Matrix3d R_rect = rectify(c0, c1);
+    Eigen::Matrix3d R_rect = rectify(c0, c1, mav / "cam1" / "sensor.yaml");
     channels_ = load_image(left_[0], c0.camera.width, c0.camera.height).channels();
     info_.has_right = true;
     info_.color = channels_ == 3;
@@ -165,7 +165,7 @@ class EurocDataset : public SequenceDataset {
  private:
   // Builds both rectification maps and the rectified left camera; returns the left rectifying
   // rotation (unrectified cam0 points -> rectified cam0 points).
-  Eigen::Matrix3d rectify(const Sensor& c0, const Sensor& c1) {
+  Eigen::Matrix3d rectify(const Sensor& c0, const Sensor& c1, const fs::path& cam1_yaml) {
     raw_size_ = c0.camera;
     // OpenCV wants cam1 <- cam0: x1 = R x0 + T.
     SE3 c1_from_c0 = c1.T_BS.inverse() * c0.T_BS;
@@ -192,7 +192,7 @@ class EurocDataset : public SequenceDataset {
     info_.camera = rect;
     info_.baseline = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
     if (!(info_.baseline > 0))
-      fail((info_.path / "mav0" / "cam1" / "sensor.yaml").string(), ": cam1 is not to the right of cam0 (baseline ",
+      fail(cam1_yaml.string(), ": cam1 is not to the right of cam0 (baseline ",
            info_.baseline, " m after rectification)");
     Eigen::Matrix3d out;
     for (int r = 0; r < 3; ++r)
