@@ -1,0 +1,114 @@
+#include "chungs/eval/image_set.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <map>
+
+#include "chungs/common/log.hpp"
+#include "chungs/common/progress.hpp"
+#include "chungs/image/image_io.hpp"
+
+namespace chungs {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+bool is_image_file(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg";
+}
+
+std::map<std::string, fs::path> images_by_stem(const fs::path& dir) {
+  std::map<std::string, fs::path> out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (!e.is_regular_file() || !is_image_file(e.path())) continue;
+    auto [it, fresh] = out.emplace(e.path().stem().string(), e.path());
+    if (!fresh) fail(e.path().string(), ": same name as ", it->second.string(), " (pairs are matched by name)");
+  }
+  if (out.empty()) fail(dir.string(), ": no PNG or JPEG images in this folder");
+  return out;
+}
+
+// Keeps colour channels only: an alpha channel is not part of the photometric comparison.
+Image8 drop_alpha(Image8 img) {
+  if (img.channels() == 4 || img.channels() == 2) {
+    const int keep = img.channels() - 1;
+    Image8 out(img.width(), img.height(), keep);
+    for (size_t i = 0; i < img.pixels(); ++i)
+      for (int c = 0; c < keep; ++c) out.data()[i * keep + c] = img.data()[i * img.channels() + c];
+    return out;
+  }
+  return img;
+}
+
+}  // namespace
+
+std::vector<ImagePair> match_image_pairs(const fs::path& ref, const fs::path& test) {
+  if (!fs::exists(ref)) fail(ref.string(), ": does not exist");
+  if (!fs::exists(test)) fail(test.string(), ": does not exist");
+  const bool ref_dir = fs::is_directory(ref), test_dir = fs::is_directory(test);
+  if (ref_dir != test_dir)
+    fail(ref_dir ? test.string() : ref.string(), ": is a file but ", ref_dir ? ref.string() : test.string(),
+         " is a folder (give two files or two folders)");
+  if (!ref_dir) return {ImagePair{test.stem().string(), ref, test}};
+
+  const auto refs = images_by_stem(ref), tests = images_by_stem(test);
+  std::vector<ImagePair> pairs;
+  for (const auto& [stem, path] : refs) {
+    auto it = tests.find(stem);
+    if (it == tests.end()) fail((test / stem).string(), ".*: missing (reference ", path.string(), ")");
+    pairs.push_back({stem, path, it->second});
+  }
+  for (const auto& [stem, path] : tests)
+    if (!refs.count(stem)) fail((ref / stem).string(), ".*: missing (test image ", path.string(), ")");
+  return pairs;
+}
+
+Image8 read_mask(const fs::path& file) {
+  const Image8 img = read_image8(file);
+  Image8 mask(img.width(), img.height(), 1);
+  for (size_t i = 0; i < img.pixels(); ++i) {
+    bool any = false;
+    for (int c = 0; c < img.channels(); ++c) any |= img.data()[i * img.channels() + c] != 0;
+    mask.data()[i] = any ? 255 : 0;
+  }
+  return mask;
+}
+
+ImageSetResult evaluate_image_pairs(const std::vector<ImagePair>& pairs, const Image8* mask,
+                                    const SsimOptions& ssim_opt) {
+  if (pairs.empty()) fail("image evaluation: no image pairs");
+  ImageSetResult res;
+  Progress progress("eval images", (long long)pairs.size());
+  double sum_psnr = 0, sum_ssim = 0, sum_mse = 0;
+  for (const auto& p : pairs) {
+    const Image8 ref = drop_alpha(read_image8(p.ref));
+    const Image8 test = drop_alpha(read_image8(p.test));
+    if (!ref.same_shape(test))
+      fail(p.test.string(), ": ", test.width(), "x", test.height(), "x", test.channels(), " differs from reference ",
+           p.ref.string(), " (", ref.width(), "x", ref.height(), "x", ref.channels(), ")");
+    if (mask && !mask->same_size(ref))
+      fail(p.ref.string(), ": ", ref.width(), "x", ref.height(), " differs from the mask's ", mask->width(), "x",
+           mask->height());
+    ImageMetrics m;
+    try {
+      m = compare_images(ref, test, mask, ssim_opt);
+    } catch (const Error& e) {
+      fail(p.test.string(), ": ", e.what());
+    }
+    if (std::isinf(m.psnr)) ++res.infinite_psnr;
+    log::debug(p.name, ": PSNR ", m.psnr, " SSIM ", m.ssim);
+    sum_psnr += m.psnr, sum_ssim += m.ssim, sum_mse += m.mse;
+    res.images.push_back({p, m});
+    progress.step();
+  }
+  progress.finish();
+  const double n = double(pairs.size());
+  res.mean_psnr = sum_psnr / n, res.mean_ssim = sum_ssim / n, res.mean_mse = sum_mse / n;
+  return res;
+}
+
+}  // namespace chungs

@@ -1,0 +1,71 @@
+#include "chungs/eval/report.hpp"
+
+#include <cmath>
+#include <fstream>
+
+namespace chungs {
+
+using nlohmann::json;
+
+json json_number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json to_json(const ErrorStats& s) {
+  return {{"rmse", json_number(s.rmse)},     {"mean", json_number(s.mean)}, {"median", json_number(s.median)},
+          {"std", json_number(s.std)},       {"min", json_number(s.min)},   {"max", json_number(s.max)},
+          {"count", s.count}};
+}
+
+json to_json(const Sim3& s) {
+  return {{"scale", s.s},
+          {"rotation_wxyz", {s.q.w(), s.q.x(), s.q.y(), s.q.z()}},
+          {"translation", {s.t.x(), s.t.y(), s.t.z()}}};
+}
+
+json to_json(const AteResult& r, bool with_errors) {
+  json j = to_json(r.stats);
+  j["alignment"] = alignment_name(r.align);
+  j["matched"] = r.matched();
+  j["transform"] = to_json(r.alignment);
+  if (with_errors) j["errors"] = r.errors;
+  return j;
+}
+
+json to_json(const RpeResult& r) {
+  return {{"delta", r.delta}, {"translation", to_json(r.trans)}, {"rotation_deg", to_json(r.rot_deg)}};
+}
+
+json to_json(const ImageMetrics& m) {
+  return {{"psnr", json_number(m.psnr)}, {"ssim", json_number(m.ssim)}, {"mse", json_number(m.mse)},
+          {"pixels", m.pixels}};
+}
+
+json to_json(const ImageSetResult& r) {
+  json images = json::array();
+  for (const auto& im : r.images) {
+    json j = to_json(im.metrics);
+    j["name"] = im.pair.name;
+    j["ref"] = im.pair.ref.string();
+    j["test"] = im.pair.test.string();
+    images.push_back(std::move(j));
+  }
+  return {{"count", r.images.size()},          {"mean_psnr", json_number(r.mean_psnr)},
+          {"mean_ssim", json_number(r.mean_ssim)}, {"mean_mse", json_number(r.mean_mse)},
+          {"infinite_psnr", r.infinite_psnr}, {"images", std::move(images)}};
+}
+
+void write_json(const std::filesystem::path& file, const json& j) {
+  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+  const std::filesystem::path tmp = file.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    if (!out) fail(tmp.string(), ": cannot open for writing");
+    out << j.dump(2) << "\n";
+    out.flush();
+    if (!out) fail(tmp.string(), ": write failed");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, file, ec);
+  if (ec) fail(file.string(), ": cannot replace (", ec.message(), ")");
+}
+
+}  // namespace chungs
