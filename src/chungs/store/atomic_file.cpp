@@ -1,0 +1,138 @@
+#include "chungs/store/atomic_file.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/uio.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+
+#include "chungs/common/error.hpp"
+
+namespace chungs {
+
+namespace fs = std::filesystem;
+
+namespace {
+std::string why() { return std::strerror(errno); }
+constexpr const char* kTmpTag = ".tmp-";
+std::atomic<uint64_t> tmp_counter{0};
+
+void write_all(int fd, std::span<const ConstBuffer> parts, const fs::path& file) {
+  std::vector<iovec> iov;
+  for (const auto& p : parts)
+    if (p.size) iov.push_back({const_cast<void*>(p.data), p.size});
+  size_t first = 0;
+  while (first < iov.size()) {
+    const int cnt = int(std::min<size_t>(iov.size() - first, IOV_MAX));
+    ssize_t n = ::writev(fd, iov.data() + first, cnt);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      fail(file.string(), ": write failed: ", why());
+    }
+    // Skip the buffers written in full, then advance into a partially written one.
+    while (first < iov.size() && size_t(n) >= iov[first].iov_len) n -= ssize_t(iov[first++].iov_len);
+    if (first < iov.size()) {
+      iov[first].iov_base = static_cast<char*>(iov[first].iov_base) + n;
+      iov[first].iov_len -= size_t(n);
+    }
+  }
+}
+}  // namespace
+
+FileDescriptor::~FileDescriptor() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+FileDescriptor& FileDescriptor::operator=(FileDescriptor&& o) noexcept {
+  if (this != &o) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = o.fd_;
+    o.fd_ = -1;
+  }
+  return *this;
+}
+
+FileDescriptor open_for_reading(const fs::path& file) {
+  int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) fail(file.string(), ": cannot open for reading: ", why());
+  return FileDescriptor(fd);
+}
+
+uint64_t file_size(const FileDescriptor& fd, const fs::path& file) {
+  struct stat st;
+  if (::fstat(fd.get(), &st) != 0) fail(file.string(), ": cannot stat: ", why());
+  return uint64_t(st.st_size);
+}
+
+void read_exact(const FileDescriptor& fd, void* dst, size_t size, const fs::path& file) {
+  auto p = static_cast<char*>(dst);
+  while (size > 0) {
+    ssize_t n = ::read(fd.get(), p, size);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      fail(file.string(), ": read failed: ", why());
+    }
+    if (n == 0) fail(file.string(), ": truncated (", size, " more bytes expected)");
+    p += n;
+    size -= size_t(n);
+  }
+}
+
+std::vector<uint8_t> read_whole_file(const fs::path& file) {
+  FileDescriptor fd = open_for_reading(file);
+  std::vector<uint8_t> out(file_size(fd, file));
+  read_exact(fd, out.data(), out.size(), file);
+  return out;
+}
+
+void sync_directory(const fs::path& dir) {
+  const fs::path d = dir.empty() ? fs::path(".") : dir;
+  FileDescriptor fd(::open(d.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (!fd) fail(d.string(), ": cannot open folder to flush it: ", why());
+  if (::fsync(fd.get()) != 0) fail(d.string(), ": cannot flush folder: ", why());
+}
+
+void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> parts, bool durable) {
+  const fs::path tmp = file.string() + kTmpTag + std::to_string(::getpid()) + "-" +
+                       std::to_string(tmp_counter.fetch_add(1));
+  FileDescriptor fd(::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+  if (!fd) fail(tmp.string(), ": cannot create: ", why());
+  try {
+    write_all(fd.get(), parts, tmp);
+    if (durable && ::fdatasync(fd.get()) != 0) fail(tmp.string(), ": flush failed: ", why());
+    if (::close(fd.release()) != 0) fail(tmp.string(), ": close failed: ", why());
+    if (::rename(tmp.c_str(), file.c_str()) != 0)
+      fail(file.string(), ": cannot rename ", tmp.filename().string(), " over it: ", why());
+  } catch (...) {
+    fd = FileDescriptor();
+    ::unlink(tmp.c_str());
+    throw;
+  }
+  if (durable) sync_directory(file.parent_path());
+}
+
+void remove_file(const fs::path& file, bool durable) {
+  if (::unlink(file.c_str()) != 0) {
+    if (errno == ENOENT) return;
+    fail(file.string(), ": cannot remove: ", why());
+  }
+  if (durable) sync_directory(file.parent_path());
+}
+
+bool is_temporary_file(const fs::path& file) {
+  return file.filename().string().find(kTmpTag) != std::string::npos;
+}
+
+size_t remove_temporary_files(const fs::path& dir) {
+  size_t n = 0;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_regular_file() && is_temporary_file(e.path()) && fs::remove(e.path(), ec)) ++n;
+  if (ec) fail(dir.string(), ": cannot list folder: ", ec.message());
+  return n;
+}
+
+}  // namespace chungs

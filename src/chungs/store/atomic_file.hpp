@@ -1,0 +1,61 @@
+// Crash-safe file replacement and small POSIX helpers. A writer puts the new content in a
+// temporary file beside the target, flushes it, renames it over the target and flushes the folder,
+// so after a crash (even SIGKILL or power loss when `durable`) the target holds the old or the
+// new content in full, never a mix. Leftover temporaries are recognised and removed on open.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace chungs {
+
+struct ConstBuffer {
+  const void* data;
+  size_t size;
+};
+
+// An open file descriptor, closed on destruction.
+class FileDescriptor {
+ public:
+  FileDescriptor() = default;
+  explicit FileDescriptor(int fd) : fd_(fd) {}
+  ~FileDescriptor();
+  FileDescriptor(FileDescriptor&& o) noexcept : fd_(o.fd_) { o.fd_ = -1; }
+  FileDescriptor& operator=(FileDescriptor&& o) noexcept;
+  FileDescriptor(const FileDescriptor&) = delete;
+  FileDescriptor& operator=(const FileDescriptor&) = delete;
+  int get() const { return fd_; }
+  int release() {
+    int fd = fd_;
+    fd_ = -1;
+    return fd;
+  }
+  explicit operator bool() const { return fd_ >= 0; }
+
+ private:
+  int fd_ = -1;
+};
+
+FileDescriptor open_for_reading(const std::filesystem::path& file);
+uint64_t file_size(const FileDescriptor& fd, const std::filesystem::path& file);
+// Reads exactly `size` bytes or throws naming the file ("truncated" on early end of file).
+void read_exact(const FileDescriptor& fd, void* dst, size_t size, const std::filesystem::path& file);
+std::vector<uint8_t> read_whole_file(const std::filesystem::path& file);
+
+// Writes the concatenation of `parts` to `file` crash-safely (see above). With durable = false the
+// flushes are skipped: still atomic against a killed process, not against power loss.
+void write_file_atomically(const std::filesystem::path& file, std::span<const ConstBuffer> parts,
+                           bool durable);
+// Removes `file` if present, then flushes its folder when durable.
+void remove_file(const std::filesystem::path& file, bool durable);
+void sync_directory(const std::filesystem::path& dir);
+
+// Temporaries are named "<target>.tmp-<pid>-<counter>".
+bool is_temporary_file(const std::filesystem::path& file);
+// Deletes temporaries left in `dir` by a crashed writer; returns how many.
+size_t remove_temporary_files(const std::filesystem::path& dir);
+
+}  // namespace chungs

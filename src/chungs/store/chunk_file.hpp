@@ -1,0 +1,50 @@
+// One chunk's Gaussians (parameters, Adam moments, bookkeeping) as one file.
+//
+// Layout, little-endian: a 72-byte header
+//   magic "CHGSCHNK" | version u32 | header size u32 | chunk id u64 | count u64 | SH degree u32 |
+//   flags u32 | payload bytes u64 | raw payload bytes u64 | payload XXH64 u64 | header XXH64 u64
+// then the payload: the GaussianBlock arrays in a fixed order (chunk_file_arrays), each as raw
+// 4-byte elements, optionally byte-shuffled (all first bytes, then all second bytes, ...) and
+// zstd-compressed as one stream. The payload checksum covers the stored (possibly compressed)
+// bytes, so corruption is caught before decompression; the header has its own checksum.
+#pragma once
+#include <cstdint>
+#include <filesystem>
+
+#include "chungs/gaussians/gaussian_block.hpp"
+#include "chungs/store/chunk_id.hpp"
+
+namespace chungs {
+
+constexpr uint32_t kChunkFormatVersion = 1;
+constexpr uint32_t kChunkFlagZstd = 1u << 0;
+constexpr uint32_t kChunkFlagShuffled = 1u << 1;
+// 3 x 59 floats (parameters and both Adam moments) + 4 bookkeeping words per Gaussian.
+constexpr uint64_t kChunkBytesPerGaussian = 3 * kParamFloats * 4 + 4 * 4;
+
+struct ChunkWriteOptions {
+  bool compress = false;  // zstd; pays off mostly on fresh Gaussians (zero SH, zero Adam state)
+  int zstd_level = 1;
+  bool shuffle = true;    // byte-shuffle before zstd: float exponents compress, mantissas barely
+  bool durable = true;    // flush file and folder (survives power loss, not just a killed process)
+};
+
+struct ChunkFileInfo {
+  ChunkId id = 0;
+  uint64_t count = 0;
+  int sh_degree = 0;
+  uint32_t flags = 0;
+  uint64_t file_bytes = 0;
+  uint64_t payload_checksum = 0;
+};
+
+// Writes crash-safely (temporary + flush + rename + folder flush); returns what a header read of
+// the new file would. Throws Error naming the file on I/O failure and on an inconsistent block.
+ChunkFileInfo write_chunk_file(const std::filesystem::path& file, ChunkId id, const GaussianBlock& block,
+                          const ChunkWriteOptions& options);
+// Checks magic, version, header checksum and file size, without reading the payload.
+ChunkFileInfo read_chunk_header(const std::filesystem::path& file);
+// Reads and verifies everything; `out` is replaced only on success. Every rejection names the file.
+ChunkFileInfo read_chunk_file(const std::filesystem::path& file, GaussianBlock& out);
+
+}  // namespace chungs

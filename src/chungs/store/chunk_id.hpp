@@ -1,0 +1,59 @@
+// Chunk coordinates and their 64-bit ids. The world is cut into cubes of side s centred on the
+// integer multiples of s: coordinate floor((p + s/2) / s) per axis. An id packs three 21-bit
+// fields, each the coordinate plus 2^20, so coordinates span [-2^20, 2^20 - 1]; outside that range
+// packing fails instead of wrapping into another chunk.
+#pragma once
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace chungs {
+
+using ChunkId = uint64_t;
+
+constexpr int kChunkAxisBits = 21;
+constexpr int32_t kChunkCoordOffset = 1 << 20;
+constexpr int32_t kChunkCoordMin = -kChunkCoordOffset;
+constexpr int32_t kChunkCoordMax = kChunkCoordOffset - 1;
+
+struct ChunkCoord {
+  int32_t x = 0, y = 0, z = 0;
+
+  bool operator==(const ChunkCoord&) const = default;
+  auto operator<=>(const ChunkCoord&) const = default;
+  bool in_range() const;
+  std::string str() const;  // "(x, y, z)"
+};
+
+// Throws Error naming the coordinate when an axis lies outside [kChunkCoordMin, kChunkCoordMax].
+ChunkId chunk_id(const ChunkCoord& c);
+ChunkCoord chunk_coord(ChunkId id);  // throws on ids whose unused top bit is set
+// The chunk of a world point; throws on non-finite points, s <= 0, or a coordinate out of range.
+ChunkCoord chunk_coord_of(const Eigen::Vector3d& p, double chunk_size);
+inline ChunkId chunk_id_of(const Eigen::Vector3d& p, double chunk_size) {
+  return chunk_id(chunk_coord_of(p, chunk_size));
+}
+
+// Axis-aligned bounds of a run of chunks [first, last] (inclusive), in world metres. The culler and
+// its brute-force check both derive boxes from here so that they see bit-identical corners.
+inline double chunk_lower_edge(int32_t c, double s) { return double(c) * s - 0.5 * s; }
+inline double chunk_upper_edge(int32_t c, double s) { return double(c) * s + 0.5 * s; }
+void chunk_box(const ChunkCoord& first, const ChunkCoord& last, double s, Eigen::Vector3d& lo,
+               Eigen::Vector3d& hi);
+inline void chunk_box(const ChunkCoord& c, double s, Eigen::Vector3d& lo, Eigen::Vector3d& hi) {
+  chunk_box(c, c, s, lo, hi);
+}
+Eigen::Vector3d chunk_centre(const ChunkCoord& c, double s);
+
+std::string chunk_name(ChunkId id);  // "(x, y, z)/0x0123456789abcdef" for messages
+
+}  // namespace chungs
+
+template <>
+struct std::hash<chungs::ChunkCoord> {
+  size_t operator()(const chungs::ChunkCoord& c) const noexcept {
+    return std::hash<uint64_t>()((uint64_t(uint32_t(c.x)) * 0x9E3779B97F4A7C15ull) ^
+                                 (uint64_t(uint32_t(c.y)) << 21) ^ uint64_t(uint32_t(c.z)));
+  }
+};

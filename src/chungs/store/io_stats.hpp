@@ -1,0 +1,60 @@
+// Counters of chunk and keyframe I/O: what was read and written, how long it took, and how often
+// the caller (the optimiser thread) had to wait for the disk. Counters are atomic so the
+// background I/O thread and the caller update them concurrently; snapshot() gives plain numbers.
+#pragma once
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+namespace chungs {
+
+struct IoStats {
+  uint64_t loads = 0, saves = 0, removes = 0;  // files read / written / deleted
+  uint64_t bytes_read = 0, bytes_written = 0;
+  double load_ms = 0, save_ms = 0;  // summed over all loads / saves (any thread)
+  // Residency: where chunks entering the pool came from, and how often the caller blocked.
+  uint64_t pool_loads = 0;          // chunks scattered into the pool
+  uint64_t prefetch_hits = 0;       // ... already read by the background thread
+  uint64_t write_behind_hits = 0;   // ... still queued for writing (served from memory)
+  uint64_t sync_loads = 0;          // ... read on the caller's thread (a wait)
+  uint64_t waits = 0;               // sync loads + waits for an in-flight read or a full queue
+  double wait_ms = 0;
+  uint64_t evictions_clean = 0, evictions_dirty = 0;
+
+  double mean_load_ms() const { return loads ? load_ms / double(loads) : 0; }
+  double mean_save_ms() const { return saves ? save_ms / double(saves) : 0; }
+  // Fraction of chunks entering the pool for which the caller waited on the disk.
+  double wait_fraction() const { return pool_loads ? double(sync_loads) / double(pool_loads) : 0; }
+  std::string summary() const;  // one line for logs
+};
+
+class IoCounters {
+ public:
+  std::atomic<uint64_t> loads{0}, saves{0}, removes{0}, bytes_read{0}, bytes_written{0};
+  std::atomic<uint64_t> load_ns{0}, save_ns{0}, wait_ns{0};
+  std::atomic<uint64_t> pool_loads{0}, prefetch_hits{0}, write_behind_hits{0}, sync_loads{0}, waits{0};
+  std::atomic<uint64_t> evictions_clean{0}, evictions_dirty{0};
+
+  IoStats snapshot() const;
+  void reset();
+};
+
+// Measures a span of wall time into an atomic nanosecond counter when it ends.
+class ScopedTimer {
+ public:
+  explicit ScopedTimer(std::atomic<uint64_t>& ns) : ns_(ns), start_(std::chrono::steady_clock::now()) {}
+  ~ScopedTimer() {
+    ns_ += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                        std::chrono::steady_clock::now() - start_)
+                        .count());
+  }
+  ScopedTimer(const ScopedTimer&) = delete;
+  ScopedTimer& operator=(const ScopedTimer&) = delete;
+
+ private:
+  std::atomic<uint64_t>& ns_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace chungs

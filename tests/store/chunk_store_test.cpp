@@ -1,0 +1,199 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+
+#include "chungs/common/error.hpp"
+#include "chungs/store/chunk_store.hpp"
+#include "store/random_block.hpp"
+#include "test_support.hpp"
+
+using namespace chungs;
+namespace fs = std::filesystem;
+
+namespace {
+ChunkStoreConfig fast_config() {
+  ChunkStoreConfig c;
+  c.durable = false;  // kill-safety is tested in crash_test.cpp; here flushes only cost time
+  return c;
+}
+}  // namespace
+
+TEST(ChunkStore, SavedChunksSurviveCloseAndReopen) {
+  test::TempDir dir;
+  std::map<ChunkId, GaussianBlock> ref;
+  {
+    ChunkStore s(dir.path(), fast_config());
+    for (int i = 0; i < 20; ++i) {
+      const ChunkId id = chunk_id({i, -i, i % 4});
+      ref[id] = test::random_block(10 + i, i);
+      s.save(id, ref[id]);
+    }
+    s.set_config("dataset", "synthetic city");
+  }
+  ChunkStore s(dir.path(), fast_config());
+  EXPECT_FALSE(s.open_report().repaired());
+  EXPECT_EQ(s.size(), ref.size());
+  EXPECT_EQ(s.config_value("dataset"), "synthetic city");
+  uint64_t total = 0;
+  for (const auto& [id, b] : ref) {
+    EXPECT_EQ(s.count(id), b.size());
+    EXPECT_TRUE(test::same_bits(s.load(id), b));
+    total += b.size();
+  }
+  EXPECT_EQ(s.total_gaussians(), total);
+  const auto st = s.counters().snapshot();
+  EXPECT_EQ(st.loads, ref.size());
+  EXPECT_GT(st.bytes_read, total * kChunkBytesPerGaussian);
+}
+
+TEST(ChunkStore, CompressedMapReopensWithCompressionOff) {
+  test::TempDir dir;
+  const ChunkId id = chunk_id({1, 2, 3});
+  const GaussianBlock b = test::random_block(500, 3);
+  {
+    ChunkStoreConfig c = fast_config();
+    c.compress = true;
+    ChunkStore s(dir.path(), c);
+    s.save(id, b);
+  }
+  ChunkStore s(dir.path(), fast_config());
+  EXPECT_TRUE(test::same_bits(s.load(id), b));
+}
+
+TEST(ChunkStore, EmptyBlockRemovesTheChunk) {
+  test::TempDir dir;
+  ChunkStore s(dir.path(), fast_config());
+  const ChunkId id = chunk_id({0, 0, 0});
+  s.save(id, test::random_block(3, 1));
+  EXPECT_TRUE(fs::exists(s.chunk_path(id)));
+  s.save(id, GaussianBlock{});
+  EXPECT_FALSE(s.contains(id));
+  EXPECT_FALSE(fs::exists(s.chunk_path(id)));
+  EXPECT_THROW(s.load(id), Error);
+  s.remove(id);  // absent: no-op
+}
+
+TEST(ChunkStore, RefusesASecondOpenOfTheSameFolder) {
+  test::TempDir dir;
+  ChunkStore s(dir.path(), fast_config());
+  try {
+    ChunkStore t(dir.path(), fast_config());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("already open"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ChunkStore, ReopenAdoptsUpdatesAndDropsWhatHappenedAfterTheLastCommit) {
+  test::TempDir dir;
+  const ChunkId a = chunk_id({1, 0, 0}), b = chunk_id({2, 0, 0}), c = chunk_id({3, 0, 0});
+  const GaussianBlock ba = test::random_block(5, 1), bb = test::random_block(6, 2), bc = test::random_block(7, 3);
+  {
+    ChunkStore s(dir.path(), fast_config());
+    s.save(a, ba);
+    s.save(b, bb);
+  }
+  const fs::path manifest_before = dir / "manifest.txt";
+  const std::string saved = [&] {
+    std::ifstream f(manifest_before);
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  }();
+  GaussianBlock bb2 = test::random_block(9, 4);
+  {
+    ChunkStore s(dir.path(), fast_config());
+    s.save(b, bb2);   // updated
+    s.save(c, bc);    // adopted
+    s.remove(a);      // dropped
+  }
+  {  // As if the process had died before committing: put the older manifest back.
+    std::ofstream f(manifest_before, std::ios::trunc);
+    f << saved;
+  }
+  std::ofstream(dir / "chunks" / "0000000000000001.chunk.tmp-1-2") << "half a write";
+  ChunkStore s(dir.path(), fast_config());
+  const auto& r = s.open_report();
+  EXPECT_EQ(r.entries_adopted, 1u);
+  EXPECT_EQ(r.entries_updated, 1u);
+  EXPECT_EQ(r.entries_dropped, 1u);
+  EXPECT_EQ(r.temporaries_removed, 1u);
+  EXPECT_FALSE(s.contains(a));
+  EXPECT_TRUE(test::same_bits(s.load(b), bb2));
+  EXPECT_TRUE(test::same_bits(s.load(c), bc));
+  // The repair was committed at once: the manifest on disk now matches.
+  const Manifest m = Manifest::read(dir / "manifest.txt");
+  EXPECT_EQ(m.chunks, s.manifest().chunks);
+}
+
+TEST(ChunkStore, RebuildsAMissingManifestFromTheChunkFiles) {
+  test::TempDir dir;
+  const ChunkId id = chunk_id({-4, 5, 6});
+  const GaussianBlock b = test::random_block(11, 8);
+  {
+    ChunkStore s(dir.path(), fast_config());
+    s.save(id, b);
+  }
+  fs::remove(dir / "manifest.txt");
+  ChunkStore s(dir.path(), fast_config());
+  EXPECT_EQ(s.count(id), 11u);
+  EXPECT_TRUE(test::same_bits(s.load(id), b));
+}
+
+TEST(ChunkStore, RejectsAChunkFileThatNamesAnotherChunk) {
+  test::TempDir dir;
+  const ChunkId a = chunk_id({1, 1, 1}), b = chunk_id({2, 2, 2});
+  fs::path pa, pb;
+  {
+    ChunkStore s(dir.path(), fast_config());
+    s.save(a, test::random_block(4, 1));
+    pa = s.chunk_path(a), pb = s.chunk_path(b);
+  }
+  fs::rename(pa, pb);
+  try {
+    ChunkStore s(dir.path(), fast_config());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(pb.string()), std::string::npos) << e.what();
+  }
+}
+
+TEST(ChunkStore, RejectsACorruptManifestWithAHint) {
+  test::TempDir dir;
+  { ChunkStore s(dir.path(), fast_config()); s.set_config("k", "v"); }
+  std::ofstream(dir / "manifest.txt", std::ios::app) << "junk\n";
+  try {
+    ChunkStore s(dir.path(), fast_config());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("delete the manifest"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ChunkStore, ExistingMapKeepsItsChunkSize) {
+  test::TempDir dir;
+  ChunkStoreConfig c = fast_config();
+  c.chunk_size = 4.0;
+  { ChunkStore s(dir.path(), c); }
+  ChunkStore s(dir.path(), fast_config());
+  EXPECT_EQ(s.chunk_size(), 4.0);
+}
+
+TEST(ChunkStore, VerifyOnOpenCatchesPayloadCorruption) {
+  test::TempDir dir;
+  const ChunkId id = chunk_id({0, 1, 0});
+  fs::path p;
+  {
+    ChunkStore s(dir.path(), fast_config());
+    s.save(id, test::random_block(30, 1));
+    p = s.chunk_path(id);
+  }
+  {
+    std::fstream f(p, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(1000);
+    f.put('\x7f');
+  }
+  EXPECT_NO_THROW(ChunkStore(dir.path(), fast_config()));  // header-only check by default
+  ChunkStoreConfig c = fast_config();
+  c.verify_on_open = true;
+  EXPECT_THROW(ChunkStore(dir.path(), c), Error);
+}
