@@ -1,0 +1,35 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "cli/cli_support.hpp"
+#include "test_support.hpp"
+
+using chungs::test::run_cli;
+
+TEST(Cli, InfoPrintsVersionAndBuild) {
+  auto r = run_cli("info");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("diskchungs "), std::string::npos);
+  EXPECT_NE(r.out.find("cuda"), std::string::npos);
+}
+
+TEST(Cli, UnknownDatasetKindIsOneLineErrorWithNonZeroExit) {
+  auto r = run_cli("inspect foo:/nowhere");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("foo"), std::string::npos) << r.out;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+}
+
+TEST(Cli, MissingDatasetFolderNamesThePath) {
+  auto r = run_cli("inspect kitti:/nowhere/seq");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("/nowhere/seq"), std::string::npos) << r.out;
+}
+
+TEST(Cli, InspectsRealKitti) {
+  CHUNGS_REQUIRE_DATA("kitti_seq1");
+  auto r = run_cli("inspect --json kitti:" + chungs::test::shared_data("kitti_seq1").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("\"frames\": 51"), std::string::npos) << r.out;
+}
