@@ -48,8 +48,7 @@ void Progress::draw(bool final) {
                  total_, elapsed, eta);
     if (final) std::fprintf(stderr, "\n");
   } else {
-    if (!final && decile == last_decile_) return;
-    if (final && decile == last_decile_ && done_ != total_) return;
+    if (decile == last_decile_) return;  // this state was printed already
     last_decile_ = decile;
     std::fprintf(stderr, "[info] %s: %lld/%lld (%d%%) %.1fs\n", label_.c_str(), done_, total_,
                  int(frac * 100), elapsed);
