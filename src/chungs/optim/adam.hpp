@@ -1,0 +1,56 @@
+// Sparse Adam over the pool's Gaussians: each step updates only the Gaussians that were visible in
+// the render, with a per-Gaussian step count for the bias correction (a Gaussian seen for the 3rd
+// time gets the 3rd-step correction however many steps the map has taken), and a per-Gaussian
+// position learning rate that decays with every visit down to a floor.
+#pragma once
+#include <cstdint>
+#include <span>
+
+#include "chungs/gaussians/gaussian_block.hpp"
+#include "chungs/render/gaussian_view.hpp"
+
+namespace chungs {
+
+struct AdamConfig {
+  // Learning rates per parameter kind (DiskChunGS defaults; the SH split follows 3D Gaussian
+  // Splatting: the degree-0 "features" at 0.005, the higher bands 20x slower).
+  float lr_position = 1e-3f;          // KITTI; indoor() uses 5e-5
+  float position_decay = 0.998f;      // position lr factor *= decay on every visit
+  float position_lr_floor = 0.01f;    // ... but never below this fraction of lr_position
+  float lr_sh_dc = 0.005f;
+  float lr_sh_rest = 0.005f / 20.0f;
+  float lr_opacity = 0.1f;            // on the logit
+  float lr_scale = 0.01f;             // on the log scale
+  float lr_rotation = 0.002f;         // on the raw quaternion
+  float beta1 = 0.9f, beta2 = 0.999f;
+  float eps = 1e-15f;                 // as in 3D Gaussian Splatting
+
+  static AdamConfig kitti() { return {}; }
+  static AdamConfig indoor() {
+    AdamConfig c;
+    c.lr_position = 5e-5f;
+    return c;
+  }
+  void validate() const;  // throws Error naming the first field out of range
+};
+
+// The optimiser state arrays of the pool, per slot, in the GaussianBlock layout.
+struct AdamState {
+  GaussianArraysMut<float> m, v;
+  uint32_t* steps = nullptr;
+  float* lr_position_factor = nullptr;  // starts at 1 for a new Gaussian
+  size_t capacity = 0;
+};
+
+AdamState adam_state_of(GaussianBlock& block);
+
+// One step for the Gaussians ids[j] with visible[j] != 0, using grads entry j (the rasterizer's
+// compact layout). ids must be distinct (each slot once). Per visible Gaussian: steps += 1; every
+// parameter gets lr * m_hat / (sqrt(v_hat) + eps); the position uses lr_position times the slot's
+// factor, and the factor is then multiplied by position_decay, not below position_lr_floor.
+// Throws Error when sizes disagree or an index is out of range.
+void sparse_adam_step(const AdamConfig& config, const GaussianArraysMut<float>& params, const AdamState& state,
+                      std::span<const uint32_t> ids, std::span<const uint8_t> visible,
+                      const GaussianGrads<float>& grads);
+
+}  // namespace chungs

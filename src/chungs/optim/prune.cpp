@@ -1,0 +1,36 @@
+#include "chungs/optim/prune.hpp"
+
+#include <cmath>
+
+#include "chungs/common/error.hpp"
+
+namespace chungs {
+
+void PruneConfig::validate() const {
+  if (!(min_opacity >= 0 && min_opacity < 1)) fail("prune config: min_opacity must be in [0, 1), got ", min_opacity);
+  if (!(max_radius_fraction > 0)) fail("prune config: max_radius_fraction must be > 0, got ", max_radius_fraction);
+  if (every < 1) fail("prune config: every must be >= 1, got ", every);
+}
+
+std::vector<uint32_t> select_for_pruning(const PruneConfig& cfg, const GaussianArrays<float>& g,
+                                         std::span<const uint32_t> ids, std::span<const float> radius,
+                                         int image_width) {
+  cfg.validate();
+  if (!radius.empty() && radius.size() != ids.size())
+    fail("pruning: ", ids.size(), " indices but ", radius.size(), " screen radii");
+  if (!radius.empty() && image_width <= 0) fail("pruning: image width must be positive, got ", image_width);
+  check_indices(g, ids.data(), ids.size(), "pruning");
+  // Compare logits instead of opacities: sigmoid is monotone, so this is the same test without exp.
+  const float min_logit = cfg.min_opacity > 0 ? std::log(cfg.min_opacity / (1 - cfg.min_opacity)) : -INFINITY;
+  const float max_radius = cfg.max_radius_fraction * float(image_width);
+  std::vector<uint32_t> out;
+  for (size_t j = 0; j < ids.size(); ++j) {
+    // Written so that NaN (a diverged Gaussian) is pruned too.
+    const bool faint = !(g.opacity[ids[j]] >= min_logit);
+    const bool huge = !radius.empty() && !(radius[j] <= max_radius);
+    if (faint || huge) out.push_back(ids[j]);
+  }
+  return out;
+}
+
+}  // namespace chungs
