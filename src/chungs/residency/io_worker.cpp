@@ -1,0 +1,226 @@
+#include "chungs/residency/io_worker.hpp"
+
+#include <algorithm>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
+
+namespace chungs {
+
+IoWorker::IoWorker(ChunkStore& store, bool background, size_t prefetch_max, size_t write_behind_max)
+    : store_(store), counters_(store.counters()), background_(background), prefetch_max_(prefetch_max),
+      write_behind_max_(write_behind_max) {
+  if (background_) thread_ = std::thread([this] { run(); });
+}
+
+IoWorker::~IoWorker() {
+  if (!background_) return;
+  try {
+    drain();
+  } catch (const std::exception& e) {
+    log::error("chunk I/O: queued writes failed on shutdown: ", e.what());
+  }
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  work_cv_.notify_all();
+  thread_.join();
+}
+
+void IoWorker::rethrow_locked() {
+  if (error_) std::rethrow_exception(error_);
+}
+
+void IoWorker::write_now(ChunkId id, const Block& data) {
+  if (data->size() == 0)
+    store_.remove(id);
+  else
+    store_.save(id, *data);
+}
+
+void IoWorker::write_behind(ChunkId id, Block data) {
+  if (!data) fail("chunk I/O: write-behind of ", chunk_name(id), " without data");
+  if (!background_) {
+    ScopedTimer t(counters_.wait_ns);
+    counters_.waits++;
+    write_now(id, data);
+    return;
+  }
+  std::unique_lock lock(mutex_);
+  rethrow_locked();
+  if (pending_gaussians_ > write_behind_max_) {
+    // Back-pressure: the disk is slower than eviction. Waiting bounds the memory held here.
+    ScopedTimer t(counters_.wait_ns);
+    counters_.waits++;
+    done_cv_.wait(lock, [&] { return pending_gaussians_ <= write_behind_max_ || error_; });
+    rethrow_locked();
+  }
+  Pending& p = pending_[id];
+  if (p.data) pending_gaussians_ -= p.data->size();
+  pending_gaussians_ += data->size();
+  p.data = std::move(data);
+  if (!p.queued) {
+    p.queued = true;
+    write_queue_.push_back(id);
+  }
+  // A staged copy would now be stale; it cannot exist (the chunk was resident), but be certain.
+  if (auto it = staged_.find(id); it != staged_.end()) {
+    staged_gaussians_ -= it->second->size();
+    staged_.erase(it);
+    std::erase(staged_order_, id);
+  }
+  lock.unlock();
+  work_cv_.notify_one();
+}
+
+void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks) {
+  if (!background_) return;
+  {
+    std::lock_guard lock(mutex_);
+    prefetch_queue_.clear();
+    for (const auto& c : chunks)
+      if (!staged_.count(c.first) && !pending_.count(c.first) && reading_ != c.first) prefetch_queue_.push_back(c);
+  }
+  work_cv_.notify_one();
+}
+
+IoWorker::Block IoWorker::take(ChunkId id, Source* source) {
+  Source dummy;
+  Source& src = source ? *source : dummy;
+  if (background_) {
+    std::unique_lock lock(mutex_);
+    if (auto it = pending_.find(id); it != pending_.end()) {
+      src = Source::WriteBehind;
+      return it->second.data;
+    }
+    std::erase_if(prefetch_queue_, [&](const auto& c) { return c.first == id; });
+    if (reading_ == id) {
+      ScopedTimer t(counters_.wait_ns);
+      counters_.waits++;
+      done_cv_.wait(lock, [&] { return reading_ != id; });
+      src = Source::InFlight;
+    } else {
+      src = Source::Prefetched;
+    }
+    if (auto it = staged_.find(id); it != staged_.end()) {
+      Block b = std::move(it->second);
+      staged_gaussians_ -= b->size();
+      staged_.erase(it);
+      std::erase(staged_order_, id);
+      return b;
+    }
+  }
+  // Not in memory: read on the caller's thread.
+  if (!store_.contains(id)) {
+    src = Source::Absent;
+    return std::make_shared<const GaussianBlock>();
+  }
+  src = Source::Disk;
+  ScopedTimer t(counters_.wait_ns);
+  counters_.waits++;
+  return std::make_shared<const GaussianBlock>(store_.load(id));
+}
+
+void IoWorker::drain() {
+  if (!background_) return;
+  std::unique_lock lock(mutex_);
+  done_cv_.wait(lock, [&] { return (write_queue_.empty() && !writing_) || error_; });
+  rethrow_locked();
+}
+
+size_t IoWorker::queued_write_gaussians() const {
+  std::lock_guard lock(mutex_);
+  return pending_gaussians_;
+}
+
+size_t IoWorker::staged_gaussians() const {
+  std::lock_guard lock(mutex_);
+  return staged_gaussians_;
+}
+
+bool IoWorker::write_one(std::unique_lock<std::mutex>& lock) {
+  if (write_queue_.empty() || error_) return false;
+  const ChunkId id = write_queue_.front();
+  write_queue_.pop_front();
+  Pending& p = pending_.at(id);
+  p.queued = false;
+  Block data = p.data;
+  writing_ = true;
+  lock.unlock();
+  std::exception_ptr err;
+  try {
+    write_now(id, data);
+  } catch (...) {
+    err = std::current_exception();
+  }
+  lock.lock();
+  writing_ = false;
+  if (err) {
+    // Keep the block: loads still get it, and the caller learns of the failure on its next call.
+    error_ = err;
+    auto& q = pending_.at(id);
+    if (!q.queued) q.queued = true, write_queue_.push_front(id);
+  } else if (auto it = pending_.find(id); it != pending_.end() && it->second.data == data) {
+    pending_gaussians_ -= data->size();
+    pending_.erase(it);  // only now may loads go to disk: the file holds this content
+  }
+  done_cv_.notify_all();
+  return true;
+}
+
+bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
+  while (!prefetch_queue_.empty()) {
+    const auto [id, count] = prefetch_queue_.front();
+    prefetch_queue_.pop_front();
+    if (staged_.count(id) || pending_.count(id)) continue;
+    // Make room by dropping the oldest unclaimed reads; give up on chunks that can never fit.
+    if (count > prefetch_max_) continue;
+    while (staged_gaussians_ + count > prefetch_max_ && !staged_order_.empty()) {
+      const ChunkId old = staged_order_.front();
+      staged_order_.pop_front();
+      if (auto it = staged_.find(old); it != staged_.end()) {
+        staged_gaussians_ -= it->second->size();
+        staged_.erase(it);
+      }
+    }
+    reading_ = id;
+    lock.unlock();
+    Block data;
+    try {
+      if (store_.contains(id)) data = std::make_shared<const GaussianBlock>(store_.load(id));
+    } catch (const std::exception& e) {
+      // The caller's own read of this chunk will fail with the same error where it can act.
+      log::debug("chunk I/O: prefetch of ", chunk_name(id), " failed: ", e.what());
+    }
+    lock.lock();
+    reading_.reset();
+    if (data) {
+      staged_gaussians_ += data->size();
+      staged_[id] = std::move(data);
+      std::erase(staged_order_, id);
+      staged_order_.push_back(id);
+    }
+    done_cv_.notify_all();
+    return true;
+  }
+  return false;
+}
+
+void IoWorker::run() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    // Reads first unless the write queue is half full: the caller waits on missing reads now,
+    // but on writes only once the queue is full.
+    const bool writes_urgent = pending_gaussians_ * 2 > write_behind_max_;
+    if (writes_urgent && write_one(lock)) continue;
+    if (prefetch_one(lock)) continue;
+    if (write_one(lock)) continue;
+    if (stop_) return;
+    work_cv_.wait(lock, [&] {
+      return stop_ || (!write_queue_.empty() && !error_) || !prefetch_queue_.empty();
+    });
+  }
+}
+
+}  // namespace chungs

@@ -1,0 +1,82 @@
+// IoWorker: the chunk I/O thread between Residency and the ChunkStore.
+//
+// Write-behind: an evicted modified chunk is handed over as an immutable block that the worker
+// owns until it is on disk; its pool slots can be reused at once. Until the write has finished,
+// any load of that chunk is served from the queued block, never from the stale file.
+// Prefetch: chunks predicted to be needed next are read into host memory ahead of time.
+// take() hands a chunk's current content to the caller from the first place that has it:
+// the write-behind queue, the prefetched blocks, a read in flight (waits for it), or the disk.
+//
+// With background = false there is no thread: writes happen inside write_behind() and take()
+// reads synchronously (deterministic, for tests and single-threaded tools).
+#pragma once
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#include "chungs/store/chunk_store.hpp"
+
+namespace chungs {
+
+class IoWorker {
+ public:
+  using Block = std::shared_ptr<const GaussianBlock>;
+  enum class Source { WriteBehind, Prefetched, InFlight, Disk, Absent };
+
+  IoWorker(ChunkStore& store, bool background, size_t prefetch_max_gaussians, size_t write_behind_max_gaussians);
+  ~IoWorker();  // finishes queued writes (errors are logged), then stops the thread
+  IoWorker(const IoWorker&) = delete;
+  IoWorker& operator=(const IoWorker&) = delete;
+
+  // Queues the chunk's new content (an empty block removes the chunk). Blocks while the queue
+  // holds more than the write-behind limit (counted as a wait). Rethrows a failed background write.
+  void write_behind(ChunkId id, Block data);
+  // Replaces the prediction list: chunks (with their Gaussian counts) to read ahead, first first.
+  void prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks);
+  // The chunk's current content; an absent chunk gives an empty block. Never stale (see above).
+  Block take(ChunkId id, Source* source = nullptr);
+  // Waits until every queued write is on disk; rethrows a failed background write.
+  void drain();
+
+  size_t queued_write_gaussians() const;
+  size_t staged_gaussians() const;
+
+ private:
+  struct Pending {
+    Block data;
+    bool queued = false;  // a job for it is in write_queue_
+  };
+  void run();
+  bool write_one(std::unique_lock<std::mutex>& lock);
+  bool prefetch_one(std::unique_lock<std::mutex>& lock);
+  void write_now(ChunkId id, const Block& data);
+  void rethrow_locked();
+
+  ChunkStore& store_;
+  IoCounters& counters_;
+  const bool background_;
+  const size_t prefetch_max_, write_behind_max_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable work_cv_, done_cv_;
+  std::unordered_map<ChunkId, Pending> pending_;  // written-behind, not yet on disk
+  std::deque<ChunkId> write_queue_;
+  size_t pending_gaussians_ = 0;
+  bool writing_ = false;
+  std::deque<std::pair<ChunkId, uint64_t>> prefetch_queue_;
+  std::unordered_map<ChunkId, Block> staged_;     // prefetched, not yet taken
+  std::deque<ChunkId> staged_order_;              // oldest first, for dropping when over the limit
+  size_t staged_gaussians_ = 0;
+  std::optional<ChunkId> reading_;                // prefetch read in flight
+  std::exception_ptr error_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+}  // namespace chungs

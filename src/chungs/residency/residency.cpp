@@ -1,0 +1,339 @@
+#include "chungs/residency/residency.hpp"
+
+#include <algorithm>
+#include <unordered_set>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
+
+namespace chungs {
+
+Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfig& config)
+    : store_(store), pool_(pool), config_(config), budget_(config.budget_gaussians) {
+  if (pool_.capacity() < budget_)
+    fail("residency: the Gaussian pool holds ", pool_.capacity(), " Gaussians, less than the budget of ", budget_);
+  if (pool_.used() != 0) fail("residency: the Gaussian pool must start empty (", pool_.used(), " slots in use)");
+  if (!(config_.eviction_hysteresis >= 0 && config_.eviction_hysteresis < 1))
+    fail("residency: eviction hysteresis must be in [0, 1), got ", config_.eviction_hysteresis);
+  for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
+  io_ = std::make_unique<IoWorker>(store_, config_.async_io, config_.prefetch_max_gaussians,
+                                   config_.write_behind_max_gaussians);
+}
+
+Residency::~Residency() {
+  try {
+    flush();
+  } catch (const std::exception& e) {
+    log::error("residency: could not write the modified chunks on shutdown: ", e.what());
+  }
+}
+
+Residency::Resident& Residency::resident_entry(ChunkId id, const char* what) {
+  auto it = resident_.find(id);
+  if (it == resident_.end()) fail("residency: ", what, " of ", chunk_name(id), ", which is not resident");
+  return it->second;
+}
+
+bool Residency::is_pinned(ChunkId id) const {
+  auto it = resident_.find(id);
+  return it != resident_.end() && it->second.pins > 0;
+}
+
+bool Residency::is_dirty(ChunkId id) const {
+  auto it = resident_.find(id);
+  return it != resident_.end() && it->second.dirty;
+}
+
+const std::vector<uint32_t>& Residency::slots(ChunkId id) const {
+  auto it = resident_.find(id);
+  if (it == resident_.end()) fail("residency: slots of ", chunk_name(id), ", which is not resident");
+  return it->second.slots;
+}
+
+void Residency::append_slots(std::span<const ChunkId> ids, std::vector<uint32_t>& out) const {
+  for (ChunkId id : ids) {
+    const auto& s = slots(id);
+    out.insert(out.end(), s.begin(), s.end());
+  }
+}
+
+std::vector<ChunkId> Residency::resident_chunks() const {
+  std::vector<ChunkId> out;
+  out.reserve(resident_.size());
+  for (const auto& [id, e] : resident_) out.push_back(id);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+uint64_t Residency::count(ChunkId id) const {
+  auto it = catalogue_.find(id);
+  return it == catalogue_.end() ? 0 : it->second;
+}
+
+void Residency::touch(Resident& r, ChunkId) { lru_.splice(lru_.begin(), lru_, r.lru); }
+
+void Residency::check_budget_invariant() const {
+  if (resident_gaussians_ > budget_)
+    fail("residency: internal error: ", resident_gaussians_, " Gaussians resident, budget ", budget_);
+}
+
+std::string Residency::over_budget_message(uint64_t pinned, size_t chunks) const {
+  return cat("residency: pinning ", chunks, " chunks would hold ", pinned, " Gaussians (", pinned_gaussians_,
+             " already pinned), ", pinned - budget_, " over the budget of ", budget_,
+             "; nothing was loaded. Pin fewer chunks (shorter far plane, smaller chunks) or raise the budget.");
+}
+
+PinResult Residency::pin(std::span<const ChunkId> ids) {
+  PinResult r;
+  r.budget = budget_;
+  std::vector<ChunkId> want(ids.begin(), ids.end());
+  std::sort(want.begin(), want.end());
+  want.erase(std::unique(want.begin(), want.end()), want.end());
+  std::erase_if(want, [&](ChunkId id) {
+    if (catalogue_.count(id)) return false;
+    r.unknown.push_back(id);
+    return true;
+  });
+  uint64_t newly_pinned = 0, missing = 0;
+  for (ChunkId id : want) {
+    if (!is_pinned(id)) newly_pinned += count(id);
+    if (!is_resident(id)) missing += count(id);
+  }
+  const uint64_t total = pinned_gaussians_ + newly_pinned;
+  if (total > budget_) {
+    r.ok = false;
+    r.pinned_gaussians = total;
+    r.over_budget = total - budget_;
+    r.message = over_budget_message(total, want.size());
+    log::warn(r.message);
+    return r;
+  }
+  if (!make_room(missing, want, &r.evicted))
+    fail("residency: internal error: no room for ", missing, " Gaussians although the pinned set fits");
+  for (ChunkId id : want) {
+    if (!is_resident(id)) {
+      load(id);
+      ++r.loaded;
+    }
+    Resident& e = resident_.at(id);
+    if (e.pins++ == 0) pinned_gaussians_ += e.slots.size();
+    touch(e, id);
+  }
+  r.pinned_gaussians = pinned_gaussians_;
+  check_budget_invariant();
+  return r;
+}
+
+void Residency::unpin(std::span<const ChunkId> ids) {
+  std::unordered_map<ChunkId, int> times;
+  for (ChunkId id : ids) ++times[id];
+  for (const auto& [id, n] : times)  // check all first: a failed unpin changes nothing
+    if (resident_entry(id, "unpin").pins < n) fail("residency: unpin of ", chunk_name(id), ", which is not pinned");
+  for (const auto& [id, n] : times) {
+    Resident& e = resident_.at(id);
+    e.pins -= n;
+    if (e.pins == 0) pinned_gaussians_ -= e.slots.size();
+  }
+}
+
+void Residency::unpin_all() {
+  for (auto& [id, e] : resident_) e.pins = 0;
+  pinned_gaussians_ = 0;
+}
+
+bool Residency::make_room(uint64_t extra, std::span<const ChunkId> keep, size_t* evicted) {
+  if (resident_gaussians_ + extra <= budget_) return true;
+  const uint64_t shortfall = resident_gaussians_ + extra - budget_;
+  const uint64_t target = shortfall + uint64_t(config_.eviction_hysteresis * double(budget_));
+  const std::unordered_set<ChunkId> kept(keep.begin(), keep.end());
+  // Oldest first; stop as soon as the target is reached, so as few chunks as possible go.
+  std::vector<ChunkId> victims;
+  uint64_t freed = 0;
+  for (auto it = lru_.rbegin(); it != lru_.rend() && freed < target; ++it) {
+    const Resident& e = resident_.at(*it);
+    if (e.pins > 0 || kept.count(*it)) continue;
+    victims.push_back(*it);
+    freed += e.slots.size();
+  }
+  if (freed < shortfall) return false;
+  for (ChunkId id : victims) evict_entry(id);
+  if (evicted) *evicted += victims.size();
+  return true;
+}
+
+void Residency::load(ChunkId id) {
+  const uint64_t n = count(id);
+  IoWorker::Block block;
+  IoWorker::Source src = IoWorker::Source::Absent;
+  if (n > 0) {
+    block = io_->take(id, &src);
+  } else {
+    block = std::make_shared<const GaussianBlock>();
+  }
+  if (block->size() != n)
+    fail("residency: ", chunk_name(id), " has ", block->size(), " Gaussians in ", store_.chunk_path(id).string(),
+         " but the map lists ", n);
+  Resident e;
+  e.slots = pool_.allocate(n);
+  try {
+    pool_.scatter(*block, e.slots);
+  } catch (...) {
+    pool_.release(e.slots);
+    throw;
+  }
+  IoCounters& c = store_.counters();
+  if (n > 0) {
+    c.pool_loads++;
+    if (src == IoWorker::Source::Prefetched) c.prefetch_hits++;
+    if (src == IoWorker::Source::WriteBehind) c.write_behind_hits++;
+    if (src == IoWorker::Source::Disk) c.sync_loads++;
+  }
+  lru_.push_front(id);
+  e.lru = lru_.begin();
+  resident_.emplace(id, std::move(e));
+  resident_gaussians_ += n;
+  peak_resident_ = std::max(peak_resident_, resident_gaussians_);
+}
+
+void Residency::evict_entry(ChunkId id) {
+  Resident& e = resident_.at(id);
+  const size_t n = e.slots.size();
+  if (e.dirty) {
+    auto block = std::make_shared<GaussianBlock>();
+    pool_.gather(e.slots, *block);
+    io_->write_behind(id, std::move(block));  // throws before anything changed here
+    store_.counters().evictions_dirty++;
+  } else {
+    store_.counters().evictions_clean++;
+  }
+  pool_.release(e.slots);
+  lru_.erase(e.lru);
+  resident_.erase(id);
+  resident_gaussians_ -= n;
+  if (n == 0) {  // an emptied chunk leaves the map once its removal is queued
+    catalogue_.erase(id);
+    ++catalogue_version_;
+  }
+}
+
+PinResult Residency::add(ChunkId id, const GaussianBlock& block) {
+  PinResult r;
+  r.budget = budget_;
+  r.pinned_gaussians = pinned_gaussians_;
+  if (block.size() == 0) return r;
+  block.validate("residency add");
+  chunk_coord(id);  // rejects ids no coordinate produces
+  const bool known = contains(id), resident = is_resident(id), pinned = is_pinned(id);
+  // The least this needs resident: everything pinned, this chunk, and the new Gaussians.
+  const uint64_t floor = pinned_gaussians_ + (pinned ? 0 : count(id)) + block.size();
+  if (floor > budget_) {
+    r.ok = false;
+    r.over_budget = floor - budget_;
+    r.message = cat("residency: adding ", block.size(), " Gaussians to ", chunk_name(id), " (", count(id),
+                    " already) beside ", pinned_gaussians_, " pinned ones would exceed the budget of ", budget_,
+                    " by ", r.over_budget, "; nothing was added.");
+    log::warn(r.message);
+    return r;
+  }
+  const uint64_t extra = (resident ? 0 : count(id)) + block.size();
+  const ChunkId keep[] = {id};
+  if (!make_room(extra, keep, &r.evicted))
+    fail("residency: internal error: no room for ", extra, " Gaussians although they fit the budget");
+  if (!known) {
+    catalogue_[id] = 0;
+    ++catalogue_version_;
+  }
+  if (!resident) {
+    load(id);
+    ++r.loaded;
+  }
+  Resident& e = resident_.at(id);
+  std::vector<uint32_t> fresh = pool_.allocate(block.size());
+  try {
+    pool_.scatter(block, fresh);
+  } catch (...) {
+    pool_.release(fresh);
+    throw;
+  }
+  e.slots.insert(e.slots.end(), fresh.begin(), fresh.end());
+  e.dirty = true;
+  touch(e, id);
+  resident_gaussians_ += block.size();
+  peak_resident_ = std::max(peak_resident_, resident_gaussians_);
+  catalogue_[id] += block.size();
+  if (e.pins > 0) pinned_gaussians_ += block.size();
+  r.pinned_gaussians = pinned_gaussians_;
+  check_budget_invariant();
+  return r;
+}
+
+void Residency::remove_slots(ChunkId id, std::span<const uint32_t> slots) {
+  Resident& e = resident_entry(id, "remove_slots");
+  std::vector<uint32_t> gone(slots.begin(), slots.end());
+  std::sort(gone.begin(), gone.end());
+  if (std::adjacent_find(gone.begin(), gone.end()) != gone.end())
+    fail("residency: remove_slots of ", chunk_name(id), " lists a slot twice");
+  std::vector<uint32_t> kept;
+  kept.reserve(e.slots.size());
+  for (uint32_t s : e.slots)
+    if (!std::binary_search(gone.begin(), gone.end(), s)) kept.push_back(s);
+  if (e.slots.size() - kept.size() != gone.size())
+    fail("residency: remove_slots lists slots that do not belong to ", chunk_name(id));
+  pool_.release(gone);
+  e.slots = std::move(kept);
+  e.dirty = true;
+  resident_gaussians_ -= gone.size();
+  catalogue_[id] -= gone.size();
+  if (e.pins > 0) pinned_gaussians_ -= gone.size();
+}
+
+void Residency::mark_dirty(ChunkId id) { resident_entry(id, "mark_dirty").dirty = true; }
+
+void Residency::mark_dirty(std::span<const ChunkId> ids) {
+  for (ChunkId id : ids) mark_dirty(id);
+}
+
+void Residency::prefetch(std::span<const ChunkId> ids) {
+  std::vector<std::pair<ChunkId, uint64_t>> list;
+  for (ChunkId id : ids)
+    if (!is_resident(id) && count(id) > 0) list.emplace_back(id, count(id));
+  io_->prefetch(list);
+}
+
+void Residency::evict(ChunkId id) {
+  if (resident_entry(id, "evict").pins > 0) fail("residency: cannot evict ", chunk_name(id), ": it is pinned");
+  evict_entry(id);
+}
+
+void Residency::evict_all_unpinned() {
+  std::vector<ChunkId> victims;
+  for (const auto& [id, e] : resident_)
+    if (e.pins == 0) victims.push_back(id);
+  for (ChunkId id : victims) evict_entry(id);
+}
+
+void Residency::flush() {
+  for (auto& [id, e] : resident_) {
+    if (!e.dirty) continue;
+    auto block = std::make_shared<GaussianBlock>();
+    pool_.gather(e.slots, *block);
+    io_->write_behind(id, std::move(block));
+    e.dirty = false;
+  }
+  io_->drain();
+  store_.commit();
+}
+
+bool Residency::set_budget(size_t gaussians) {
+  if (gaussians > pool_.capacity())
+    fail("residency: budget ", gaussians, " exceeds the pool capacity of ", pool_.capacity());
+  if (pinned_gaussians_ > gaussians) {
+    log::warn("residency: cannot lower the budget to ", gaussians, ": ", pinned_gaussians_, " Gaussians are pinned");
+    return false;
+  }
+  budget_ = gaussians;
+  if (!make_room(0, {}, nullptr)) fail("residency: internal error: cannot shrink to the new budget");
+  return true;
+}
+
+}  // namespace chungs

@@ -1,0 +1,129 @@
+// Residency: which chunks live in the GaussianPool, under a budget counted in Gaussians.
+//
+// Before a step the caller pins the chunks it needs. Missing ones are loaded; when they do not
+// fit, the least recently used unpinned chunks are evicted, oldest first, stopping as soon as the
+// room (plus a hysteresis margin, so the next step does not evict again) is free. A chunk not
+// modified since load is dropped without a write; a modified one is handed to the write-behind
+// queue before its slots are reused, and until it is on disk any load gets the queued copy.
+// If the pinned set alone exceeds the budget, pin() changes nothing and says by how much.
+//
+// Residency keeps the catalogue of every chunk of the map (resident or not) with its count: the
+// culler works over catalogue() and the store learns of changes when chunks are written.
+// Not thread-safe: one thread (the mapper) drives it; the I/O thread is internal.
+#pragma once
+#include <list>
+#include <memory>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "chungs/residency/gaussian_pool.hpp"
+#include "chungs/residency/io_worker.hpp"
+#include "chungs/store/chunk_store.hpp"
+
+namespace chungs {
+
+struct ResidencyConfig {
+  size_t budget_gaussians = 1'500'000;  // the paper's VRAM budget
+  double eviction_hysteresis = 0.05;    // evict this fraction of the budget beyond the shortfall
+  bool async_io = true;                 // background prefetch and write-behind
+  size_t prefetch_max_gaussians = 500'000;      // read ahead into host memory at most this many
+  size_t write_behind_max_gaussians = 500'000;  // queued for writing before eviction waits
+};
+
+struct PinResult {
+  bool ok = true;
+  uint64_t pinned_gaussians = 0;  // in all pinned chunks (after the call, or as requested if !ok)
+  uint64_t budget = 0;
+  uint64_t over_budget = 0;       // by how many Gaussians the request exceeds the budget (!ok)
+  size_t loaded = 0, evicted = 0; // chunks moved by this call
+  std::vector<ChunkId> unknown;   // requested ids that are not in the map (skipped)
+  std::string message;            // why !ok, in words
+};
+
+class Residency {
+ public:
+  // The pool must hold at least the budget; the pool is used only through this object.
+  Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfig& config = {});
+  ~Residency();  // flush(); errors are logged
+  Residency(const Residency&) = delete;
+  Residency& operator=(const Residency&) = delete;
+
+  // Makes the chunks resident and pins them (pins nest). Unknown ids are skipped and listed.
+  PinResult pin(std::span<const ChunkId> ids);
+  void unpin(std::span<const ChunkId> ids);  // throws on a chunk that is not pinned
+  void unpin_all();
+
+  // Appends Gaussians to a chunk, creating it if new; the chunk becomes resident (not pinned).
+  // When they cannot fit beside the pinned chunks nothing is added and the result says why.
+  PinResult add(ChunkId id, const GaussianBlock& block);
+  // Deletes Gaussians (by pool slot) from a resident chunk, e.g. after pruning.
+  void remove_slots(ChunkId id, std::span<const uint32_t> slots);
+  // Records that the caller changed the chunk's Gaussians in the pool (optimiser step).
+  void mark_dirty(ChunkId id);
+  void mark_dirty(std::span<const ChunkId> ids);
+
+  // Hint: chunks likely needed by the next steps; non-resident ones are read in the background.
+  void prefetch(std::span<const ChunkId> ids);
+  // Evicts one unpinned resident chunk now (writing it behind when dirty).
+  void evict(ChunkId id);
+  void evict_all_unpinned();
+  // Queues every dirty chunk for writing (they stay resident, now clean), waits until all are
+  // on disk and commits the manifest. After flush() the folder holds the whole map.
+  void flush();
+  // Changes the budget (e.g. raised during loop closure); lowering evicts unpinned chunks.
+  // Returns false (and changes nothing) when pinned chunks alone exceed the new budget.
+  bool set_budget(size_t gaussians);
+
+  bool is_resident(ChunkId id) const { return resident_.count(id) > 0; }
+  bool is_pinned(ChunkId id) const;
+  bool is_dirty(ChunkId id) const;
+  const std::vector<uint32_t>& slots(ChunkId id) const;  // throws when not resident
+  // Appends the slots of the given resident chunks (the index list a renderer takes).
+  void append_slots(std::span<const ChunkId> ids, std::vector<uint32_t>& out) const;
+  std::vector<ChunkId> resident_chunks() const;
+
+  uint64_t count(ChunkId id) const;  // Gaussians in any chunk of the map (0 if unknown)
+  bool contains(ChunkId id) const { return catalogue_.count(id) > 0; }
+  const std::unordered_map<ChunkId, uint64_t>& catalogue() const { return catalogue_; }
+  // Increases whenever a chunk enters or leaves the catalogue (lets the culler rebuild lazily).
+  uint64_t catalogue_version() const { return catalogue_version_; }
+
+  size_t budget() const { return budget_; }
+  size_t resident_gaussians() const { return resident_gaussians_; }
+  size_t pinned_gaussians() const { return pinned_gaussians_; }
+  size_t peak_resident_gaussians() const { return peak_resident_; }
+  IoStats stats() const { return store_.counters().snapshot(); }
+  ChunkStore& store() { return store_; }
+  GaussianPool& pool() { return pool_; }
+
+ private:
+  struct Resident {
+    std::vector<uint32_t> slots;
+    int pins = 0;
+    bool dirty = false;
+    std::list<ChunkId>::iterator lru;  // position in lru_ (front: most recently used)
+  };
+  // Evicts unpinned chunks outside `keep` until `extra` more Gaussians fit; false if impossible.
+  bool make_room(uint64_t extra, std::span<const ChunkId> keep, size_t* evicted);
+  void load(ChunkId id);
+  void evict_entry(ChunkId id);
+  void touch(Resident& r, ChunkId id);
+  Resident& resident_entry(ChunkId id, const char* what);
+  void check_budget_invariant() const;
+  std::string over_budget_message(uint64_t pinned, size_t chunks) const;
+
+  ChunkStore& store_;
+  GaussianPool& pool_;
+  ResidencyConfig config_;
+  size_t budget_;
+  std::unordered_map<ChunkId, uint64_t> catalogue_;
+  uint64_t catalogue_version_ = 0;
+  std::unordered_map<ChunkId, Resident> resident_;
+  std::list<ChunkId> lru_;
+  size_t resident_gaussians_ = 0, pinned_gaussians_ = 0, peak_resident_ = 0;
+  std::unique_ptr<IoWorker> io_;
+};
+
+}  // namespace chungs

@@ -1,0 +1,239 @@
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "chungs/common/error.hpp"
+#include "chungs/residency/residency.hpp"
+#include "store/random_block.hpp"
+#include "test_support.hpp"
+
+using namespace chungs;
+
+namespace {
+ChunkId cid(int x) { return chunk_id({x, 0, 0}); }
+
+struct Rig {
+  test::TempDir dir;
+  std::unique_ptr<ChunkStore> store;
+  std::unique_ptr<CpuGaussianPool> pool;
+  std::unique_ptr<Residency> res;
+
+  // Chunks 0..sizes.size()-1 on disk with the given counts, then a residency over them.
+  Rig(std::vector<size_t> sizes, size_t budget, bool async = false, double hysteresis = 0.0) {
+    ChunkStoreConfig sc;
+    sc.durable = false;
+    store = std::make_unique<ChunkStore>(dir.path(), sc);
+    for (size_t i = 0; i < sizes.size(); ++i) store->save(cid(int(i)), test::random_block(sizes[i], i + 1));
+    pool = std::make_unique<CpuGaussianPool>(budget);
+    ResidencyConfig rc;
+    rc.budget_gaussians = budget;
+    rc.async_io = async;
+    rc.eviction_hysteresis = hysteresis;
+    res = std::make_unique<Residency>(*store, *pool, rc);
+  }
+  GaussianBlock gathered(ChunkId id) {
+    GaussianBlock b;
+    pool->gather(res->slots(id), b);
+    return b;
+  }
+  PinResult pin1(ChunkId id) { return res->pin(std::span<const ChunkId>(&id, 1)); }
+  void unpin1(ChunkId id) { res->unpin(std::span<const ChunkId>(&id, 1)); }
+};
+}  // namespace
+
+TEST(Residency, LoadsPinnedChunksExactlyAsStored) {
+  Rig r({100, 200, 50}, 1000);
+  const std::vector<ChunkId> ids{cid(0), cid(1), cid(2)};
+  const PinResult p = r.res->pin(ids);
+  EXPECT_TRUE(p.ok) << p.message;
+  EXPECT_EQ(p.loaded, 3u);
+  EXPECT_EQ(p.pinned_gaussians, 350u);
+  for (int i = 0; i < 3; ++i) EXPECT_TRUE(test::same_bits(r.gathered(cid(i)), r.store->load(cid(i))));
+  EXPECT_EQ(r.res->resident_gaussians(), 350u);
+  std::vector<uint32_t> all;
+  r.res->append_slots(ids, all);
+  EXPECT_EQ(all.size(), 350u);
+}
+
+TEST(Residency, CleanChunkIsDroppedWithoutAWrite) {
+  Rig r({300, 300}, 1000);
+  r.pin1(cid(0));
+  r.unpin1(cid(0));
+  const auto before = r.res->stats();
+  r.res->evict(cid(0));
+  const auto after = r.res->stats();
+  EXPECT_EQ(after.saves, before.saves);
+  EXPECT_EQ(after.evictions_clean, before.evictions_clean + 1);
+  EXPECT_FALSE(r.res->is_resident(cid(0)));
+}
+
+TEST(Residency, ModifiedChunkIsWrittenBeforeItsSlotsAreReused) {
+  for (bool async : {false, true}) {
+    Rig r({300, 300}, 400, async);
+    r.pin1(cid(0));
+    const auto slots = r.res->slots(cid(0));
+    for (uint32_t s : slots) r.pool->params().opacity[s] += 1.0f;
+    r.res->mark_dirty(cid(0));
+    const GaussianBlock modified = r.gathered(cid(0));
+    r.unpin1(cid(0));
+    // Chunk 1 needs chunk 0's slots: chunk 0 goes to disk (or the write-behind queue) first.
+    EXPECT_TRUE(r.pin1(cid(1)).ok);
+    EXPECT_FALSE(r.res->is_resident(cid(0)));
+    r.unpin1(cid(1));
+    EXPECT_TRUE(r.pin1(cid(0)).ok);
+    EXPECT_TRUE(test::same_bits(r.gathered(cid(0)), modified)) << (async ? "async" : "sync");
+    r.res->flush();
+    EXPECT_TRUE(test::same_bits(r.store->load(cid(0)), modified));
+    EXPECT_EQ(r.res->stats().evictions_dirty, 1u);
+  }
+}
+
+TEST(Residency, EvictsLeastRecentlyUsedFirstAndNoMoreThanNeeded) {
+  Rig r({300, 300, 300, 300, 100}, 1000);
+  for (int i : {0, 1, 2}) {
+    r.pin1(cid(i));
+    r.unpin1(cid(i));
+  }
+  r.pin1(cid(0));  // 0 is now the most recent; 1 is the oldest
+  r.unpin1(cid(0));
+  const PinResult p = r.pin1(cid(3));  // needs 200 more: evict exactly one chunk, the oldest
+  EXPECT_TRUE(p.ok);
+  EXPECT_EQ(p.evicted, 1u);
+  EXPECT_FALSE(r.res->is_resident(cid(1)));
+  EXPECT_TRUE(r.res->is_resident(cid(0)));
+  EXPECT_TRUE(r.res->is_resident(cid(2)));
+  EXPECT_EQ(r.res->resident_gaussians(), 900u);
+}
+
+TEST(Residency, HysteresisEvictsAMarginBeyondTheShortfall) {
+  Rig r({300, 300, 300, 300}, 1000, false, 0.05);
+  for (int i : {0, 1, 2}) {
+    r.pin1(cid(i));
+    r.unpin1(cid(i));
+  }
+  // Needs 200, target 200 + 50: chunk 0 (300) covers it; chunk 1 stays.
+  EXPECT_EQ(r.pin1(cid(3)).evicted, 1u);
+  EXPECT_TRUE(r.res->is_resident(cid(1)));
+}
+
+TEST(Residency, PinnedChunksAreNeverEvicted) {
+  Rig r({400, 400, 400}, 1000);
+  r.pin1(cid(0));
+  r.pin1(cid(1));
+  r.unpin1(cid(1));
+  EXPECT_TRUE(r.pin1(cid(2)).ok);
+  EXPECT_TRUE(r.res->is_resident(cid(0)));
+  EXPECT_FALSE(r.res->is_resident(cid(1)));
+  EXPECT_THROW(r.res->evict(cid(0)), Error);
+}
+
+TEST(Residency, SaysByHowMuchThePinnedSetExceedsTheBudget) {
+  Rig r({600, 500, 100}, 1000);
+  r.pin1(cid(2));
+  const std::vector<ChunkId> ids{cid(0), cid(1)};
+  const PinResult p = r.res->pin(ids);
+  EXPECT_FALSE(p.ok);
+  EXPECT_EQ(p.pinned_gaussians, 1200u);
+  EXPECT_EQ(p.over_budget, 200u);
+  EXPECT_NE(p.message.find("200 over the budget of 1000"), std::string::npos) << p.message;
+  // Nothing changed: no thrashing, nothing loaded.
+  EXPECT_FALSE(r.res->is_resident(cid(0)));
+  EXPECT_FALSE(r.res->is_resident(cid(1)));
+  EXPECT_EQ(r.res->pinned_gaussians(), 100u);
+  EXPECT_EQ(r.res->stats().loads, 1u);
+}
+
+TEST(Residency, UnknownChunksAreSkippedAndListed) {
+  Rig r({10}, 100);
+  const std::vector<ChunkId> ids{cid(0), cid(7)};
+  const PinResult p = r.res->pin(ids);
+  EXPECT_TRUE(p.ok);
+  EXPECT_EQ(p.unknown, std::vector<ChunkId>{cid(7)});
+  EXPECT_TRUE(r.res->is_pinned(cid(0)));
+}
+
+TEST(Residency, AddCreatesChunksAndRefusesWhenPinnedLeaveNoRoom) {
+  Rig r({500}, 1000);
+  r.pin1(cid(0));
+  const GaussianBlock fresh = test::random_block(300, 9);
+  PinResult p = r.res->add(cid(5), fresh);
+  EXPECT_TRUE(p.ok);
+  EXPECT_EQ(r.res->count(cid(5)), 300u);
+  EXPECT_TRUE(r.res->is_dirty(cid(5)));
+  EXPECT_TRUE(test::same_bits(r.gathered(cid(5)), fresh));
+  p = r.res->add(cid(0), test::random_block(600, 10));
+  EXPECT_FALSE(p.ok);
+  EXPECT_EQ(p.over_budget, 100u);
+  EXPECT_EQ(r.res->count(cid(0)), 500u);
+  // Room is made by evicting the unpinned new chunk, which is written, not lost.
+  EXPECT_TRUE(r.res->add(cid(0), test::random_block(400, 11)).ok);
+  EXPECT_FALSE(r.res->is_resident(cid(5)));
+  EXPECT_EQ(r.res->pinned_gaussians(), 900u);
+  r.res->flush();
+  EXPECT_TRUE(test::same_bits(r.store->load(cid(5)), fresh));
+}
+
+TEST(Residency, PruningToEmptyRemovesTheChunkFromTheMap) {
+  Rig r({50, 60}, 200);
+  r.pin1(cid(0));
+  const auto slots = r.res->slots(cid(0));
+  const std::vector<uint32_t> some(slots.begin(), slots.begin() + 20);
+  r.res->remove_slots(cid(0), some);
+  EXPECT_EQ(r.res->count(cid(0)), 30u);
+  EXPECT_EQ(r.res->pinned_gaussians(), 30u);
+  EXPECT_THROW(r.res->remove_slots(cid(0), some), Error);  // no longer its slots
+  const auto rest = r.res->slots(cid(0));
+  r.res->remove_slots(cid(0), std::vector<uint32_t>(rest.begin(), rest.end()));
+  r.unpin1(cid(0));
+  r.res->evict(cid(0));
+  r.res->flush();
+  EXPECT_FALSE(r.res->contains(cid(0)));
+  EXPECT_FALSE(r.store->contains(cid(0)));
+  EXPECT_EQ(r.pool->used(), 0u);
+}
+
+TEST(Residency, PrefetchedChunksLoadWithoutWaiting) {
+  Rig r({200, 200, 200, 200}, 1000, true);
+  const std::vector<ChunkId> ids{cid(0), cid(1), cid(2), cid(3)};
+  r.res->prefetch(ids);
+  for (int i = 0; i < 500 && r.res->stats().loads < 4; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ASSERT_EQ(r.res->stats().loads, 4u);
+  EXPECT_TRUE(r.res->pin(ids).ok);
+  const IoStats s = r.res->stats();
+  EXPECT_EQ(s.pool_loads, 4u);
+  EXPECT_EQ(s.prefetch_hits, 4u);
+  EXPECT_EQ(s.sync_loads, 0u);
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(test::same_bits(r.gathered(cid(i)), r.store->load(cid(i))));
+}
+
+TEST(Residency, SetBudgetEvictsDownAndRefusesBelowThePinnedSet) {
+  Rig r({300, 300, 300}, 1000);
+  const std::vector<ChunkId> ids{cid(0), cid(1), cid(2)};
+  r.res->pin(ids);
+  r.res->unpin(std::vector<ChunkId>{cid(1), cid(2)});
+  EXPECT_TRUE(r.res->set_budget(650));
+  EXPECT_LE(r.res->resident_gaussians(), 650u);
+  EXPECT_TRUE(r.res->is_resident(cid(0)));
+  EXPECT_FALSE(r.res->set_budget(200));
+  EXPECT_EQ(r.res->budget(), 650u);
+  EXPECT_THROW(r.res->set_budget(2000), Error);  // beyond the pool
+}
+
+TEST(Residency, RejectsAPoolSmallerThanTheBudget) {
+  test::TempDir dir;
+  ChunkStore store(dir.path());
+  CpuGaussianPool pool(10);
+  ResidencyConfig rc;
+  rc.budget_gaussians = 11;
+  EXPECT_THROW(Residency(store, pool, rc), Error);
+}
+
+TEST(Residency, UnpinOfAnUnpinnedChunkIsAnErrorAndChangesNothing) {
+  Rig r({10, 10}, 100);
+  r.pin1(cid(0));
+  r.pin1(cid(1));
+  r.unpin1(cid(1));
+  EXPECT_THROW(r.res->unpin(std::vector<ChunkId>{cid(0), cid(1)}), Error);
+  EXPECT_TRUE(r.res->is_pinned(cid(0)));
+}
