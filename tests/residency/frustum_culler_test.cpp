@@ -1,0 +1,158 @@
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <random>
+#include <set>
+
+#include "chungs/residency/frustum_culler.hpp"
+
+using namespace chungs;
+
+namespace {
+
+// A sparse city-like map: chunks on a 120 x 120 x 5 grid (1.2 km square at 10 m), about a third present.
+std::vector<ChunkId> random_map(std::mt19937& rng, int extent = 120, double fill = 0.35) {
+  std::vector<ChunkId> ids;
+  std::bernoulli_distribution keep(fill);
+  for (int x = -extent / 2; x < extent / 2; ++x)
+    for (int y = -2; y < 3; ++y)
+      for (int z = -extent / 2; z < extent / 2; ++z)
+        if (keep(rng)) ids.push_back(chunk_id({x, y, z}));
+  return ids;
+}
+
+Camera random_camera(std::mt19937& rng) {
+  std::uniform_int_distribution<int> w(64, 1280), h(48, 720);
+  std::uniform_real_distribution<double> f(0.4, 2.0), c(0.3, 0.7);
+  Camera cam;
+  cam.width = w(rng);
+  cam.height = h(rng);
+  cam.fx = f(rng) * cam.width;
+  cam.fy = cam.fx * std::uniform_real_distribution<double>(0.9, 1.1)(rng);
+  cam.cx = c(rng) * cam.width;
+  cam.cy = c(rng) * cam.height;
+  return cam;
+}
+
+SE3 random_pose(std::mt19937& rng, double spread) {
+  std::uniform_real_distribution<double> u(-spread, spread);
+  Eigen::Quaterniond q(Eigen::Vector4d::NullaryExpr([&](Eigen::Index) {
+    return std::normal_distribution<double>(0, 1)(rng);
+  }));
+  q.normalize();
+  // Half the poses sit exactly on chunk corners or faces, where ties would expose any disagreement.
+  Eigen::Vector3d t(u(rng), u(rng) * 0.2, u(rng));
+  if (rng() % 2) t = (t / 5.0).array().round() * 5.0;
+  return SE3(q, t);
+}
+
+}  // namespace
+
+TEST(FrustumCuller, MatchesBruteForceOnThousandsOfRandomPoses) {
+  std::mt19937 rng(42);
+  const std::vector<ChunkId> ids = random_map(rng);
+  for (size_t parallel_min : {size_t(1) << 40, size_t(1)}) {  // serial, then parallel walk
+    CullerConfig cfg;
+    cfg.parallel_min_chunks = parallel_min;
+    FrustumCuller culler(10.0, cfg);
+    culler.set_chunks(ids, 1);
+    size_t total_visible = 0;
+    for (int i = 0; i < 1500; ++i) {
+      const Camera cam = random_camera(rng);
+      const SE3 pose = random_pose(rng, 700);
+      const auto fast = culler.cull(cam, pose), slow = culler.cull_brute_force(cam, pose);
+      ASSERT_EQ(fast, slow) << "pose " << i << " at " << pose.t.transpose();
+      total_visible += fast.size();
+    }
+    EXPECT_GT(total_visible, 1500u * 10) << "poses should see many chunks";
+    EXPECT_LT(culler.stats().node_tests, 1500u * ids.size() / 4) << "the hierarchy should skip most chunks";
+  }
+}
+
+TEST(FrustumCuller, MatchesBruteForceWithOddSizesAndShortDistances) {
+  std::mt19937 rng(5);
+  const std::vector<ChunkId> ids = random_map(rng, 40, 0.6);
+  for (double s : {0.7, 3.0, 25.0}) {
+    CullerConfig cfg;
+    cfg.far = std::uniform_real_distribution<double>(5, 300)(rng);
+    cfg.max_distance = std::uniform_real_distribution<double>(3, 200)(rng);
+    cfg.parallel_min_chunks = 1;
+    FrustumCuller culler(s, cfg);
+    culler.set_chunks(ids, 1);
+    for (int i = 0; i < 800; ++i) {
+      const Camera cam = random_camera(rng);
+      const SE3 pose = random_pose(rng, 25 * s);
+      ASSERT_EQ(culler.cull(cam, pose), culler.cull_brute_force(cam, pose)) << "s=" << s << " pose " << i;
+    }
+  }
+}
+
+TEST(FrustumCuller, NeverMissesAChunkContainingAVisiblePoint) {
+  std::mt19937 rng(9);
+  const std::vector<ChunkId> ids = random_map(rng, 30, 1.0);  // every chunk present
+  FrustumCuller culler(10.0);
+  culler.set_chunks(ids, 1);
+  std::uniform_real_distribution<double> u01(0, 1);
+  for (int i = 0; i < 300; ++i) {
+    const Camera cam = random_camera(rng);
+    const SE3 pose = random_pose(rng, 100);
+    const auto vis = culler.cull(cam, pose);
+    const std::set<ChunkId> visible(vis.begin(), vis.end());
+    for (int k = 0; k < 50; ++k) {
+      // A random pixel at a random depth within near/far and the distance limit.
+      const Eigen::Vector2d px(u01(rng) * (cam.width - 1), u01(rng) * (cam.height - 1));
+      const double depth = 0.1 + u01(rng) * 60;
+      const Eigen::Vector3d p = pose * cam.unproject(px, depth);
+      if ((p - pose.t).norm() > culler.config().max_distance) continue;  // the distance filter's to drop
+      const ChunkCoord c = chunk_coord_of(p, 10.0);
+      if (std::abs(c.x) >= 15 || c.y < -2 || c.y > 2 || std::abs(c.z) >= 15) continue;
+      ASSERT_TRUE(visible.count(chunk_id(c))) << "point " << p.transpose() << " seen by pose " << i;
+    }
+  }
+}
+
+TEST(FrustumCuller, DropsChunksBehindTheCameraAndBeyondTheDistance) {
+  std::vector<ChunkId> ids;
+  for (int z = -20; z <= 20; ++z) ids.push_back(chunk_id({0, 0, z}));
+  CullerConfig cfg;
+  cfg.max_distance = 50;
+  FrustumCuller culler(10.0, cfg);
+  culler.set_chunks(ids, 1);
+  const Camera cam(640, 480, 500, 500, 319.5, 239.5);
+  const auto vis = culler.cull(cam, SE3());  // looking down +z from the origin
+  std::vector<ChunkId> want;
+  for (int z = 0; z <= 5; ++z) want.push_back(chunk_id({0, 0, z}));  // nearest face of chunk 5 at 45 m
+  std::sort(want.begin(), want.end());
+  EXPECT_EQ(vis, want);
+}
+
+TEST(FrustumCuller, CachesPerKeyframeWhileThePoseMovesLittle) {
+  std::mt19937 rng(1);
+  FrustumCuller culler(10.0);
+  culler.set_chunks(random_map(rng, 40), 7);
+  const Camera cam(640, 480, 500, 500, 319.5, 239.5);
+  const SE3 pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 2));
+  const auto first = culler.cull_cached(3, cam, pose);
+  const SE3 nudged(Eigen::Quaterniond(Eigen::AngleAxisd(0.04, Eigen::Vector3d::UnitY())), pose.t + Eigen::Vector3d(0.4, 0, 0));
+  EXPECT_EQ(culler.cull_cached(3, cam, nudged), first);
+  EXPECT_EQ(culler.stats().cache_hits, 1u);
+  const SE3 moved(pose.q, pose.t + Eigen::Vector3d(0.6, 0, 0));  // 0.06 s: beyond the threshold
+  culler.cull_cached(3, cam, moved);
+  EXPECT_EQ(culler.stats().cache_hits, 1u);
+  const SE3 turned(Eigen::Quaterniond(Eigen::AngleAxisd(0.06, Eigen::Vector3d::UnitY())), pose.t);
+  culler.cull_cached(4, cam, pose);
+  culler.cull_cached(4, cam, turned);
+  EXPECT_EQ(culler.stats().cache_hits, 1u);
+  // A changed chunk set invalidates, an unchanged version does not rebuild or invalidate.
+  culler.cull_cached(5, cam, pose);
+  std::vector<ChunkId> more{chunk_id({0, 0, 3})};
+  culler.set_chunks(more, 8);
+  EXPECT_EQ(culler.cull_cached(5, cam, pose), culler.cull_brute_force(cam, pose));
+  EXPECT_EQ(culler.stats().cache_hits, 1u);
+}
+
+TEST(FrustumCuller, EmptyMapSeesNothing) {
+  FrustumCuller culler(10.0);
+  culler.set_chunks({}, 1);
+  EXPECT_TRUE(culler.cull(Camera(64, 48, 50, 50, 32, 24), SE3()).empty());
+}
