@@ -1,6 +1,7 @@
-// `diskchungs info`: version, build options, CUDA devices.
+// `diskchungs info`: version, build options, CUDA devices, and (--config) every config default.
 #include <cstdio>
 
+#include "chungs/config/config.hpp"
 #include "command.hpp"
 #ifdef CHUNGS_WITH_CUDA
 #include "chungs/cuda/devices.hpp"
@@ -9,7 +10,7 @@
 namespace chungs::app {
 namespace {
 
-int run_info() {
+void print_build() {
   std::printf("diskchungs %s\n", CHUNGS_VERSION);
   std::printf("build: %s, %s\n", CHUNGS_BUILD_TYPE, CHUNGS_COMPILER);
 #ifdef CHUNGS_WITH_CUDA
@@ -23,11 +24,26 @@ int run_info() {
 #else
   std::printf("cuda: not built (configure with CHUNGS_CUDA=ON or AUTO with nvcc present)\n");
 #endif
-  return 0;
 }
 
-const Command info_cmd("info", "version, build options and CUDA devices", [](CLI::App&) -> Action {
-  return run_info;
+struct InfoArgs {
+  bool config = false;
+  std::string config_file;
+};
+
+const Command info_cmd("info", "version, build options, CUDA devices; --config prints every setting", [](CLI::App& app) -> Action {
+  auto args = std::make_shared<InfoArgs>();
+  app.add_flag("--config", args->config, "print the configuration (defaults, or FILE applied over them) as YAML");
+  app.add_option("--config-file", args->config_file, "a YAML config to check and print")->check(CLI::ExistingFile);
+  return [args] {
+    if (args->config || !args->config_file.empty()) {
+      Config c = args->config_file.empty() ? Config{} : load_config(args->config_file);
+      std::fputs(config_to_yaml(c).c_str(), stdout);
+      return 0;
+    }
+    print_build();
+    return 0;
+  };
 });
 
 }  // namespace

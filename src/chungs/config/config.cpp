@@ -1,0 +1,207 @@
+#include "chungs/config/config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+
+#include "chungs/common/text_file.hpp"
+
+namespace chungs {
+
+namespace {
+
+// Each section lists its fields once; the same list drives loading and printing.
+template <class V>
+void fields(V& v, ChunkStoreConfig& c) {
+  v("chunk_size", c.chunk_size, "metres, edge of a cubic chunk (a new map; an existing map keeps its own)");
+  v("sh_degree", c.sh_degree, "spherical-harmonics degree stored in a new map");
+  v("compress", c.compress, "zstd-compress chunk files");
+  v("zstd_level", c.zstd_level, "");
+  v("shuffle", c.shuffle, "byte-shuffle before zstd");
+  v("durable", c.durable, "flush files and folders on every write (power-loss safe)");
+  v("verify_on_open", c.verify_on_open, "check every chunk checksum when a map is opened");
+}
+template <class V>
+void fields(V& v, KeyframeStoreConfig& c) {
+  v("max_in_memory", c.max_in_memory, "keyframes kept in memory, the rest on disk (LRU)");
+  v("compress", c.compress, "");
+  v("zstd_level", c.zstd_level, "");
+  v("durable", c.durable, "");
+}
+template <class V>
+void fields(V& v, ResidencyConfig& c) {
+  v("budget_gaussians", c.budget_gaussians, "Gaussians resident in (GPU) memory at most");
+  v("eviction_hysteresis", c.eviction_hysteresis, "fraction of the budget evicted beyond the shortfall");
+  v("async_io", c.async_io, "background prefetch and write-behind");
+  v("prefetch_max_gaussians", c.prefetch_max_gaussians, "");
+  v("write_behind_max_gaussians", c.write_behind_max_gaussians, "");
+}
+template <class V>
+void fields(V& v, CullerConfig& c) {
+  v("near", c.near, "metres");
+  v("far", c.far, "far plane, metres");
+  v("max_distance", c.max_distance, "distance filter on a chunk's nearest point, metres");
+  v("cache_translation", c.cache_translation, "reuse a keyframe's result while it moves less than this x chunk size");
+  v("cache_rotation_rad", c.cache_rotation_rad, "... and turns less than this");
+  v("cache_max_entries", c.cache_max_entries, "");
+  v("parallel_min_chunks", c.parallel_min_chunks, "");
+}
+template <class V>
+void fields(V& v, RasterConfig& c) {
+  v("near_plane", c.near_plane, "metres");
+  v("low_pass", c.low_pass, "px^2 added to each 2D covariance");
+  v("alpha_max", c.alpha_max, "");
+  v("min_alpha", c.min_alpha, "");
+  v("min_transmittance", c.min_transmittance, "");
+  v("extent_sigma", c.extent_sigma, "");
+  v("guard_band", c.guard_band, "");
+  v("sh_degree", c.sh_degree, "");
+  v("background", c.background, "RGB behind the splats");
+}
+template <class V>
+void fields(V& v, LossConfig& c) {
+  v("lambda_ssim", c.lambda_ssim, "weight of 1 - SSIM against L1");
+  v("lambda_depth", c.lambda_depth, "inverse-depth L1 weight: 0.1 indoor, 1.0 KITTI");
+}
+template <class V>
+void fields(V& v, AdamConfig& c) {
+  v("lr_position", c.lr_position, "1e-3 outdoor (KITTI), 5e-5 indoor");
+  v("position_decay", c.position_decay, "position lr factor per visit");
+  v("position_lr_floor", c.position_lr_floor, "lowest position lr factor");
+  v("lr_sh_dc", c.lr_sh_dc, "");
+  v("lr_sh_rest", c.lr_sh_rest, "");
+  v("lr_opacity", c.lr_opacity, "");
+  v("lr_scale", c.lr_scale, "");
+  v("lr_rotation", c.lr_rotation, "");
+  v("beta1", c.beta1, "");
+  v("beta2", c.beta2, "");
+  v("eps", c.eps, "");
+}
+template <class V>
+void fields(V& v, PruneConfig& c) {
+  v("min_opacity", c.min_opacity, "");
+  v("max_radius_fraction", c.max_radius_fraction, "screen radius limit as a fraction of image width");
+  v("every", c.every, "iterations between pruning passes");
+}
+
+template <class V>
+void sections(V& v, Config& c) {
+  v.section("store", c.store);
+  v.section("keyframes", c.keyframes);
+  v.section("residency", c.residency);
+  v.section("culling", c.culling);
+  v.section("raster", c.raster);
+  v.section("loss", c.loss);
+  v.section("adam", c.adam);
+  v.section("prune", c.prune);
+}
+
+struct Printer {
+  YAML::Emitter out;
+  template <class T>
+  void operator()(const char* key, T& value, const char* comment) {
+    out << YAML::Key << key << YAML::Value;
+    if constexpr (std::is_same_v<T, std::array<double, 3>>)
+      out << YAML::Flow << YAML::BeginSeq << value[0] << value[1] << value[2] << YAML::EndSeq;
+    else
+      out << value;
+    if (comment && *comment) out << YAML::Comment(comment);
+  }
+  template <class S>
+  void section(const char* name, S& s) {
+    out << YAML::Key << name << YAML::Value << YAML::BeginMap;
+    fields(*this, s);
+    out << YAML::EndMap;
+  }
+};
+
+struct Loader {
+  YAML::Node root;
+  std::string source;
+  std::string section_name;
+  YAML::Node node;
+  std::set<std::string> seen_sections, seen_keys;
+
+  template <class T>
+  void operator()(const char* key, T& value, const char*) {
+    seen_keys.insert(key);
+    YAML::Node n = node[key];
+    if (!n) return;
+    try {
+      if constexpr (std::is_same_v<T, std::array<double, 3>>) {
+        if (!n.IsSequence() || n.size() != 3) throw YAML::Exception(n.Mark(), "expected a list of 3 numbers");
+        for (size_t i = 0; i < 3; ++i) value[i] = n[i].as<double>();
+      } else {
+        value = n.as<T>();
+      }
+    } catch (const YAML::Exception&) {
+      fail(source, ":", n.Mark().line + 1, ": ", section_name, ".", key, ": '", YAML::Dump(n),
+           "' is not a valid value");
+    }
+  }
+  template <class S>
+  void section(const char* name, S& s) {
+    seen_sections.insert(name);
+    node = root[name];
+    if (!node) return;
+    if (!node.IsMap()) fail(source, ": section '", name, "' must be a mapping of key: value");
+    section_name = name;
+    seen_keys.clear();
+    fields(*this, s);
+    for (const auto& kv : node) {
+      auto k = kv.first.as<std::string>();
+      if (!seen_keys.count(k)) fail(source, ":", kv.first.Mark().line + 1, ": unknown key '", name, ".", k, "'");
+    }
+  }
+};
+
+}  // namespace
+
+void Config::validate() const {
+  adam.validate();
+  loss.validate();
+  prune.validate();
+  raster.validate();
+}
+
+Config config_from_yaml(const std::string& text, const std::string& source) {
+  Config c;
+  Loader l;
+  l.source = source;
+  try {
+    l.root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    fail(source, ":", e.mark.line + 1, ": not valid YAML (", e.msg, ")");
+  }
+  if (l.root.IsNull()) return c;
+  if (!l.root.IsMap()) fail(source, ": expected a mapping of sections (store:, residency:, ...)");
+  sections(l, c);
+  for (const auto& kv : l.root) {
+    auto k = kv.first.as<std::string>();
+    if (!l.seen_sections.count(k)) fail(source, ":", kv.first.Mark().line + 1, ": unknown section '", k, "'");
+  }
+  try {
+    c.validate();
+  } catch (const Error& e) {
+    fail(source, ": ", e.what());
+  }
+  return c;
+}
+
+Config load_config(const std::filesystem::path& file) {
+  return config_from_yaml(read_file_text(file), file.string());
+}
+
+std::string config_to_yaml(const Config& config) {
+  Config copy = config;
+  Printer p;
+  // Shortest forms that read back to the same defaults (15 / 7 significant digits).
+  p.out.SetDoublePrecision(15);
+  p.out.SetFloatPrecision(7);
+  p.out << YAML::BeginMap;
+  sections(p, copy);
+  p.out << YAML::EndMap;
+  return std::string(p.out.c_str()) + "\n";
+}
+
+}  // namespace chungs

@@ -1,0 +1,38 @@
+// The one configuration tree: every module's settings with their defaults (written in each module's
+// own config struct), loadable from YAML and printable by `diskchungs info --config`.
+#pragma once
+#include <filesystem>
+#include <string>
+
+#include "chungs/optim/adam.hpp"
+#include "chungs/optim/loss_config.hpp"
+#include "chungs/optim/prune.hpp"
+#include "chungs/render/raster_config.hpp"
+#include "chungs/residency/frustum_culler.hpp"
+#include "chungs/residency/residency.hpp"
+#include "chungs/store/chunk_store.hpp"
+#include "chungs/store/keyframe_store.hpp"
+
+namespace chungs {
+
+struct Config {
+  ChunkStoreConfig store;
+  KeyframeStoreConfig keyframes;
+  ResidencyConfig residency;
+  CullerConfig culling;
+  RasterConfig raster;
+  LossConfig loss;
+  AdamConfig adam;
+  PruneConfig prune;
+
+  void validate() const;  // each section's own checks
+};
+
+// YAML with one mapping per section (store:, keyframes:, ...). Keys absent from the text keep their
+// defaults; an unknown section or key, or a value of the wrong type, throws Error naming the
+// source and the key (so a typo never silently falls back to a default).
+Config config_from_yaml(const std::string& text, const std::string& source = "config");
+Config load_config(const std::filesystem::path& file);
+std::string config_to_yaml(const Config& config);
+
+}  // namespace chungs

@@ -1,0 +1,51 @@
+#include <gtest/gtest.h>
+
+#include "chungs/common/error.hpp"
+#include "chungs/config/config.hpp"
+
+using namespace chungs;
+
+TEST(Config, PrintedDefaultsLoadBackToTheSameValues) {
+  Config c;
+  c.residency.budget_gaussians = 12345;
+  c.adam.lr_position = 5e-5f;
+  c.raster.background = {0.25, 0.5, 1.0};
+  c.store.compress = true;
+  Config back = config_from_yaml(config_to_yaml(c));
+  EXPECT_EQ(back.residency.budget_gaussians, 12345u);
+  EXPECT_FLOAT_EQ(back.adam.lr_position, 5e-5f);
+  EXPECT_DOUBLE_EQ(back.raster.background[2], 1.0);
+  EXPECT_TRUE(back.store.compress);
+  EXPECT_EQ(config_to_yaml(back), config_to_yaml(c));
+}
+
+TEST(Config, DefaultsAreThePapers) {
+  Config c;
+  EXPECT_EQ(c.residency.budget_gaussians, 1'500'000u);
+  EXPECT_DOUBLE_EQ(c.store.chunk_size, 10.0);
+  EXPECT_DOUBLE_EQ(c.culling.far, 100.0);
+  EXPECT_EQ(c.keyframes.max_in_memory, 400u);
+  EXPECT_DOUBLE_EQ(c.loss.lambda_ssim, 0.2);
+}
+
+TEST(Config, PartialFileKeepsOtherDefaults) {
+  Config c = config_from_yaml("residency:\n  budget_gaussians: 2000000\n");
+  EXPECT_EQ(c.residency.budget_gaussians, 2'000'000u);
+  EXPECT_DOUBLE_EQ(c.store.chunk_size, 10.0);
+}
+
+TEST(Config, TyposAndBadValuesNameTheKeyAndLine) {
+  auto expect_error = [](const std::string& yaml, const std::string& needle) {
+    try {
+      config_from_yaml(yaml, "my.yaml");
+      FAIL() << "no error for " << yaml;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expect_error("residency:\n  budget: 5\n", "my.yaml:2: unknown key 'residency.budget'");
+  expect_error("residence:\n  budget_gaussians: 5\n", "unknown section 'residence'");
+  expect_error("store:\n  chunk_size: ten\n", "store.chunk_size");
+  expect_error("loss:\n  lambda_ssim: 3\n", "my.yaml");
+  expect_error("store: [1, 2\n", "not valid YAML");
+}
