@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cstring>
 
+#include "chungs/common/error.hpp"
+
 namespace chungs::cpu {
 
 namespace {
@@ -41,18 +43,29 @@ void bin_splats(const std::vector<Splat<T>>& splats, int width, int height, Tile
   bins.tiles_x = (width + kTileSize - 1) / kTileSize;
   bins.tiles_y = (height + kTileSize - 1) / kTileSize;
   const size_t ntiles = bins.tiles();
+  if (bins.tiles_x > 65535 || bins.tiles_y > 65535)
+    fail("rasterizer: image ", width, "x", height, " has more than 65535 tiles along a side");
 
   // Depth order of the visible splats. z >= near > 0, so the float bit pattern orders like the value.
+  // The tile rectangles go to a compact array in the same pass, so the passes below that walk the
+  // splats in depth order (random access) touch 8 bytes per splat instead of a whole Splat.
   bins.keys.clear();
   bins.order.clear();
+  bins.rects.clear();
   for (size_t j = 0; j < splats.size(); ++j) {
-    if (!splats[j].visible()) continue;
-    const float zf = float(splats[j].z);
+    const Splat<T>& s = splats[j];
+    if (!s.visible()) continue;
+    const float zf = float(s.z);
     uint32_t key;
     std::memcpy(&key, &zf, sizeof key);
     bins.keys.push_back(key);
     bins.order.push_back(uint32_t(j));
+    bins.rects.push_back({uint16_t(s.x0 / kTileSize), uint16_t(s.x1 / kTileSize), uint16_t(s.y0 / kTileSize),
+                          uint16_t(s.y1 / kTileSize)});
   }
+  // order[] now maps to rects[] by visible rank; sort the ranks, then translate to splat indices.
+  bins.rank_to_splat = bins.order;
+  for (size_t r = 0; r < bins.order.size(); ++r) bins.order[r] = uint32_t(r);
   radix_sort(bins.keys, bins.order, bins.tmp_keys, bins.tmp_order);
   const size_t nvis = bins.order.size();
 
@@ -60,9 +73,9 @@ void bin_splats(const std::vector<Splat<T>>& splats, int width, int height, Tile
   // counts its entries per tile, and writes them after the pieces of the threads before it.
   const int nthreads = std::max(1, std::min<int>(omp_get_max_threads(), int(nvis / 4096) + 1));
   bins.counts.assign(size_t(nthreads) * ntiles, 0);
-  auto tile_box = [&](const Splat<T>& s, int& tx0, int& tx1, int& ty0, int& ty1) {
-    tx0 = s.x0 / kTileSize, tx1 = s.x1 / kTileSize;
-    ty0 = s.y0 / kTileSize, ty1 = s.y1 / kTileSize;
+  auto tile_box = [&](uint32_t rank, int& tx0, int& tx1, int& ty0, int& ty1) {
+    const TileRect& r = bins.rects[rank];
+    tx0 = r.tx0, tx1 = r.tx1, ty0 = r.ty0, ty1 = r.ty1;
   };
 #pragma omp parallel num_threads(nthreads)
   {
@@ -71,7 +84,7 @@ void bin_splats(const std::vector<Splat<T>>& splats, int width, int height, Tile
     size_t* cnt = bins.counts.data() + size_t(t) * ntiles;
     for (size_t k = b; k < e; ++k) {
       int tx0, tx1, ty0, ty1;
-      tile_box(splats[bins.order[k]], tx0, tx1, ty0, ty1);
+      tile_box(bins.order[k], tx0, tx1, ty0, ty1);
       for (int ty = ty0; ty <= ty1; ++ty)
         for (int tx = tx0; tx <= tx1; ++tx) ++cnt[size_t(ty) * bins.tiles_x + tx];
     }
@@ -93,9 +106,9 @@ void bin_splats(const std::vector<Splat<T>>& splats, int width, int height, Tile
       bins.list.resize(total);
     }
     for (size_t k = b; k < e; ++k) {
-      const uint32_t j = bins.order[k];
+      const uint32_t rank = bins.order[k], j = bins.rank_to_splat[rank];
       int tx0, tx1, ty0, ty1;
-      tile_box(splats[j], tx0, tx1, ty0, ty1);
+      tile_box(rank, tx0, tx1, ty0, ty1);
       for (int ty = ty0; ty <= ty1; ++ty)
         for (int tx = tx0; tx <= tx1; ++tx) bins.list[cnt[size_t(ty) * bins.tiles_x + tx]++] = j;
     }

@@ -10,12 +10,17 @@
 
 namespace chungs::cpu {
 
+struct TileRect {
+  uint16_t tx0, tx1, ty0, ty1;  // inclusive tile range
+};
+
 struct TileBins {
   int tiles_x = 0, tiles_y = 0;
   std::vector<size_t> start;    // tiles_x * tiles_y + 1 offsets into `list`
   std::vector<uint32_t> list;   // splat indices
   // Scratch kept between calls to avoid reallocation.
-  std::vector<uint32_t> keys, order, tmp_keys, tmp_order;
+  std::vector<uint32_t> keys, order, tmp_keys, tmp_order, rank_to_splat;
+  std::vector<TileRect> rects;
   std::vector<size_t> counts;
 
   size_t tiles() const { return size_t(tiles_x) * size_t(tiles_y); }
