@@ -57,6 +57,7 @@ void composite_backward(const std::vector<Splat<T>>& splats, const TileBins& bin
         for (int c = 0; c < 5; ++c) acc[c][p] = fin[c][p] = g[c][p] = 0;
       }
       I max_stop = 0;
+      I row_stop[kTileSize] = {};  // entries to walk for the longest pixel of each tile row
       for (int y = py0; y <= py1; ++y)
         for (int x = px0; x <= px1; ++x) {
           const int p = (y - py0) * kTileSize + (x - px0);
@@ -71,6 +72,7 @@ void composite_backward(const std::vector<Splat<T>>& splats, const TileBins& bin
           galpha_Tf[p] = grad_at(grads.alpha, x, y, 0) * (1 - out.alpha(x, y));
           stop[p] = I(last[size_t(y) * W + x]);
           max_stop = std::max(max_stop, stop[p]);
+          row_stop[y - py0] = std::max(row_stop[y - py0], stop[p]);
         }
 
       const size_t b = bins.start[tile];
@@ -87,6 +89,7 @@ void composite_backward(const std::vector<Splat<T>>& splats, const TileBins& bin
         V gmx{}, gmy{}, gca{}, gcb{}, gcc{}, gop{}, gc0{}, gc1{}, gc2{}, gz{};
         bool touched = false;
         for (int y = ys; y <= ye; ++y) {
+          if (e >= row_stop[y - py0]) continue;
           const T dy = T(y) - s.my;
           int rx0, rx1;
           if (!s.row_span(dy, xs, xe, rx0, rx1)) continue;

@@ -26,6 +26,8 @@ void composite_forward(const std::vector<Splat<T>>& splats, const TileBins& bins
     const int px0 = tx * kTileSize, py0 = ty * kTileSize;
     const int px1 = std::min(px0 + kTileSize, W) - 1, py1 = std::min(py0 + kTileSize, H) - 1;
     int active = (px1 - px0 + 1) * (py1 - py0 + 1);
+    int row_active[kTileSize] = {};  // pixels of each tile row still compositing
+    for (int y = py0; y <= py1; ++y) row_active[y - py0] = px1 - px0 + 1;
 
     // Per-pixel state of the tile, 16 x 16 also past the image border (those lanes are never live):
     // transmittance, accumulated r g b depth inv_depth, largest weight and its splat (-1: none),
@@ -53,6 +55,7 @@ void composite_forward(const std::vector<Splat<T>>& splats, const TileBins& bins
       const M entry = L::splat_i(I(k - b + 1)), jv = L::splat_i(I(j));
       const V pmin = L::splat(s.power_min), opacity = L::splat(s.opacity);
       for (int y = ys; y <= ye; ++y) {
+        if (row_active[y - py0] == 0) continue;
         const T dy = T(y) - s.my;
         int rx0, rx1;
         if (!s.row_span(dy, xs, xe, rx0, rx1)) continue;
@@ -76,7 +79,10 @@ void composite_forward(const std::vector<Splat<T>>& splats, const TileBins& bins
           for (int c = 0; c < 5; ++c) L::store(acc[c] + off, L::load(acc[c] + off) + w * feat[c]);
           L::store(Tr + off, use ? nT : Ti);
           L::store_i(done + off, done_v | stop);
-          for (int i = 0; i < N; ++i) active -= stop[i] != 0;
+          int stopped = 0;
+          for (int i = 0; i < N; ++i) stopped += stop[i] != 0;
+          active -= stopped;
+          row_active[y - py0] -= stopped;
           const V bw = L::load(best_w + off);
           const M better = w > bw;
           L::store(best_w + off, better ? w : bw);
