@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <fstream>
 #include <thread>
 
 #include "chungs/common/error.hpp"
@@ -236,4 +237,35 @@ TEST(Residency, UnpinOfAnUnpinnedChunkIsAnErrorAndChangesNothing) {
   r.unpin1(cid(1));
   EXPECT_THROW(r.res->unpin(std::vector<ChunkId>{cid(0), cid(1)}), Error);
   EXPECT_TRUE(r.res->is_pinned(cid(0)));
+}
+
+TEST(Residency, FailedBackgroundWriteKeepsTheDataReportsTheErrorAndRetries) {
+  Rig r({100, 100}, 1000, true);
+  r.pin1(cid(0));
+  for (uint32_t s : r.res->slots(cid(0))) r.pool->params().opacity[s] = 42.0f;
+  r.res->mark_dirty(cid(0));
+  const GaussianBlock modified = r.gathered(cid(0));
+  r.unpin1(cid(0));
+  // Make every chunk write fail: the chunk folder becomes a plain file.
+  const auto chunks = r.dir / "chunks";
+  std::filesystem::rename(chunks, r.dir / "chunks.away");
+  std::ofstream(chunks) << "not a folder";
+  r.res->evict(cid(0));  // queued; the write fails in the background
+  try {
+    r.res->flush();
+    FAIL() << "the failed write must be reported";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("chunks"), std::string::npos) << e.what();
+  }
+  // The modified data was not lost: a load gets the queued block.
+  EXPECT_TRUE(r.pin1(cid(0)).ok);
+  EXPECT_TRUE(test::same_bits(r.gathered(cid(0)), modified));
+  EXPECT_GE(r.res->stats().write_behind_hits, 1u);
+  r.unpin1(cid(0));
+  r.res->evict(cid(0));
+  // The disk comes back: the next flush retries and succeeds.
+  std::filesystem::remove(chunks);
+  std::filesystem::rename(r.dir / "chunks.away", chunks);
+  r.res->flush();
+  EXPECT_TRUE(test::same_bits(r.store->load(cid(0)), modified));
 }

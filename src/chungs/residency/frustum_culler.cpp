@@ -104,33 +104,33 @@ std::vector<ChunkId> FrustumCuller::cull(const Camera& camera, const SE3& pose) 
   };
 
   uint64_t tests = 0;
-  if (octree_.size() < config_.parallel_min_chunks) {
-    walk(0, out, tests);
-  } else {
-    // Open the tree breadth-first until there is enough independent work, then walk in parallel.
-    std::vector<uint32_t> frontier{0};
-    const size_t want = size_t(8 * omp_get_max_threads());
-    for (size_t i = 0; i < frontier.size() && frontier.size() < want;) {
-      const ChunkOctree::Node& n = nodes[frontier[i]];
-      if (n.children == 0) {
-        ++i;
-        continue;
-      }
-      ++tests;
-      const Verdict v = judge(n);
-      frontier.erase(frontier.begin() + std::ptrdiff_t(i));
-      if (v == Verdict::In) take_all(n, out);
-      if (v == Verdict::Split)
-        for (uint32_t k = 0; k < n.children; ++k) frontier.push_back(n.first_child + k);
+  // Open the tree breadth-first until there is enough independent work for the threads.
+  std::vector<uint32_t> frontier{0};
+  const size_t want = size_t(8 * omp_get_max_threads());
+  for (size_t i = 0; i < frontier.size() && frontier.size() < want;) {
+    const ChunkOctree::Node& n = nodes[frontier[i]];
+    if (n.children == 0) {
+      ++i;
+      continue;
     }
-    std::vector<std::vector<ChunkId>> parts(frontier.size());
-    std::vector<uint64_t> part_tests(frontier.size(), 0);
-#pragma omp parallel for schedule(dynamic, 1)
-    for (size_t i = 0; i < frontier.size(); ++i) walk(frontier[i], parts[i], part_tests[i]);
-    for (size_t i = 0; i < parts.size(); ++i) {
-      out.insert(out.end(), parts[i].begin(), parts[i].end());
-      tests += part_tests[i];
-    }
+    ++tests;
+    const Verdict v = judge(n);
+    frontier.erase(frontier.begin() + std::ptrdiff_t(i));
+    if (v == Verdict::In) take_all(n, out);
+    if (v == Verdict::Split)
+      for (uint32_t k = 0; k < n.children; ++k) frontier.push_back(n.first_child + k);
+  }
+  // Threads pay only when many chunks are left to test: a parallel region costs microseconds on
+  // an idle machine and milliseconds when the cores are shared with other processes.
+  size_t candidates = 0;
+  for (uint32_t f : frontier) candidates += nodes[f].end - nodes[f].begin;
+  std::vector<std::vector<ChunkId>> parts(frontier.size());
+  std::vector<uint64_t> part_tests(frontier.size(), 0);
+#pragma omp parallel for schedule(dynamic, 1) if (candidates >= config_.parallel_min_chunks)
+  for (size_t i = 0; i < frontier.size(); ++i) walk(frontier[i], parts[i], part_tests[i]);
+  for (size_t i = 0; i < parts.size(); ++i) {
+    out.insert(out.end(), parts[i].begin(), parts[i].end());
+    tests += part_tests[i];
   }
   stats_.node_tests += tests;
   std::sort(out.begin(), out.end());

@@ -32,7 +32,8 @@ struct CullerConfig {
   double cache_translation = 0.05;    // reuse a keyframe's result while it moves < this * chunk size
   double cache_rotation_rad = 0.05;   // ... and turns less than this
   size_t cache_max_entries = 4096;    // keyframes remembered; the cache is cleared beyond
-  size_t parallel_min_chunks = 4096;  // smaller maps are culled on one thread
+  size_t parallel_min_chunks = 20000; // use threads only when this many chunks remain to test
+                                      // after the top of the tree (bench/README.md)
 };
 
 struct CullStats {

@@ -125,6 +125,12 @@ IoWorker::Block IoWorker::take(ChunkId id, Source* source) {
 void IoWorker::drain() {
   if (!background_) return;
   std::unique_lock lock(mutex_);
+  if (error_) {
+    // Try the failed write again (its block is still queued): a full disk that the user cleared
+    // must not leave the map unwritable for the rest of the run.
+    error_ = nullptr;
+    work_cv_.notify_one();
+  }
   done_cv_.wait(lock, [&] { return (write_queue_.empty() && !writing_) || error_; });
   rethrow_locked();
 }

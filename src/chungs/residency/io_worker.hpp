@@ -41,7 +41,9 @@ class IoWorker {
   void prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks);
   // The chunk's current content; an absent chunk gives an empty block. Never stale (see above).
   Block take(ChunkId id, Source* source = nullptr);
-  // Waits until every queued write is on disk; rethrows a failed background write.
+  // Waits until every queued write is on disk, first retrying a write that failed earlier;
+  // throws if a write fails. A failed write keeps its block queued and served to loads, and
+  // write_behind() refuses new blocks (throws) until a drain() has succeeded.
   void drain();
 
   size_t queued_write_gaussians() const;
