@@ -2,6 +2,7 @@
 // (chungs/render/bench_scene.hpp) at 640x480 and 1241x376 with 100k and 500k Gaussians.
 // Counters: ms per stage of the last iteration and the number of (tile, Gaussian) pairs.
 #include <benchmark/benchmark.h>
+#include <omp.h>
 
 #include <map>
 #include <memory>
@@ -52,8 +53,16 @@ void report(benchmark::State& state, const CpuRasterizer<float>& r, bool backwar
   state.counters["visible"] = visible;
 }
 
+// Sets the OpenMP thread count for one benchmark and restores it afterwards.
+struct Threads {
+  int saved = omp_get_max_threads();
+  explicit Threads(int n) { omp_set_num_threads(n > 0 ? n : saved); }
+  ~Threads() { omp_set_num_threads(saved); }
+};
+
 void BM_Forward(benchmark::State& state) {
   const Workload& w = workload(int(state.range(0)), int(state.range(1)));
+  const Threads threads(int(state.range(2)));
   CpuRasterizer<float> r;
   const auto cam = make_render_camera<float>(w.camera, SE3());
   for (auto _ : state) benchmark::DoNotOptimize(r.forward(view_of(w.gaussians), w.ids, cam).rgb.data());
@@ -62,6 +71,7 @@ void BM_Forward(benchmark::State& state) {
 
 void BM_ForwardBackward(benchmark::State& state) {
   const Workload& w = workload(int(state.range(0)), int(state.range(1)));
+  const Threads threads(int(state.range(2)));
   CpuRasterizer<float> r;
   const auto cam = make_render_camera<float>(w.camera, SE3());
   GaussianGrads<float> grads;
@@ -73,11 +83,13 @@ void BM_ForwardBackward(benchmark::State& state) {
   report(state, r, true);
 }
 
-// Arguments: resolution (0 = 640x480 f 525, 1 = 1241x376 f 718), number of Gaussians.
+// Arguments: resolution (0 = 640x480 f 525, 1 = 1241x376 f 718), number of Gaussians, OpenMP
+// threads (0 = all; 1 gives a per-core figure that is steadier on a shared machine).
 void args(benchmark::internal::Benchmark* b) {
-  for (int res : {0, 1})
-    for (int n : {100000, 500000}) b->Args({res, n});
-  b->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+  for (int threads : {0, 1})
+    for (int res : {0, 1})
+      for (int n : {100000, 500000}) b->Args({res, n, threads});
+  b->ArgNames({"res", "n", "threads"})->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
 }
 
 BENCHMARK(BM_Forward)->Apply(args);
