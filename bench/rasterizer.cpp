@@ -1,6 +1,8 @@
 // CPU reference rasterizer: forward and forward+backward time on the shared benchmark workload
 // (chungs/render/bench_scene.hpp) at 640x480 and 1241x376 with 100k and 500k Gaussians.
 // Counters: ms per stage of the last iteration and the number of (tile, Gaussian) pairs.
+#include "chungs/render/cpu/rasterizer.hpp"
+
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
@@ -10,7 +12,6 @@
 
 #include "chungs/geometry/se3.hpp"
 #include "chungs/render/bench_scene.hpp"
-#include "chungs/render/cpu/rasterizer.hpp"
 
 namespace {
 

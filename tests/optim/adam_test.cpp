@@ -50,8 +50,10 @@ TEST(SparseAdam, MatchesTextbookAdamPerGaussianAndSkipsInvisibleOnes) {
   const std::vector<uint8_t> visible{1, 1, 0};
   // Slot 4 visited 5 times, slot 1 only in the last 2 steps: its bias correction starts afresh.
   RefAdam ref_mean4, ref_sh1_dc, ref_sh1_rest, ref_op4, ref_rot1, ref_scale4;
-  double p_mean4 = b.params.mean[3 * 4 + 1], p_sh1_dc = b.params.sh[48 * 1 + 2], p_sh1_rest = b.params.sh[48 * 1 + 20];
-  double p_op4 = b.params.opacity[4], p_rot1 = b.params.rotation[4 * 1 + 3], p_scale4 = b.params.log_scale[3 * 4 + 2];
+  double p_mean4 = b.params.mean[3 * 4 + 1], p_sh1_dc = b.params.sh[48 * 1 + 2],
+         p_sh1_rest = b.params.sh[48 * 1 + 20];
+  double p_op4 = b.params.opacity[4], p_rot1 = b.params.rotation[4 * 1 + 3],
+         p_scale4 = b.params.log_scale[3 * 4 + 2];
   double factor4 = 1;
   for (int step = 0; step < 5; ++step) {
     const GaussianGrads<float> g = random_grads(3, 10 + step);
@@ -97,7 +99,8 @@ TEST(SparseAdam, FirstStepMovesEveryParameterByItsLearningRate) {
   sparse_adam_step(cfg, mut_view_of(b.params), adam_state_of(b), std::vector<uint32_t>{0},
                    std::vector<uint8_t>{1}, g);
   auto moved = [](float now, float was, float grad) { return (was - now) * (grad > 0 ? 1 : -1); };
-  EXPECT_NEAR(moved(b.params.mean[0], before.params.mean[0], g.mean[0]), 5e-5, 5e-7);  // float rounding of p ~ 1
+  EXPECT_NEAR(moved(b.params.mean[0], before.params.mean[0], g.mean[0]), 5e-5,
+              5e-7);  // float rounding of p ~ 1
   EXPECT_NEAR(moved(b.params.opacity[0], before.params.opacity[0], g.opacity[0]), 0.1, 5e-7);
   EXPECT_NEAR(moved(b.params.log_scale[1], before.params.log_scale[1], g.log_scale[1]), 0.01, 5e-7);
   EXPECT_NEAR(moved(b.params.rotation[2], before.params.rotation[2], g.rotation[2]), 0.002, 5e-7);
@@ -111,10 +114,12 @@ TEST(SparseAdam, RejectsMismatchedInput) {
   const auto p = mut_view_of(b.params);
   const auto st = adam_state_of(b);
   EXPECT_THROW(sparse_adam_step({}, p, st, std::vector<uint32_t>{0, 1}, std::vector<uint8_t>{1}, g), Error);
-  EXPECT_THROW(sparse_adam_step({}, p, st, std::vector<uint32_t>{0, 3}, std::vector<uint8_t>{1, 1}, g), Error);
+  EXPECT_THROW(sparse_adam_step({}, p, st, std::vector<uint32_t>{0, 3}, std::vector<uint8_t>{1, 1}, g),
+               Error);
   AdamConfig bad;
   bad.beta2 = 1.0f;
-  EXPECT_THROW(sparse_adam_step(bad, p, st, std::vector<uint32_t>{0, 1}, std::vector<uint8_t>{1, 1}, g), Error);
+  EXPECT_THROW(sparse_adam_step(bad, p, st, std::vector<uint32_t>{0, 1}, std::vector<uint8_t>{1, 1}, g),
+               Error);
 }
 
 }  // namespace

@@ -16,8 +16,8 @@ namespace {
 
 // n Gaussians with centres uniform over the image (plus a margin) at depth z0..z1, isotropic-ish
 // footprints of sigma_px pixels, given opacity logits and SH (DC colour; higher bands scaled by `rest`).
-GaussianBlock scene(const Camera& cam, size_t n, unsigned seed, double z0, double z1, double sigma_px, double logit,
-                    double dc_spread, double rest) {
+GaussianBlock scene(const Camera& cam, size_t n, unsigned seed, double z0, double z1, double sigma_px,
+                    double logit, double dc_spread, double rest) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(0, 1);
   std::normal_distribution<double> N(0, 1);
@@ -25,11 +25,13 @@ GaussianBlock scene(const Camera& cam, size_t n, unsigned seed, double z0, doubl
   b.resize(n);
   auto& p = b.params;
   for (size_t i = 0; i < n; ++i) {
-    const double z = z0 + (z1 - z0) * U(rng), u = -4 + (cam.width + 8) * U(rng), v = -4 + (cam.height + 8) * U(rng);
+    const double z = z0 + (z1 - z0) * U(rng), u = -4 + (cam.width + 8) * U(rng),
+                 v = -4 + (cam.height + 8) * U(rng);
     p.mean[3 * i] = float((u - cam.cx) / cam.fx * z);
     p.mean[3 * i + 1] = float((v - cam.cy) / cam.fy * z);
     p.mean[3 * i + 2] = float(z);
-    for (int k = 0; k < 3; ++k) p.log_scale[3 * i + k] = float(std::log(sigma_px * z / cam.fx) + 0.3 * N(rng));
+    for (int k = 0; k < 3; ++k)
+      p.log_scale[3 * i + k] = float(std::log(sigma_px * z / cam.fx) + 0.3 * N(rng));
     for (int k = 0; k < 4; ++k) p.rotation[4 * i + k] = float(N(rng));
     p.opacity[i] = float(logit + 0.5 * N(rng));
     for (int k = 0; k < kShCoeffs; ++k)

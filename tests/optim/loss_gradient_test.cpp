@@ -50,7 +50,9 @@ TEST(Losses, L1GradientMatchesFiniteDifferences) {
   double direct = 0;
   for (size_t i = 0; i < pred.size(); ++i) direct += std::abs(pred.data()[i] - target.data()[i]);
   EXPECT_NEAR(v, direct / pred.size(), 1e-15);
-  EXPECT_LT(max_fd_error(pred, g, [&] { return 0.7 * l1_loss(pred, target); }, 1e-7), 1e-4);
+  EXPECT_LT(max_fd_error(
+                pred, g, [&] { return 0.7 * l1_loss(pred, target); }, 1e-7),
+            1e-4);
 }
 
 // Direct SSIM: the 11x11 window summed explicitly at each pixel, zero outside the image.
@@ -91,7 +93,9 @@ TEST(Losses, SsimGradientMatchesFiniteDifferences) {
   for (size_t i = 0; i < pred.size(); ++i) pred.data()[i] = 0.6 * target.data()[i] + 0.4 * pred.data()[i];
   Image<double> g(19, 14, 3);
   ssim_loss_term(pred, target, &g, -0.2);
-  EXPECT_LT(max_fd_error(pred, g, [&] { return -0.2 * ssim_loss_term(pred, target); }, 1e-6), 1e-4);
+  EXPECT_LT(max_fd_error(
+                pred, g, [&] { return -0.2 * ssim_loss_term(pred, target); }, 1e-6),
+            1e-4);
 }
 
 TEST(Losses, InverseDepthL1IgnoresInvalidAndMaskedPixels) {
@@ -111,7 +115,9 @@ TEST(Losses, InverseDepthL1IgnoresInvalidAndMaskedPixels) {
       if (target(x, y) > 0 && mask(x, y)) direct += std::abs(pred(x, y) - target(x, y));
   EXPECT_NEAR(v, direct / valid, 1e-15);
   for (auto [x, y] : {std::pair{2, 3}, {4, 4}, {7, 1}, {5, 5}}) EXPECT_EQ(g(x, y), 0.0);
-  EXPECT_LT(max_fd_error(pred, g, [&] { return 1.5 * inverse_depth_l1(pred, target, &mask); }, 1e-7), 1e-4);
+  EXPECT_LT(max_fd_error(
+                pred, g, [&] { return 1.5 * inverse_depth_l1(pred, target, &mask); }, 1e-7),
+            1e-4);
   Image<double> none(11, 9, 1, 0.0);
   EXPECT_EQ(inverse_depth_l1(pred, none), 0.0);
   EXPECT_THROW(inverse_depth_l1(pred, Image<double>(10, 9, 1)), Error);

@@ -6,9 +6,9 @@
 #include <random>
 #include <vector>
 
+#include "chungs/gaussians/gaussian_block.hpp"
 #include "chungs/geometry/camera.hpp"
 #include "chungs/geometry/se3.hpp"
-#include "chungs/gaussians/gaussian_block.hpp"
 #include "chungs/render/gaussian_view.hpp"
 
 namespace chungs::test {

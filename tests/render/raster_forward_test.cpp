@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "chungs/render/cpu/rasterizer.hpp"
 #include "random_scene.hpp"
@@ -129,6 +130,30 @@ TEST(RasterForward, CullsBehindNearPlaneAndRendersOnlyListedSlots) {
   EXPECT_EQ(out.alpha(5, 5), 0.0);  // slot 1 is not in the list
   EXPECT_GT(out.rgb(18, 14, 1), 0.5);
   EXPECT_EQ(out.top_id(18, 14), 2u);
+}
+
+TEST(RasterForward, EmptyListOrDivergedGaussiansRenderTheBackground) {
+  const Camera cam(20, 18, 25, 25, 9.5, 8.5);
+  test::SceneArrays<double> g;
+  put(g, cam, 10, 9, 2.0, 0.2, 1.0, {0.5, 0.5, 0.5});
+  put(g, cam, 10, 9, 2.0, 0.2, 1.0, {0.5, 0.5, 0.5});
+  g.opacity[0] = std::numeric_limits<double>::quiet_NaN();
+  g.sh[48 * 1 + 4] = std::numeric_limits<double>::infinity();
+  RasterConfig cfg;
+  cfg.background = {0.1, 0.2, 0.3};
+  CpuRasterizer<double> r(cfg);
+  const auto rc = make_render_camera<double>(cam, SE3());
+  for (const auto& ids : {std::vector<uint32_t>{}, std::vector<uint32_t>{0, 1}}) {
+    const auto& out = r.forward(g.view(), ids, rc);
+    for (int y = 0; y < 18; ++y)
+      for (int x = 0; x < 20; ++x) {
+        EXPECT_EQ(out.rgb(x, y, 2), 0.3);
+        EXPECT_EQ(out.alpha(x, y), 0.0);
+      }
+    GaussianGrads<double> grads;
+    r.backward(RenderGrads<double>{Image<double>(20, 18, 3, 1.0), {}, {}, {}}, grads);
+    for (double v : grads.mean) EXPECT_EQ(v, 0.0);
+  }
 }
 
 TEST(RasterForward, RejectsBadInput) {

@@ -27,7 +27,8 @@ double weighted_sum(const RenderOutput<T>& o, const RenderGrads<T>& w) {
   double s = 0;
   for (size_t i = 0; i < o.rgb.size(); ++i) s += double(o.rgb.data()[i]) * double(w.rgb.data()[i]);
   for (size_t i = 0; i < o.depth.size(); ++i)
-    s += double(o.depth.data()[i]) * w.depth.data()[i] + double(o.inv_depth.data()[i]) * w.inv_depth.data()[i] +
+    s += double(o.depth.data()[i]) * w.depth.data()[i] +
+         double(o.inv_depth.data()[i]) * w.inv_depth.data()[i] +
          double(o.alpha.data()[i]) * w.alpha.data()[i];
   return s;
 }
@@ -64,7 +65,8 @@ GradScene make_setup(unsigned seed, int n) {
   for (int i = 0; i < total; ++i) slots[i] = uint32_t(i);
   std::shuffle(slots.begin(), slots.end(), std::mt19937(seed + 7));
   auto copy = [&](int src, uint32_t dst) {
-    for (int k = 0; k < 3; ++k) a.mean[3 * dst + k] = g.mean[3 * src + k], a.log_scale[3 * dst + k] = g.log_scale[3 * src + k];
+    for (int k = 0; k < 3; ++k)
+      a.mean[3 * dst + k] = g.mean[3 * src + k], a.log_scale[3 * dst + k] = g.log_scale[3 * src + k];
     for (int k = 0; k < 4; ++k) a.rotation[4 * dst + k] = g.rotation[4 * src + k];
     a.opacity[dst] = g.opacity[src];
     for (int k = 0; k < kShFloats; ++k) a.sh[size_t(kShFloats) * dst + k] = g.sh[size_t(kShFloats) * src + k];
@@ -112,7 +114,8 @@ TEST(RasterGradients, MatchFiniteDifferencesForEveryParameterInFloat64) {
     for (const auto& gr : groups) {
       double max_rel = 0, max_abs_grad = 0;
       for (size_t j = 0; j < s.ids.size(); ++j)
-        for (int k = 0; k < gr.per; ++k) max_abs_grad = std::max(max_abs_grad, std::abs((*gr.grad)[gr.per * j + k]));
+        for (int k = 0; k < gr.per; ++k)
+          max_abs_grad = std::max(max_abs_grad, std::abs((*gr.grad)[gr.per * j + k]));
       const double floor = 1e-6 * max_abs_grad;
       for (size_t j = 0; j < s.ids.size(); ++j)
         for (int k = 0; k < gr.per; ++k) {

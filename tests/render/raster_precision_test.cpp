@@ -48,8 +48,11 @@ TEST(RasterPrecision, Float32AgreesWithFloat64) {
     std::uniform_real_distribution<double> U(-1, 1);
     RenderGrads<double> wd{Image<double>(70, 50, 3), Image<double>(70, 50), Image<double>(70, 50),
                            Image<double>(70, 50)};
-    RenderGrads<float> wf{Image<float>(70, 50, 3), Image<float>(70, 50), Image<float>(70, 50), Image<float>(70, 50)};
-    for (auto [d, f] : {std::pair{&wd.rgb, &wf.rgb}, {&wd.depth, &wf.depth}, {&wd.inv_depth, &wf.inv_depth},
+    RenderGrads<float> wf{Image<float>(70, 50, 3), Image<float>(70, 50), Image<float>(70, 50),
+                          Image<float>(70, 50)};
+    for (auto [d, f] : {std::pair{&wd.rgb, &wf.rgb},
+                        {&wd.depth, &wf.depth},
+                        {&wd.inv_depth, &wf.inv_depth},
                         {&wd.alpha, &wf.alpha}})
       for (size_t i = 0; i < d->size(); ++i) f->data()[i] = float(d->data()[i] = U(rng));
     // The smooth configuration keeps both precisions on the same side of every cut-off.
@@ -66,12 +69,14 @@ TEST(RasterPrecision, Float32AgreesWithFloat64) {
     EXPECT_LT(max_abs_diff(gd.rotation, gfl.rotation), 1e-4 * max_abs(gd.rotation));
     EXPECT_LT(max_abs_diff(gd.opacity, gfl.opacity), 1e-4 * max_abs(gd.opacity));
     EXPECT_LT(max_abs_diff(gd.sh, gfl.sh), 1e-4 * max_abs(gd.sh));
-    std::printf("seed %u float32 vs float64, max difference / max |grad|: mean %.1e scale %.1e rot %.1e "
-                "opacity %.1e sh %.1e\n",
-                seed, max_abs_diff(gd.mean, gfl.mean) / max_abs(gd.mean),
-                max_abs_diff(gd.log_scale, gfl.log_scale) / max_abs(gd.log_scale),
-                max_abs_diff(gd.rotation, gfl.rotation) / max_abs(gd.rotation),
-                max_abs_diff(gd.opacity, gfl.opacity) / max_abs(gd.opacity), max_abs_diff(gd.sh, gfl.sh) / max_abs(gd.sh));
+    std::printf(
+        "seed %u float32 vs float64, max difference / max |grad|: mean %.1e scale %.1e rot %.1e "
+        "opacity %.1e sh %.1e\n",
+        seed, max_abs_diff(gd.mean, gfl.mean) / max_abs(gd.mean),
+        max_abs_diff(gd.log_scale, gfl.log_scale) / max_abs(gd.log_scale),
+        max_abs_diff(gd.rotation, gfl.rotation) / max_abs(gd.rotation),
+        max_abs_diff(gd.opacity, gfl.opacity) / max_abs(gd.opacity),
+        max_abs_diff(gd.sh, gfl.sh) / max_abs(gd.sh));
   }
 }
 

@@ -49,8 +49,8 @@ inline RenderOutput<double> reference_render(const SceneArrays<double>& g, const
     const double rx = std::clamp(pc.x() / z, lo_x, hi_x), ry = std::clamp(pc.y() / z, lo_y, hi_y);
     Eigen::Matrix<double, 2, 3> J;
     J << cam.fx / z, 0, -cam.fx * rx / z, 0, cam.fy / z, -cam.fy * ry / z;
-    const Eigen::Matrix2d cov = J * W * Sigma * W.transpose() * J.transpose() +
-                                cfg.low_pass * Eigen::Matrix2d::Identity();
+    const Eigen::Matrix2d cov =
+        J * W * Sigma * W.transpose() * J.transpose() + cfg.low_pass * Eigen::Matrix2d::Identity();
     RefSplat r;
     r.mean = cam.project(pc);
     r.conic = cov.inverse();
@@ -63,7 +63,8 @@ inline RenderOutput<double> reference_render(const SceneArrays<double>& g, const
     sh::basis(cfg.sh_degree, dir.x(), dir.y(), dir.z(), b);
     for (int c = 0; c < 3; ++c) {
       double v = 0.5;
-      for (int k = 0; k < sh_coeffs_for_degree(cfg.sh_degree); ++k) v += b[k] * g.sh[size_t(kShFloats) * slot + 3 * k + c];
+      for (int k = 0; k < sh_coeffs_for_degree(cfg.sh_degree); ++k)
+        v += b[k] * g.sh[size_t(kShFloats) * slot + 3 * k + c];
       r.color[c] = std::max(v, 0.0);
     }
     r.slot = slot;
@@ -72,9 +73,13 @@ inline RenderOutput<double> reference_render(const SceneArrays<double>& g, const
   std::stable_sort(splats.begin(), splats.end(),
                    [](const RefSplat& a, const RefSplat& b) { return float(a.z) < float(b.z); });
 
-  RenderOutput<double> out{Image<double>(cam.width, cam.height, 3), Image<double>(cam.width, cam.height),
-                           Image<double>(cam.width, cam.height), Image<double>(cam.width, cam.height),
-                           Image<uint32_t>(cam.width, cam.height), {}, {}};
+  RenderOutput<double> out{Image<double>(cam.width, cam.height, 3),
+                           Image<double>(cam.width, cam.height),
+                           Image<double>(cam.width, cam.height),
+                           Image<double>(cam.width, cam.height),
+                           Image<uint32_t>(cam.width, cam.height),
+                           {},
+                           {}};
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
       double T = 1, best_w = 0;

@@ -8,10 +8,15 @@
 namespace chungs {
 
 void AdamConfig::validate() const {
-  for (auto [v, name] : {std::pair{lr_position, "lr_position"}, {lr_sh_dc, "lr_sh_dc"}, {lr_sh_rest, "lr_sh_rest"},
-                         {lr_opacity, "lr_opacity"}, {lr_scale, "lr_scale"}, {lr_rotation, "lr_rotation"}})
+  for (auto [v, name] : {std::pair{lr_position, "lr_position"},
+                         {lr_sh_dc, "lr_sh_dc"},
+                         {lr_sh_rest, "lr_sh_rest"},
+                         {lr_opacity, "lr_opacity"},
+                         {lr_scale, "lr_scale"},
+                         {lr_rotation, "lr_rotation"}})
     if (!(v >= 0) || !std::isfinite(v)) fail("Adam config: ", name, " must be >= 0, got ", v);
-  if (!(position_decay > 0 && position_decay <= 1)) fail("Adam config: position_decay must be in (0, 1], got ", position_decay);
+  if (!(position_decay > 0 && position_decay <= 1))
+    fail("Adam config: position_decay must be in (0, 1], got ", position_decay);
   if (!(position_lr_floor >= 0 && position_lr_floor <= 1))
     fail("Adam config: position_lr_floor must be in [0, 1], got ", position_lr_floor);
   if (!(beta1 >= 0 && beta1 < 1) || !(beta2 >= 0 && beta2 < 1)) fail("Adam config: betas must be in [0, 1)");
@@ -20,7 +25,8 @@ void AdamConfig::validate() const {
 
 AdamState adam_state_of(GaussianBlock& b) {
   b.validate("Adam state");
-  return {mut_view_of(b.adam_m), mut_view_of(b.adam_v), b.adam_steps.data(), b.lr_position_factor.data(), b.size()};
+  return {mut_view_of(b.adam_m), mut_view_of(b.adam_v), b.adam_steps.data(), b.lr_position_factor.data(),
+          b.size()};
 }
 
 namespace {
@@ -45,7 +51,8 @@ void sparse_adam_step(const AdamConfig& cfg, const GaussianArraysMut<float>& par
   cfg.validate();
   const size_t n = ids.size();
   if (visible.size() != n || grads.size() != n)
-    fail("sparse Adam: ", n, " indices but ", visible.size(), " visibility flags and ", grads.size(), " gradients");
+    fail("sparse Adam: ", n, " indices but ", visible.size(), " visibility flags and ", grads.size(),
+         " gradients");
   if (state.capacity < params.capacity)
     fail("sparse Adam: optimiser state holds ", state.capacity, " slots, parameters ", params.capacity);
   check_indices(GaussianArrays<float>(params), ids.data(), n, "sparse Adam");
@@ -68,11 +75,12 @@ void sparse_adam_step(const AdamConfig& cfg, const GaussianArraysMut<float>& par
              grads.log_scale.data() + 3 * j, 3, cfg.lr_scale);
     st.apply(params.rotation + 4 * s, state.m.rotation + 4 * s, state.v.rotation + 4 * s,
              grads.rotation.data() + 4 * j, 4, cfg.lr_rotation);
-    st.apply(params.opacity + s, state.m.opacity + s, state.v.opacity + s, grads.opacity.data() + j, 1, cfg.lr_opacity);
+    st.apply(params.opacity + s, state.m.opacity + s, state.v.opacity + s, grads.opacity.data() + j, 1,
+             cfg.lr_opacity);
     const size_t o = size_t(kShFloats) * s, og = size_t(kShFloats) * j;
     st.apply(params.sh + o, state.m.sh + o, state.v.sh + o, grads.sh.data() + og, 3, cfg.lr_sh_dc);
-    st.apply(params.sh + o + 3, state.m.sh + o + 3, state.v.sh + o + 3, grads.sh.data() + og + 3, kShFloats - 3,
-             cfg.lr_sh_rest);
+    st.apply(params.sh + o + 3, state.m.sh + o + 3, state.v.sh + o + 3, grads.sh.data() + og + 3,
+             kShFloats - 3, cfg.lr_sh_rest);
   }
 }
 

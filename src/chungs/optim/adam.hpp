@@ -14,16 +14,16 @@ namespace chungs {
 struct AdamConfig {
   // Learning rates per parameter kind (DiskChunGS defaults; the SH split follows 3D Gaussian
   // Splatting: the degree-0 "features" at 0.005, the higher bands 20x slower).
-  float lr_position = 1e-3f;          // KITTI; indoor() uses 5e-5
-  float position_decay = 0.998f;      // position lr factor *= decay on every visit
-  float position_lr_floor = 0.01f;    // ... but never below this fraction of lr_position
+  float lr_position = 1e-3f;        // KITTI; indoor() uses 5e-5
+  float position_decay = 0.998f;    // position lr factor *= decay on every visit
+  float position_lr_floor = 0.01f;  // ... but never below this fraction of lr_position
   float lr_sh_dc = 0.005f;
   float lr_sh_rest = 0.005f / 20.0f;
-  float lr_opacity = 0.1f;            // on the logit
-  float lr_scale = 0.01f;             // on the log scale
-  float lr_rotation = 0.002f;         // on the raw quaternion
+  float lr_opacity = 0.1f;     // on the logit
+  float lr_scale = 0.01f;      // on the log scale
+  float lr_rotation = 0.002f;  // on the raw quaternion
   float beta1 = 0.9f, beta2 = 0.999f;
-  float eps = 1e-15f;                 // as in 3D Gaussian Splatting
+  float eps = 1e-15f;  // as in 3D Gaussian Splatting
 
   static AdamConfig kitti() { return {}; }
   static AdamConfig indoor() {
@@ -49,8 +49,8 @@ AdamState adam_state_of(GaussianBlock& block);
 // parameter gets lr * m_hat / (sqrt(v_hat) + eps); the position uses lr_position times the slot's
 // factor, and the factor is then multiplied by position_decay, not below position_lr_floor.
 // Throws Error when sizes disagree or an index is out of range.
-void sparse_adam_step(const AdamConfig& config, const GaussianArraysMut<float>& params, const AdamState& state,
-                      std::span<const uint32_t> ids, std::span<const uint8_t> visible,
+void sparse_adam_step(const AdamConfig& config, const GaussianArraysMut<float>& params,
+                      const AdamState& state, std::span<const uint32_t> ids, std::span<const uint8_t> visible,
                       const GaussianGrads<float>& grads);
 
 }  // namespace chungs

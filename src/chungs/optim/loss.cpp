@@ -19,7 +19,8 @@ LossTerms mapping_loss(const LossConfig& config, const RenderOutput<T>& render, 
     grads->rgb = Image<T>(render.rgb.width(), render.rgb.height(), render.rgb.channels());
     grads->depth = Image<T>();
     grads->alpha = Image<T>();
-    grads->inv_depth = use_depth ? Image<T>(render.inv_depth.width(), render.inv_depth.height(), 1) : Image<T>();
+    grads->inv_depth =
+        use_depth ? Image<T>(render.inv_depth.width(), render.inv_depth.height(), 1) : Image<T>();
     grgb = &grads->rgb;
     gdepth = use_depth ? &grads->inv_depth : nullptr;
   }

@@ -1,4 +1,5 @@
-// Weights of the mapping loss  (1 - lambda_ssim) * L1 + lambda_ssim * (1 - SSIM) + lambda_depth * L1(inverse depth).
+// Weights of the mapping loss  (1 - lambda_ssim) * L1 + lambda_ssim * (1 - SSIM) + lambda_depth * L1(inverse
+// depth).
 #pragma once
 
 namespace chungs {

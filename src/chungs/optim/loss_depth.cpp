@@ -9,7 +9,8 @@ namespace chungs {
 template <typename T>
 double inverse_depth_l1(const Image<T>& pred_inv, const Image<T>& target_inv, const Image<uint8_t>* mask,
                         Image<T>* grad, double weight, size_t* valid) {
-  if (pred_inv.channels() != 1) fail("inverse-depth loss: rendered inverse depth has ", pred_inv.channels(), " channels, expected 1");
+  if (pred_inv.channels() != 1)
+    fail("inverse-depth loss: rendered inverse depth has ", pred_inv.channels(), " channels, expected 1");
   require_same_shape(pred_inv, target_inv, "inverse-depth loss: target");
   if (mask) require_same_shape(pred_inv, *mask, "inverse-depth loss: mask");
   if (grad) require_same_shape(pred_inv, *grad, "inverse-depth loss: gradient");

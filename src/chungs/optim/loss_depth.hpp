@@ -13,8 +13,9 @@ namespace chungs {
 // grad is given it gets weight * dL/dpred_inv added. Returns 0 when no pixel is valid; the number of
 // valid pixels goes to *valid when asked. Throws Error on shape mismatch.
 template <typename T>
-double inverse_depth_l1(const Image<T>& pred_inv, const Image<T>& target_inv, const Image<uint8_t>* mask = nullptr,
-                        Image<T>* grad = nullptr, double weight = 1.0, size_t* valid = nullptr);
+double inverse_depth_l1(const Image<T>& pred_inv, const Image<T>& target_inv,
+                        const Image<uint8_t>* mask = nullptr, Image<T>* grad = nullptr, double weight = 1.0,
+                        size_t* valid = nullptr);
 
 // Inverse of a metric depth map; pixels with depth <= 0 or not finite (no measurement) become 0,
 // which inverse_depth_l1 treats as invalid.

@@ -18,7 +18,8 @@ struct Window {
   T w[2 * kRadius + 1];
   Window() {
     double sum = 0, v[2 * kRadius + 1];
-    for (int i = -kRadius; i <= kRadius; ++i) sum += v[i + kRadius] = std::exp(-0.5 * i * i / (kSigma * kSigma));
+    for (int i = -kRadius; i <= kRadius; ++i)
+      sum += v[i + kRadius] = std::exp(-0.5 * i * i / (kSigma * kSigma));
     for (int i = 0; i <= 2 * kRadius; ++i) w[i] = T(v[i] / sum);
   }
 };
@@ -26,7 +27,8 @@ struct Window {
 // Zero-padded separable Gaussian blur of `count` planes of W x H stored one after another. The kernel
 // is symmetric, so this operator is its own adjoint (used as such in the backward).
 template <typename T>
-void blur_planes(const std::vector<T>& in, std::vector<T>& out, std::vector<T>& tmp, int W, int H, int count) {
+void blur_planes(const std::vector<T>& in, std::vector<T>& out, std::vector<T>& tmp, int W, int H,
+                 int count) {
   static const Window<T> win;
   const size_t plane = size_t(W) * H;
   out.resize(in.size());

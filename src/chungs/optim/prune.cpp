@@ -7,8 +7,10 @@
 namespace chungs {
 
 void PruneConfig::validate() const {
-  if (!(min_opacity >= 0 && min_opacity < 1)) fail("prune config: min_opacity must be in [0, 1), got ", min_opacity);
-  if (!(max_radius_fraction > 0)) fail("prune config: max_radius_fraction must be > 0, got ", max_radius_fraction);
+  if (!(min_opacity >= 0 && min_opacity < 1))
+    fail("prune config: min_opacity must be in [0, 1), got ", min_opacity);
+  if (!(max_radius_fraction > 0))
+    fail("prune config: max_radius_fraction must be > 0, got ", max_radius_fraction);
   if (every < 1) fail("prune config: every must be >= 1, got ", every);
 }
 

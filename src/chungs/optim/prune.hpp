@@ -10,9 +10,9 @@
 namespace chungs {
 
 struct PruneConfig {
-  float min_opacity = 0.05f;          // sigmoid(logit) below this is pruned
-  float max_radius_fraction = 0.5f;   // screen radius (3 sigma, px) above this * image width is pruned
-  int every = 10;                     // optimiser iterations between pruning passes (the mapper's schedule)
+  float min_opacity = 0.05f;         // sigmoid(logit) below this is pruned
+  float max_radius_fraction = 0.5f;  // screen radius (3 sigma, px) above this * image width is pruned
+  int every = 10;                    // optimiser iterations between pruning passes (the mapper's schedule)
   void validate() const;
 };
 

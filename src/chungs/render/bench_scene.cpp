@@ -27,7 +27,8 @@ GaussianParams make_bench_gaussians(size_t n, const Camera& cam, uint64_t seed) 
     p.mean[3 * i + 1] = float((v - cam.cy) / cam.fy * z);
     p.mean[3 * i + 2] = float(z);
     const double grow = std::max(z / 10, 0.3);
-    for (int k = 0; k < 3; ++k) p.log_scale[3 * i + k] = float(std::log(0.03) + 0.5 * N(rng) + std::log(grow));
+    for (int k = 0; k < 3; ++k)
+      p.log_scale[3 * i + k] = float(std::log(0.03) + 0.5 * N(rng) + std::log(grow));
     double q[4], norm = 0;
     for (double& c : q) {
       c = N(rng);

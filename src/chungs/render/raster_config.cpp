@@ -7,8 +7,10 @@
 namespace chungs {
 
 void RasterConfig::validate() const {
-  if (!(near_plane > 0) || !std::isfinite(near_plane)) fail("raster config: near_plane must be > 0, got ", near_plane);
-  if (!(low_pass >= 0) || !std::isfinite(low_pass)) fail("raster config: low_pass must be >= 0, got ", low_pass);
+  if (!(near_plane > 0) || !std::isfinite(near_plane))
+    fail("raster config: near_plane must be > 0, got ", near_plane);
+  if (!(low_pass >= 0) || !std::isfinite(low_pass))
+    fail("raster config: low_pass must be >= 0, got ", low_pass);
   if (!(alpha_max > 0 && alpha_max < 1)) fail("raster config: alpha_max must be in (0, 1), got ", alpha_max);
   if (!(min_alpha >= 0 && min_alpha < alpha_max))
     fail("raster config: min_alpha must be in [0, alpha_max), got ", min_alpha);
@@ -16,7 +18,8 @@ void RasterConfig::validate() const {
     fail("raster config: min_transmittance must be in [0, 1), got ", min_transmittance);
   if (!(extent_sigma > 0) || !std::isfinite(extent_sigma))
     fail("raster config: extent_sigma must be > 0, got ", extent_sigma);
-  if (!(guard_band >= 1) || !std::isfinite(guard_band)) fail("raster config: guard_band must be >= 1, got ", guard_band);
+  if (!(guard_band >= 1) || !std::isfinite(guard_band))
+    fail("raster config: guard_band must be >= 1, got ", guard_band);
   if (sh_degree < 0 || sh_degree > 3) fail("raster config: sh_degree must be 0..3, got ", sh_degree);
   for (double b : background)
     if (!std::isfinite(b)) fail("raster config: background colour must be finite");

@@ -7,16 +7,16 @@ namespace chungs {
 constexpr int kTileSize = 16;  // tiles are 16x16 pixels
 
 struct RasterConfig {
-  double near_plane = 0.01;        // metres; Gaussians with view-space z below this are culled
-  double low_pass = 0.3;           // px^2 added to the diagonal of every 2D covariance (EWA low-pass)
-  double alpha_max = 0.99;         // per-splat alpha clamp (keeps 1 - alpha away from zero)
-  double min_alpha = 1.0 / 255.0;  // splats fainter than this at a pixel are skipped
-  double min_transmittance = 1e-4; // a pixel stops before the splat that would take T below this
-  double extent_sigma = 3.0;       // a splat reaches at most this many standard deviations (ellipse)
+  double near_plane = 0.01;         // metres; Gaussians with view-space z below this are culled
+  double low_pass = 0.3;            // px^2 added to the diagonal of every 2D covariance (EWA low-pass)
+  double alpha_max = 0.99;          // per-splat alpha clamp (keeps 1 - alpha away from zero)
+  double min_alpha = 1.0 / 255.0;   // splats fainter than this at a pixel are skipped
+  double min_transmittance = 1e-4;  // a pixel stops before the splat that would take T below this
+  double extent_sigma = 3.0;        // a splat reaches at most this many standard deviations (ellipse)
   // The Jacobian of the projection is evaluated with the mean clamped to this many half-image-widths
   // around the image centre, so splats far outside the view do not blow up (3DGS uses 1.3).
   double guard_band = 1.3;
-  int sh_degree = 3;               // SH bands evaluated, 0..3
+  int sh_degree = 3;                                // SH bands evaluated, 0..3
   std::array<double, 3> background{0.0, 0.0, 0.0};  // RGB composited behind the splats
 
   // Throws Error naming the bad field when a value is out of its range.

@@ -10,7 +10,8 @@ template <typename T>
 RenderCamera<T> make_render_camera(const Camera& camera, const SE3& T_wc) {
   camera.validate("render camera");
   if (camera.distorted())
-    fail("render camera: ", camera.describe(), " has distortion coefficients; the rasterizer is pinhole, "
+    fail("render camera: ", camera.describe(),
+         " has distortion coefficients; the rasterizer is pinhole, "
          "undistort the images first");
   if (!T_wc.t.allFinite() || !T_wc.q.coeffs().allFinite()) fail("render camera: pose is not finite");
   RenderCamera<T> c;

@@ -10,7 +10,7 @@ struct SE3;
 template <typename T>
 struct RenderCamera {
   int width = 0, height = 0;
-  T fx = 0, fy = 0, cx = 0, cy = 0;  // pixel (u, v) has its centre at (u, v)
+  T fx = 0, fy = 0, cx = 0, cy = 0;      // pixel (u, v) has its centre at (u, v)
   T R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // world-to-camera rotation, row-major
   T t[3] = {0, 0, 0};                    // world-to-camera translation
   T centre[3] = {0, 0, 0};               // camera centre in the world

@@ -16,8 +16,8 @@ struct TileRect {
 
 struct TileBins {
   int tiles_x = 0, tiles_y = 0;
-  std::vector<size_t> start;    // tiles_x * tiles_y + 1 offsets into `list`
-  std::vector<uint32_t> list;   // splat indices
+  std::vector<size_t> start;   // tiles_x * tiles_y + 1 offsets into `list`
+  std::vector<uint32_t> list;  // splat indices
   // Scratch kept between calls to avoid reallocation.
   std::vector<uint32_t> keys, order, tmp_keys, tmp_order, rank_to_splat;
   std::vector<TileRect> rects;

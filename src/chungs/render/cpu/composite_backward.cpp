@@ -149,10 +149,10 @@ void composite_backward(const std::vector<Splat<T>>& splats, const TileBins& bin
   }
 }
 
-template void composite_backward<float>(const std::vector<Splat<float>>&, const TileBins&, const RasterConfig&,
-                                        const RenderOutput<float>&, const std::vector<uint32_t>&,
-                                        const RenderGrads<float>&, std::vector<std::vector<float>>&,
-                                        std::vector<float>&);
+template void composite_backward<float>(const std::vector<Splat<float>>&, const TileBins&,
+                                        const RasterConfig&, const RenderOutput<float>&,
+                                        const std::vector<uint32_t>&, const RenderGrads<float>&,
+                                        std::vector<std::vector<float>>&, std::vector<float>&);
 template void composite_backward<double>(const std::vector<Splat<double>>&, const TileBins&,
                                          const RasterConfig&, const RenderOutput<double>&,
                                          const std::vector<uint32_t>&, const RenderGrads<double>&,

@@ -15,17 +15,17 @@ namespace chungs::cpu {
 
 template <typename T>
 struct GaussianGeometry {
-  T pc[3];           // mean in the camera frame
-  T qn[4], qnorm;    // normalised quaternion (w, x, y, z) and the norm it had
-  T Rq[9];           // rotation of the Gaussian, row-major
-  T s[3];            // standard deviations
-  T Sigma[9];        // 3D covariance, row-major (symmetric)
-  T rx, ry;          // x/z and y/z, clamped to the guard band for the Jacobian
+  T pc[3];         // mean in the camera frame
+  T qn[4], qnorm;  // normalised quaternion (w, x, y, z) and the norm it had
+  T Rq[9];         // rotation of the Gaussian, row-major
+  T s[3];          // standard deviations
+  T Sigma[9];      // 3D covariance, row-major (symmetric)
+  T rx, ry;        // x/z and y/z, clamped to the guard band for the Jacobian
   bool clamp_x, clamp_y;
-  T Tm[6];           // J * W, 2x3 row-major
-  T A, B, C, det;    // 2D covariance [[A, B], [B, C]] (low-pass included) and its determinant
-  T dir[3], dist;    // unit direction camera centre -> mean, and the distance
-  T raw[3];          // SH colour + 0.5 before the clamp at 0
+  T Tm[6];         // J * W, 2x3 row-major
+  T A, B, C, det;  // 2D covariance [[A, B], [B, C]] (low-pass included) and its determinant
+  T dir[3], dist;  // unit direction camera centre -> mean, and the distance
+  T raw[3];        // SH colour + 0.5 before the clamp at 0
   T basis[kShCoeffs];
   T opacity;
 };
@@ -37,7 +37,8 @@ inline bool compute_geometry(const GaussianArrays<T>& g, uint32_t slot, const Re
                              const RasterConfig& cfg, GaussianGeometry<T>& o) {
   const T* p = g.mean + 3 * size_t(slot);
   const T* R = cam.R;
-  for (int r = 0; r < 3; ++r) o.pc[r] = R[3 * r] * p[0] + R[3 * r + 1] * p[1] + R[3 * r + 2] * p[2] + cam.t[r];
+  for (int r = 0; r < 3; ++r)
+    o.pc[r] = R[3 * r] * p[0] + R[3 * r + 1] * p[1] + R[3 * r + 2] * p[2] + cam.t[r];
   const T x = o.pc[0], y = o.pc[1], z = o.pc[2];
   if (!(z >= T(cfg.near_plane))) return false;
 
@@ -78,7 +79,8 @@ inline bool compute_geometry(const GaussianArrays<T>& g, uint32_t slot, const Re
   T TS[6];  // Tm * Sigma
   for (int r = 0; r < 2; ++r)
     for (int c = 0; c < 3; ++c)
-      TS[3 * r + c] = o.Tm[3 * r] * o.Sigma[c] + o.Tm[3 * r + 1] * o.Sigma[3 + c] + o.Tm[3 * r + 2] * o.Sigma[6 + c];
+      TS[3 * r + c] =
+          o.Tm[3 * r] * o.Sigma[c] + o.Tm[3 * r + 1] * o.Sigma[3 + c] + o.Tm[3 * r + 2] * o.Sigma[6 + c];
   o.A = TS[0] * o.Tm[0] + TS[1] * o.Tm[1] + TS[2] * o.Tm[2] + T(cfg.low_pass);
   o.B = TS[0] * o.Tm[3] + TS[1] * o.Tm[4] + TS[2] * o.Tm[5];
   o.C = TS[3] * o.Tm[3] + TS[4] * o.Tm[4] + TS[5] * o.Tm[5] + T(cfg.low_pass);

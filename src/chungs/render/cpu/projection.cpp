@@ -21,6 +21,10 @@ Splat<T> make_splat(const GaussianGeometry<T>& o, const RenderCamera<T>& cam, co
   s.z = z;
   s.inv_z = T(1) / z;
   for (int c = 0; c < 3; ++c) s.color[c] = std::max(o.raw[c], T(0));
+  // A diverged Gaussian (NaN or infinite parameters) is not drawn rather than poisoning the image.
+  if (!std::isfinite(s.mx) || !std::isfinite(s.my) || !std::isfinite(s.ca + s.cb + s.cc) ||
+      !std::isfinite(s.opacity) || !std::isfinite(o.raw[0] + o.raw[1] + o.raw[2]))
+    return Splat<T>{};
   const T mid = (o.A + o.C) / 2, half = (o.A - o.C) / 2;
   s.radius = 3 * std::sqrt(mid + std::sqrt(half * half + o.B * o.B));
 
@@ -60,7 +64,8 @@ void project_splats(const GaussianArrays<T>& g, const uint32_t* ids, size_t n, c
 }
 
 template void project_splats<float>(const GaussianArrays<float>&, const uint32_t*, size_t,
-                                    const RenderCamera<float>&, const RasterConfig&, std::vector<Splat<float>>&);
+                                    const RenderCamera<float>&, const RasterConfig&,
+                                    std::vector<Splat<float>>&);
 template void project_splats<double>(const GaussianArrays<double>&, const uint32_t*, size_t,
                                      const RenderCamera<double>&, const RasterConfig&,
                                      std::vector<Splat<double>>&);

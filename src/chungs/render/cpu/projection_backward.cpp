@@ -36,7 +36,8 @@ void backward_one(const GaussianArrays<T>& g, uint32_t slot, const GaussianGeome
   out.opacity[j] = gs[kGOpacity] * o.opacity * (1 - o.opacity);
 
   // Colour: SH coefficients and, through the viewing direction, the mean.
-  const T graw[3] = {o.raw[0] > 0 ? gs[kGR] : T(0), o.raw[1] > 0 ? gs[kGG] : T(0), o.raw[2] > 0 ? gs[kGB] : T(0)};
+  const T graw[3] = {o.raw[0] > 0 ? gs[kGR] : T(0), o.raw[1] > 0 ? gs[kGG] : T(0),
+                     o.raw[2] > 0 ? gs[kGB] : T(0)};
   const int nb = sh_coeffs_for_degree(cfg.sh_degree);
   T* gsh = out.sh.data() + size_t(kShFloats) * j;
   std::fill(gsh, gsh + kShFloats, T(0));
@@ -58,7 +59,8 @@ void backward_one(const GaussianArrays<T>& g, uint32_t slot, const GaussianGeome
   // Conic -> 2D covariance: dL/dSigma2 = -K dL/dK K, with the off-diagonal gradient split in two.
   const T ka = o.C / o.det, kb = -o.B / o.det, kc = o.A / o.det;
   const T Ga = gs[kGCa], Gb = gs[kGCb] / 2, Gc = gs[kGCc];
-  const T KG00 = ka * Ga + kb * Gb, KG01 = ka * Gb + kb * Gc, KG10 = kb * Ga + kc * Gb, KG11 = kb * Gb + kc * Gc;
+  const T KG00 = ka * Ga + kb * Gb, KG01 = ka * Gb + kb * Gc, KG10 = kb * Ga + kc * Gb,
+          KG11 = kb * Gb + kc * Gc;
   const T gA = -(KG00 * ka + KG01 * kb), gB2 = -(KG00 * kb + KG01 * kc), gC = -(KG10 * kb + KG11 * kc);
   // G2 = [[gA, gB2], [gB2, gC]] is the symmetric gradient of Sigma2 = Tm Sigma Tm^T.
   const T G2[4] = {gA, gB2, gB2, gC};
@@ -71,10 +73,14 @@ void backward_one(const GaussianArrays<T>& g, uint32_t slot, const GaussianGeome
   T gTm[6];  // 2 G2 Tm Sigma
   for (int r = 0; r < 2; ++r)
     for (int c = 0; c < 3; ++c)
-      gTm[3 * r + c] = 2 * (G2T[3 * r] * o.Sigma[c] + G2T[3 * r + 1] * o.Sigma[3 + c] + G2T[3 * r + 2] * o.Sigma[6 + c]);
+      gTm[3 * r + c] =
+          2 * (G2T[3 * r] * o.Sigma[c] + G2T[3 * r + 1] * o.Sigma[3 + c] + G2T[3 * r + 2] * o.Sigma[6 + c]);
   // Tm = J W: dL/dJ = dL/dTm W^T; J has four non-zero entries.
-  auto dot_row = [&](const T* a, int row) { return a[0] * R[3 * row] + a[1] * R[3 * row + 1] + a[2] * R[3 * row + 2]; };
-  const T gJ00 = dot_row(gTm, 0), gJ02 = dot_row(gTm, 2), gJ11 = dot_row(gTm + 3, 1), gJ12 = dot_row(gTm + 3, 2);
+  auto dot_row = [&](const T* a, int row) {
+    return a[0] * R[3 * row] + a[1] * R[3 * row + 1] + a[2] * R[3 * row + 2];
+  };
+  const T gJ00 = dot_row(gTm, 0), gJ02 = dot_row(gTm, 2), gJ11 = dot_row(gTm + 3, 1),
+          gJ12 = dot_row(gTm + 3, 2);
   const T z2 = z * z;
   gpc[2] += -gJ00 * cam.fx / z2 - gJ11 * cam.fy / z2;
   gpc[2] += gJ02 * cam.fx * o.rx / z2 + gJ12 * cam.fy * o.ry / z2;
@@ -141,6 +147,7 @@ template void backward_splats<float>(const GaussianArrays<float>&, const uint32_
                                      const std::vector<Splat<float>>&, const float*, GaussianGrads<float>&);
 template void backward_splats<double>(const GaussianArrays<double>&, const uint32_t*, size_t,
                                       const RenderCamera<double>&, const RasterConfig&,
-                                      const std::vector<Splat<double>>&, const double*, GaussianGrads<double>&);
+                                      const std::vector<Splat<double>>&, const double*,
+                                      GaussianGrads<double>&);
 
 }  // namespace chungs::cpu

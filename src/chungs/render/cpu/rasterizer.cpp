@@ -18,8 +18,8 @@ template <typename T>
 void check_grad_image(const Image<T>& img, int w, int h, int channels, const char* name) {
   if (img.empty()) return;
   if (img.width() != w || img.height() != h || img.channels() != channels)
-    fail("rasterizer backward: gradient of ", name, " is ", img.width(), "x", img.height(), "x", img.channels(),
-         ", the render is ", w, "x", h, "x", channels);
+    fail("rasterizer backward: gradient of ", name, " is ", img.width(), "x", img.height(), "x",
+         img.channels(), ", the render is ", w, "x", h, "x", channels);
 }
 }  // namespace
 

@@ -18,7 +18,7 @@ namespace chungs {
 
 // Wall-clock milliseconds of the stages of the last calls (for benchmarks and profiling).
 struct RasterTimings {
-  double project = 0, bin = 0, composite = 0;       // forward
+  double project = 0, bin = 0, composite = 0;  // forward
   double composite_backward = 0, project_backward = 0;
 };
 
