@@ -27,6 +27,7 @@ uint64_t merge(uint64_t h, uint64_t acc) { return (h ^ round(0, acc)) * P1 + P4;
 Xxh64::Xxh64(uint64_t seed) : acc_{seed + P1 + P2, seed + P2, seed, seed - P1}, seed_(seed) {}
 
 void Xxh64::update(const void* data, size_t len) {
+  if (len == 0) return;  // empty arrays may pass a null pointer
   auto p = static_cast<const unsigned char*>(data);
   total_ += len;
   if (buffered_ + len < 32) {
