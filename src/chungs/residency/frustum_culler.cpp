@@ -123,7 +123,7 @@ std::vector<ChunkId> FrustumCuller::cull(const Camera& camera, const SE3& pose) 
   // Threads pay only when many chunks are left to test: a parallel region costs microseconds on
   // an idle machine and milliseconds when the cores are shared with other processes.
   size_t candidates = 0;
-  for (uint32_t f : frontier) candidates += nodes[f].end - nodes[f].begin;
+  for (uint32_t node : frontier) candidates += nodes[node].end - nodes[node].begin;
   std::vector<std::vector<ChunkId>> parts(frontier.size());
   std::vector<uint64_t> part_tests(frontier.size(), 0);
 #pragma omp parallel for schedule(dynamic, 1) if (candidates >= config_.parallel_min_chunks)
