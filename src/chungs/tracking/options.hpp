@@ -1,0 +1,26 @@
+// Settings of the visual tracker, with their defaults in one place.
+#pragma once
+#include "chungs/tracking/features.hpp"
+#include "chungs/tracking/matcher.hpp"
+#include "chungs/tracking/stereo_matcher.hpp"
+
+namespace chungs::tracking {
+
+struct TrackerOptions {
+  OrbOptions orb;
+  StereoOptions stereo;
+  double rgbd_virtual_baseline = 0.08;  // metres: gives RGB-D the stereo residual's third row
+  double close_depth_baselines = 40;    // depths below this many baselines count as reliable ("close")
+  double rgbd_close_depth = 4.0;        // metres, the same for RGB-D
+  int min_init_points = 50;             // features with depth needed to start the map
+  int min_inliers = 20;                 // below this, tracking falls back to PnP, then relocalisation
+  float keyframe_ratio = 0.75f;         // new keyframe when tracked < ratio * reference keyframe's points
+  int local_keyframes = 12;             // covisible keyframes whose points form the local map
+  bool local_ba = true;
+  int ba_window = 8;                    // keyframes optimised by local bundle adjustment
+  int ba_iterations = 10;
+  bool cull_keyframes = true;
+  bool loop_closure = true;
+};
+
+}  // namespace chungs::tracking

@@ -1,0 +1,211 @@
+#include "chungs/tracking/visual_tracker.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <unordered_map>
+
+#include "chungs/common/log.hpp"
+#include "chungs/tracking/pose_optimizer.hpp"
+
+namespace chungs::tracking {
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+const char* state_name(TrackState s) {
+  switch (s) {
+    case TrackState::Ok: return "ok";
+    case TrackState::Recovered: return "recovered";
+    case TrackState::Lost: return "lost";
+  }
+  return "?";
+}
+
+VisualTracker::VisualTracker(TrackerOptions opt) : opt_(std::move(opt)) {}
+VisualTracker::~VisualTracker() = default;
+
+std::string VisualTracker::describe() const {
+  return cat("visual tracker (", stereo_ ? "stereo" : "rgb-d", "): ", map_.keyframes(), " keyframes, ", map_.points(),
+             " points, ", timings_.loops, " loop(s), ", timings_.lost_frames, " lost frame(s)");
+}
+
+double VisualTracker::close_depth() const {
+  return stereo_ ? opt_.close_depth_baselines * baseline_ : opt_.rgbd_close_depth;
+}
+
+void VisualTracker::extract(const Frame& frame, Current& c) {
+  const Camera& cam = frame.camera;
+  if (frame.right) {
+    if (!(frame.baseline > 0)) fail("tracking: frame ", frame.index, " (", frame.source, ") has a right image but baseline ", frame.baseline);
+    stereo_ = true;
+    baseline_ = frame.baseline;
+  } else if (frame.depth) {
+    stereo_ = false;
+    baseline_ = opt_.rgbd_virtual_baseline;
+  } else {
+    fail("tracking: frame ", frame.index, " (", frame.source, ") has neither a right image nor depth (monocular tracking is not supported)");
+  }
+  if (width_ && (cam.width != width_ || cam.height != height_))
+    fail("tracking: frame ", frame.index, " is ", cam.width, "x", cam.height, ", earlier frames ", width_, "x", height_);
+  width_ = cam.width;
+  height_ = cam.height;
+  k_ = {cam.fx, cam.fy, cam.cx, cam.cy, cam.fx * baseline_};
+  c.gray = to_gray_mat(frame.left);
+  if (frame.right) {
+    cv::Mat rg = to_gray_mat(*frame.right);
+    Features rf;
+    // The two images are independent: one core each.
+#pragma omp parallel sections num_threads(2)
+    {
+#pragma omp section
+      c.f = extract_orb(c.gray, opt_.orb);
+#pragma omp section
+      rf = extract_orb(rg, opt_.orb);
+    }
+    match_stereo(c.gray, rg, c.f, rf, k_.bf, opt_.stereo);
+  } else {
+    if (!frame.depth->same_size(frame.left)) fail("tracking: frame ", frame.index, " depth and image sizes differ");
+    c.f = extract_orb(c.gray, opt_.orb);
+    attach_depth(*frame.depth, c.f, k_.bf);
+  }
+  c.matches.assign(c.f.size(), -1);
+}
+
+TrackResult VisualTracker::track(const Frame& frame) {
+  auto t0 = std::chrono::steady_clock::now();
+  Current c;
+  c.index = frame.index;
+  c.stamp = frame.timestamp;
+  extract(frame, c);
+  timings_.features_ms += ms_since(t0);
+  auto t1 = std::chrono::steady_clock::now();
+  ++timings_.frames;
+
+  TrackResult res;
+  res.frame_index = frame.index;
+  res.stamp = frame.timestamp;
+  if (map_.keyframes() == 0) {
+    if (!initialize(c)) {
+      res.state = TrackState::Lost;
+      ++timings_.lost_frames;
+      return res;
+    }
+    res.keyframe = true;
+    res.keyframe_id = ref_kf_;
+    res.pose = map_.pose(ref_kf_);
+    res.inliers = int(map_.points());
+    frames_.push_back({c.stamp, ref_kf_, SE3()});
+    return res;
+  }
+
+  bool ok = false, recovered = false;
+  if (!lost_) {
+    ok = track_motion(c);
+    if (!ok) {
+      log::debug("tracking: frame ", c.index, " motion model failed, trying PnP against the local map");
+      c.T_cw = last_T_cw_;
+      auto kfs = local_keyframes(c);
+      if (kfs.empty()) kfs.push_back(ref_kf_);
+      ok = track_pnp(c, kfs);
+    }
+  } else {
+    // Relocalisation: every keyframe is a candidate, the newest first.
+    std::vector<long> kfs;
+    for (long i = long(map_.keyframes()) - 1; i >= 0; --i)
+      if (!map_.kf(i).bad) kfs.push_back(i);
+    ok = track_pnp(c, kfs);
+    recovered = ok;
+  }
+  int inliers = ok ? track_local_map(c) : 0;
+  ok = ok && inliers >= opt_.min_inliers;
+  timings_.tracking_ms += ms_since(t1);
+
+  if (!ok) {
+    if (!lost_) log::warn("tracking: lost at frame ", c.index, " (", inliers, " inliers)");
+    lost_ = true;
+    velocity_.reset();
+    ++timings_.lost_frames;
+    res.state = TrackState::Lost;
+    res.pose = last_T_cw_.inverse();
+    res.keyframe_id = ref_kf_;
+    frames_.push_back({c.stamp, ref_kf_, map_.pose(ref_kf_).inverse() * res.pose});
+    return res;
+  }
+  if (lost_) log::info("tracking: relocalised at frame ", c.index, " with ", inliers, " inliers");
+  lost_ = false;
+  velocity_ = c.T_cw * last_T_cw_.inverse();
+  last_T_cw_ = c.T_cw;
+  last_points_.clear();
+  for (long m : c.matches)
+    if (m >= 0) last_points_.push_back(m);
+
+  res.state = recovered ? TrackState::Recovered : TrackState::Ok;
+  res.inliers = inliers;
+  auto t2 = std::chrono::steady_clock::now();
+  if (need_keyframe(c, inliers)) {
+    res.keyframe = true;
+    create_keyframe(c);
+  }
+  timings_.keyframe_ms += ms_since(t2);
+  res.keyframe_id = ref_kf_;
+  res.pose = c.T_cw.inverse();
+  frames_.push_back({c.stamp, ref_kf_, map_.pose(ref_kf_).inverse() * res.pose});
+  return res;
+}
+
+bool VisualTracker::initialize(Current& c) {
+  int with_depth = 0;
+  for (size_t i = 0; i < c.f.size(); ++i) with_depth += c.f.has_depth(i);
+  if (with_depth < opt_.min_init_points) {
+    log::info("tracking: frame ", c.index, " has ", with_depth, " features with depth, waiting for ", opt_.min_init_points);
+    return false;
+  }
+  c.T_cw = SE3();
+  last_T_cw_ = c.T_cw;
+  create_keyframe(c);
+  return true;
+}
+
+int VisualTracker::optimize(Current& c) {
+  std::vector<PoseObservation> obs;
+  std::vector<int> idx;
+  for (size_t i = 0; i < c.matches.size(); ++i) {
+    if (c.matches[i] < 0) continue;
+    const MapPoint* p = map_.point(c.matches[i]);
+    if (!p) {
+      c.matches[i] = -1;
+      continue;
+    }
+    const auto& kp = c.f.kps[i];
+    obs.push_back({p->pos, kp.pt.x, kp.pt.y, c.f.u_right[i], 1.0 / level_scale(kp.octave, opt_.orb.scale_factor)});
+    idx.push_back(int(i));
+  }
+  std::vector<char> inlier;
+  int n = optimize_pose(c.T_cw, k_, obs, inlier);
+  for (size_t j = 0; j < idx.size(); ++j)
+    if (!inlier[j]) c.matches[idx[j]] = -1;
+  return n;
+}
+
+bool VisualTracker::track_motion(Current& c) {
+  c.T_cw = velocity_ ? *velocity_ * last_T_cw_ : last_T_cw_;
+  FeatureGrid grid(c.f.kps, width_, height_);
+  ProjectionSearch s;
+  s.radius = 15;
+  search_by_projection(map_, last_points_, c.T_cw, k_, width_, height_, c.f, grid, c.matches, s);
+  int found = 0;
+  for (long m : c.matches) found += m >= 0;
+  if (found < opt_.min_inliers) {
+    // A sudden change of motion: search wider before giving up on the prediction.
+    std::fill(c.matches.begin(), c.matches.end(), -1);
+    s.radius = 40;
+    search_by_projection(map_, last_points_, c.T_cw, k_, width_, height_, c.f, grid, c.matches, s);
+  }
+  return optimize(c) >= opt_.min_inliers;
+}
+
+}  // namespace chungs::tracking

@@ -1,0 +1,77 @@
+// Feature-based visual SLAM tracker for rectified stereo and RGB-D frames: ORB features with depth,
+// constant-velocity tracking against the local map with a PnP-RANSAC fallback, keyframes with local bundle
+// adjustment and culling, relocalisation after loss, and loop closure with an SE3 pose graph.
+#pragma once
+#include <memory>
+#include <optional>
+
+#include "chungs/tracking/map.hpp"
+#include "chungs/tracking/options.hpp"
+#include "chungs/tracking/tracker.hpp"
+
+namespace chungs::tracking {
+
+struct TrackerTimings {
+  double features_ms = 0, tracking_ms = 0, keyframe_ms = 0;  // totals
+  size_t frames = 0, keyframes = 0, loops = 0, lost_frames = 0;
+};
+
+class VisualTracker : public Tracker {
+ public:
+  explicit VisualTracker(TrackerOptions opt = {});
+  ~VisualTracker() override;
+  TrackResult track(const Frame& frame) override;
+  std::vector<MapOperation> take_map_operations() override;
+  Trajectory trajectory() const override;
+  std::string describe() const override;
+  const Map& map() const { return map_; }
+  const TrackerTimings& timings() const { return timings_; }
+
+ private:
+  struct Current {
+    size_t index = 0;
+    double stamp = 0;
+    Features f;
+    SE3 T_cw;
+    std::vector<long> matches;  // per keypoint: map point id or -1
+    cv::Mat gray;
+  };
+
+  void extract(const Frame& frame, Current& c);
+  bool initialize(Current& c);
+  int optimize(Current& c);  // pose-only on current matches; drops outliers; returns inliers
+  bool track_motion(Current& c);
+  bool track_pnp(Current& c, const std::vector<long>& keyframes);
+  int track_local_map(Current& c);
+  std::vector<long> local_keyframes(const Current& c) const;
+  bool need_keyframe(const Current& c, int inliers) const;
+  long create_keyframe(Current& c);
+  void cull_points(long kf);
+  void cull_keyframes(long kf);
+  KeyframeRecord record(long kf) const;
+  double close_depth() const;
+
+  TrackerOptions opt_;
+  Map map_;
+  std::vector<MapOperation> ops_;
+  struct FrameRecord {
+    double stamp;
+    long ref_kf;
+    SE3 T_ref_c;
+  };
+  std::vector<FrameRecord> frames_;
+  Intrinsics k_{};
+  int width_ = 0, height_ = 0;
+  bool stereo_ = false;
+  double baseline_ = 0;
+  SE3 last_T_cw_;
+  std::optional<SE3> velocity_;  // T_cw(now) * T_cw(previous)^-1
+  std::vector<long> last_points_;
+  long ref_kf_ = -1;
+  size_t last_kf_frame_ = 0;
+  bool lost_ = false;
+  std::vector<long> recent_points_;
+  TrackerTimings timings_;
+};
+
+}  // namespace chungs::tracking
