@@ -63,6 +63,20 @@ long VisualTracker::create_keyframe(Current& c) {
   }
   cull_points(id);
   if (opt_.cull_keyframes) cull_keyframes(id);
+  std::optional<LoopEvent> loop;
+  if (opt_.loop_closure) {
+    if (!loops_) {
+      LoopOptions lo = opt_.loop;
+      lo.scale_factor = opt_.orb.scale_factor;
+      loops_ = std::make_unique<LoopCloser>(lo, k_, width_, height_);
+    }
+    loop = loops_->process(map_, id);
+    if (loop) {
+      ++timings_.loops;
+      c.T_cw = map_.kf(id).T_cw();
+      last_T_cw_ = c.T_cw;
+    }
+  }
   last_points_.clear();
   for (long pid : map_.kf(id).points)
     if (pid >= 0) last_points_.push_back(pid);
@@ -76,6 +90,12 @@ long VisualTracker::create_keyframe(Current& c) {
     upd.kind = MapOperation::Kind::PosesUpdated;
     upd.poses = std::move(moved);
     ops_.push_back(std::move(upd));
+  }
+  if (loop) {
+    MapOperation op;
+    op.kind = MapOperation::Kind::LoopClosure;
+    op.loop = std::move(*loop);
+    ops_.push_back(std::move(op));
   }
   log::debug("tracking: keyframe ", id, " at frame ", c.index, ", ", created, " new points, map ", map_.points());
   return id;

@@ -1,6 +1,7 @@
 // Settings of the visual tracker, with their defaults in one place.
 #pragma once
 #include "chungs/tracking/features.hpp"
+#include "chungs/tracking/loop_closer.hpp"
 #include "chungs/tracking/matcher.hpp"
 #include "chungs/tracking/stereo_matcher.hpp"
 
@@ -21,6 +22,7 @@ struct TrackerOptions {
   int ba_iterations = 10;
   bool cull_keyframes = true;
   bool loop_closure = true;
+  LoopOptions loop;
 };
 
 }  // namespace chungs::tracking

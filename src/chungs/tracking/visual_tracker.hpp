@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 
+#include "chungs/tracking/loop_closer.hpp"
 #include "chungs/tracking/map.hpp"
 #include "chungs/tracking/options.hpp"
 #include "chungs/tracking/tracker.hpp"
@@ -53,6 +54,7 @@ class VisualTracker : public Tracker {
 
   TrackerOptions opt_;
   Map map_;
+  std::unique_ptr<LoopCloser> loops_;
   std::vector<MapOperation> ops_;
   struct FrameRecord {
     double stamp;
