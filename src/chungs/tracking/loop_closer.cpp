@@ -137,16 +137,23 @@ LoopEvent LoopCloser::close(Map& map, long query, const Verified& v) {
       if (j > i && !map.kf(j).bad) edges.push_back({i, j, rel(i, j)});
   for (const auto& e : loop_edges_)
     if (before.count(e.i) && before.count(e.j)) edges.push_back(e);
-  const PoseGraphEdge loop{v.candidate, query, before.at(v.candidate).inverse() * v.T_wq};
-  edges.push_back(loop);
   // Start from the query side already moved by the correction, so the solver begins near the answer.
   poses = before;
   const SE3 C = v.T_wq * before.at(query).inverse();
+  std::vector<long> near_query = {query}, near_match = {v.candidate};
   poses[query] = v.T_wq;
   for (auto& [n, s] : map.covisible(query, 15))
-    if (poses.count(n) && n > v.candidate + opt_.min_keyframe_gap / 2) poses[n] = C * before.at(n);
+    if (poses.count(n) && n > v.candidate + opt_.min_keyframe_gap / 2) poses[n] = C * before.at(n), near_query.push_back(n);
+  for (auto& [n, s] : map.covisible(v.candidate, 15))
+    if (poses.count(n) && n < query - opt_.min_keyframe_gap / 2) near_match.push_back(n);
+  // Loop edges join both neighbourhoods, as many as the covisibility edges that hold each side together;
+  // a single edge would be outvoted by them and leave part of the error at the junction.
+  std::vector<PoseGraphEdge> new_loops;
+  for (long m : near_match)
+    for (long n : near_query) new_loops.push_back({m, n, before.at(m).inverse() * poses.at(n)});
+  edges.insert(edges.end(), new_loops.begin(), new_loops.end());
   optimize_pose_graph(poses, edges, {0, v.candidate});
-  loop_edges_.push_back(loop);
+  loop_edges_.insert(loop_edges_.end(), new_loops.begin(), new_loops.end());
 
   // Points move with the keyframe that observes them first; then the query re-observes the old points.
   for (const auto& [pid, p] : map.all_points()) {
