@@ -1,0 +1,135 @@
+// Building blocks of the tracker on random inputs: stereo sub-pixel disparity, pose-only optimisation with
+// outliers, vocabulary round trip and scores, pose graph against a consistent ground truth.
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+#include <fstream>
+#include <random>
+
+#include "chungs/tracking/pose_graph.hpp"
+#include "chungs/tracking/pose_optimizer.hpp"
+#include "chungs/tracking/stereo_matcher.hpp"
+#include "chungs/tracking/vocabulary.hpp"
+#include "test_support.hpp"
+
+using namespace chungs;
+using namespace chungs::tracking;
+
+TEST(StereoMatcher, RecoversSubPixelDisparityOfShiftedTexture) {
+  std::mt19937 rng(5);
+  cv::Mat noise(480, 640, CV_8U);
+  for (int y = 0; y < noise.rows; ++y)
+    for (int x = 0; x < noise.cols; ++x) noise.at<uint8_t>(y, x) = uint8_t(rng());
+  cv::Mat left;
+  cv::GaussianBlur(noise, left, cv::Size(0, 0), 1.5);
+  cv::normalize(left, left, 0, 255, cv::NORM_MINMAX);
+  const double disp = 12.37;  // right image = left shifted by a non-integer disparity
+  cv::Mat M = (cv::Mat_<double>(2, 3) << 1, 0, -disp, 0, 1, 0), right;
+  cv::warpAffine(left, right, M, left.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  OrbOptions o;
+  Features lf = extract_orb(left, o), rf = extract_orb(right, o);
+  const double bf = 400 * 0.1;
+  int n = match_stereo(left, right, lf, rf, bf);
+  ASSERT_GT(n, 200);
+  int good = 0;
+  for (size_t i = 0; i < lf.size(); ++i)
+    if (lf.has_depth(i)) good += std::abs((lf.kps[i].pt.x - lf.u_right[i]) - disp) < 0.25;
+  EXPECT_GT(good, 0.9 * n) << good << " of " << n << " within 0.25 px";
+}
+
+TEST(StereoMatcher, DepthMapGivesVirtualRightColumn) {
+  Features f;
+  f.kps = {cv::KeyPoint(10.2f, 5.8f, 31), cv::KeyPoint(3, 3, 31), cv::KeyPoint(50, 2, 31)};
+  f.depth.assign(3, 0);
+  f.u_right.assign(3, -1);
+  ImageF depth(20, 10, 1, 2.5f);
+  depth(3, 3) = 0;  // invalid
+  EXPECT_EQ(attach_depth(depth, f, 40.0), 1);
+  EXPECT_FLOAT_EQ(f.depth[0], 2.5f);
+  EXPECT_NEAR(f.u_right[0], 10.2 - 40.0 / 2.5, 1e-5);
+  EXPECT_FALSE(f.has_depth(1));
+  EXPECT_FALSE(f.has_depth(2));
+}
+
+TEST(PoseOptimizer, RecoversPoseDespiteOutliers) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-1, 1);
+  std::normal_distribution<double> N(0, 0.5);
+  const Intrinsics k{500, 500, 320, 240, 50};
+  Eigen::Matrix<double, 6, 1> xi;
+  xi << 0.3, -0.2, 0.5, 0.05, -0.1, 0.08;
+  const SE3 truth = SE3::exp(xi);
+  std::vector<PoseObservation> obs;
+  for (int i = 0; i < 300; ++i) {
+    Eigen::Vector3d pc(3 * U(rng), 2 * U(rng), 4 + 3 * (U(rng) + 1));
+    Eigen::Vector3d X = truth.inverse() * pc;
+    double u = k.fx * pc.x() / pc.z() + k.cx + N(rng), v = k.fy * pc.y() / pc.z() + k.cy + N(rng);
+    double ur = i % 2 ? u - k.bf / pc.z() + N(rng) : -1;
+    if (i % 5 == 0) u += 40 * U(rng) + 30, v -= 30;  // gross outliers
+    obs.push_back({X, u, v, ur, 1.0});
+  }
+  Eigen::Matrix<double, 6, 1> off;
+  off << 0.1, 0.05, -0.1, 0.02, 0.03, -0.02;
+  SE3 T = truth * SE3::exp(off);
+  std::vector<char> inl;
+  int n = optimize_pose(T, k, obs, inl);
+  EXPECT_GE(n, 230);
+  EXPECT_LE(n, 245);
+  for (size_t i = 0; i < obs.size(); i += 5) EXPECT_FALSE(inl[i]) << i;
+  EXPECT_LT((T.t - truth.t).norm(), 0.01);
+  EXPECT_LT((T.inverse() * truth).angle(), 1e-3);
+}
+
+TEST(Vocabulary, SavesLoadsAndScoresNoisyCopiesHighest) {
+  std::mt19937 rng(3);
+  std::vector<cv::Mat> docs;
+  for (int d = 0; d < 6; ++d) {
+    cv::Mat m(200, 32, CV_8U);
+    for (int i = 0; i < m.rows * 32; ++i) m.data[i] = uint8_t(rng());
+    docs.push_back(m);
+  }
+  Vocabulary v = Vocabulary::train(docs, 10, 3);
+  EXPECT_GT(v.words(), 300);
+  test::TempDir dir;
+  v.save(dir / "voc.bin");
+  Vocabulary w = Vocabulary::load(dir / "voc.bin");
+  ASSERT_EQ(w.words(), v.words());
+  for (int i = 0; i < 50; ++i) EXPECT_EQ(w.word(docs[1].ptr<uint8_t>(i)), v.word(docs[1].ptr<uint8_t>(i)));
+  cv::Mat noisy = docs[2].clone();
+  for (int i = 0; i < noisy.rows; ++i) noisy.at<uint8_t>(i, int(rng() % 32)) ^= uint8_t(1u << (rng() % 8));
+  BowVector q = v.transform(noisy);
+  double own = Vocabulary::score(q, v.transform(docs[2]));
+  for (int d = 0; d < 6; ++d)
+    if (d != 2) EXPECT_GT(own, 2 * Vocabulary::score(q, v.transform(docs[d]))) << d;
+  EXPECT_NEAR(Vocabulary::score(q, q), 1.0, 1e-5);
+  std::ofstream(dir / "bad.bin") << "not a vocabulary";
+  EXPECT_THROW(Vocabulary::load(dir / "bad.bin"), Error);
+}
+
+TEST(PoseGraph, ClosesLoopOfConsistentMeasurements) {
+  std::mt19937 rng(9);
+  std::normal_distribution<double> N(0, 1);
+  std::unordered_map<long, SE3> truth, poses;
+  const int n = 30;
+  for (long i = 0; i < n; ++i) {
+    Eigen::Matrix<double, 6, 1> xi;
+    xi << 5 * std::cos(i * 0.2), 0.3 * N(rng), 5 * std::sin(i * 0.2), 0.1 * N(rng), i * 0.2, 0.1 * N(rng);
+    truth[i] = SE3::exp(xi);
+  }
+  std::vector<PoseGraphEdge> edges;
+  for (long i = 1; i < n; ++i) edges.push_back({i - 1, i, truth[i - 1].inverse() * truth[i]});
+  edges.push_back({0, n - 1, truth[0].inverse() * truth[n - 1]});
+  // Start from a drifted chain: every step perturbed.
+  poses[0] = truth[0];
+  for (long i = 1; i < n; ++i) {
+    Eigen::Matrix<double, 6, 1> e;
+    e << 0.02 * N(rng), 0.02 * N(rng), 0.02 * N(rng), 0.01 * N(rng), 0.01 * N(rng), 0.01 * N(rng);
+    poses[i] = poses[i - 1] * edges[size_t(i - 1)].T_ij * SE3::exp(e);
+  }
+  double err0 = (poses[n - 1].t - truth[n - 1].t).norm();
+  optimize_pose_graph(poses, edges, {0});
+  for (long i = 0; i < n; ++i) {
+    EXPECT_LT((poses[i].t - truth[i].t).norm(), 1e-4) << i << " (start error " << err0 << ")";
+    EXPECT_LT((poses[i].inverse() * truth[i]).angle(), 1e-5) << i;
+  }
+}
