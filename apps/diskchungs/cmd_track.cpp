@@ -67,6 +67,9 @@ int run_track(const TrackArgs& a) {
   std::printf("%s\n", tracker.describe().c_str());
   std::printf("frames %zu, keyframes %zu, lost %zu, loop closures %zu; %.1f ms/frame tracking (%.1f s with loading)\n",
               n, keyframes, lost, loops, per_frame, secs);
+  if (tm.frames)
+    std::printf("per frame: features + stereo %.1f ms, pose tracking %.1f ms, keyframes (BA, culling, loops) %.1f ms\n",
+                tm.features_ms / double(tm.frames), tm.tracking_ms / double(tm.frames), tm.keyframe_ms / double(tm.frames));
   std::printf("trajectory written to %s (%s)\n", a.out.c_str(), a.format.c_str());
   if (ate)
     std::printf("ATE (se3 alignment, %zu poses): rmse %.4f m, max %.4f m over a %.1f m path\n", ate->matched(),
