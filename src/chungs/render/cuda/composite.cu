@@ -1,0 +1,223 @@
+// Per-tile compositing, forward and backward (twin of cpu/composite_forward.cpp and
+// cpu/composite_backward.cpp). One 256-thread block per 16x16 tile, one thread per pixel; the
+// tile's splats are staged through shared memory in batches of 256.
+#include "chungs/render/cuda/kernels.cuh"
+#include "chungs/render/render_output.hpp"
+
+namespace chungs::cuda::detail {
+
+namespace {
+
+struct Batch {
+  float4 a[kBlock], b[kBlock], c[kBlock];
+  uint32_t j[kBlock];
+};
+
+__device__ __forceinline__ void load_batch(Batch& sm, const uint32_t* list, SplatData s, uint32_t begin,
+                                           uint32_t end, bool need_c) {
+  const uint32_t e = begin + threadIdx.x;
+  if (e < end) {
+    const uint32_t j = list[e];
+    sm.j[threadIdx.x] = j;
+    sm.a[threadIdx.x] = s.a[j];
+    sm.b[threadIdx.x] = s.b[j];
+    if (need_c) sm.c[threadIdx.x] = s.c[j];
+  }
+}
+
+__global__ void __launch_bounds__(kBlock) forward_kernel(const uint2* __restrict__ ranges,
+                                                         const uint32_t* __restrict__ list, SplatData s,
+                                                         const uint32_t* __restrict__ ids, int W, int H,
+                                                         RasterConsts k, ForwardImages out) {
+  __shared__ Batch sm;
+  const int tiles_x = (W + kTileSize - 1) / kTileSize;
+  const int tile = blockIdx.x;
+  int lx, ly;
+  pixel_of_thread(threadIdx.x, lx, ly);
+  const int x = (tile % tiles_x) * kTileSize + lx, y = (tile / tiles_x) * kTileSize + ly;
+  const bool inside = x < W && y < H;
+  const float fx = float(x), fy = float(y);
+  const uint2 range = ranges[tile];
+
+  float T = 1.f, acc[5] = {0, 0, 0, 0, 0}, best_w = 0.f;
+  int best = -1;
+  uint32_t cnt = 0;
+  bool done = !inside;
+  for (uint32_t base = range.x; base < range.y; base += kBlock) {
+    if (__syncthreads_count(done) == kBlock) break;
+    load_batch(sm, list, s, base, range.y, true);
+    __syncthreads();
+    const int m = min(kBlock, int(range.y - base));
+    for (int i = 0; i < m && !done; ++i) {
+      const float4 a = sm.a[i], b = sm.b[i];
+      const float dx = fx - a.x, dy = fy - a.y;
+      const float power = -0.5f * (b.x * dx * dx + b.z * dy * dy) - (b.y * dy) * dx;
+      if (!(power >= a.w)) continue;
+      const float alpha = fminf(k.alpha_max, a.z * expf(power));
+      const float nT = T * (1.f - alpha);
+      if (nT < k.min_T) {
+        done = true;
+        break;
+      }
+      const float w = alpha * T;
+      const float4 c = sm.c[i];
+      acc[0] += w * c.x, acc[1] += w * c.y, acc[2] += w * c.z, acc[3] += w * b.w, acc[4] += w * c.w;
+      T = nT;
+      if (w > best_w) best_w = w, best = int(sm.j[i]);
+      cnt = base - range.x + i + 1;
+    }
+  }
+  if (!inside) return;
+  const size_t p = size_t(y) * W + x;
+  out.rgb[3 * p] = acc[0] + T * k.bg[0];
+  out.rgb[3 * p + 1] = acc[1] + T * k.bg[1];
+  out.rgb[3 * p + 2] = acc[2] + T * k.bg[2];
+  out.depth[p] = acc[3];
+  out.inv_depth[p] = acc[4];
+  out.alpha[p] = 1.f - T;
+  out.top_id[p] = best < 0 ? kNoGaussian : ids[best];
+  out.last[p] = cnt;
+}
+
+// Sums N values over the warp in log2(32) shuffle rounds that each halve the values a lane holds
+// (lanes with the round's bit set keep the upper half and send the lower), so 10 values cost 12
+// shuffles instead of 50. Afterwards lane l holds the full sum of the value reduced_index(l) names.
+template <int N>
+__device__ __forceinline__ void fold(float* v, int lane, int bit) {
+  constexpr int Hh = (N + 1) / 2;
+  const bool upper = (lane & bit) != 0;
+#pragma unroll
+  for (int i = 0; i < Hh; ++i) {
+    const float lo = v[i], hi = (i + Hh < N) ? v[i + Hh] : 0.f;
+    const float send = upper ? lo : hi;
+    v[i] = (upper ? hi : lo) + __shfl_xor_sync(0xffffffffu, send, bit);
+  }
+}
+
+// The value index lane `lane` ends with after the folds 10 -> 5 -> 3 -> 2 -> 1 (bits 16, 8, 4, 2),
+// or -1 for a padding slot. Lanes l and l ^ 1 hold the same value.
+__device__ __forceinline__ int reduced_index(int lane) {
+  int idx = 0, real = kSplatGrads;
+  const int sizes[4] = {kSplatGrads, 5, 3, 2};
+#pragma unroll
+  for (int r = 0; r < 4; ++r) {
+    const int Hh = (sizes[r] + 1) / 2;
+    if (lane & (16 >> r)) {
+      idx += Hh;
+      real = max(real - Hh, 0);
+    } else {
+      real = min(real, Hh);
+    }
+  }
+  return real > 0 ? idx : -1;
+}
+
+__global__ void __launch_bounds__(kBlock) backward_kernel(
+    const uint2* __restrict__ ranges, const uint32_t* __restrict__ list, SplatData s, int W, int H,
+    RasterConsts k, const float* __restrict__ rgb, const float* __restrict__ depth,
+    const float* __restrict__ inv_depth, const float* __restrict__ alpha_img, const uint32_t* __restrict__ last,
+    DeviceRenderGrads dl, float* __restrict__ splat_grads) {
+  __shared__ Batch sm;
+  __shared__ uint32_t max_stop;
+  const int tiles_x = (W + kTileSize - 1) / kTileSize;
+  const int tile = blockIdx.x;
+  int lx, ly;
+  pixel_of_thread(threadIdx.x, lx, ly);
+  const int x = (tile % tiles_x) * kTileSize + lx, y = (tile / tiles_x) * kTileSize + ly;
+  const bool inside = x < W && y < H;
+  const float fx = float(x), fy = float(y);
+  const int lane = threadIdx.x & 31;
+  const int my_index = reduced_index(lane);
+  const bool writer = (lane & 1) == 0 && my_index >= 0;
+
+  // Pixel state: transmittance, composited r g b depth inv_depth so far, their final values,
+  // dL/d(final), the alpha term T_final * dL/dalpha, and the entries this pixel walked.
+  float T = 1.f, acc[5] = {0, 0, 0, 0, 0}, fin[5] = {0, 0, 0, 0, 0}, g[5] = {0, 0, 0, 0, 0}, galpha_Tf = 0.f;
+  uint32_t stop = 0;
+  if (inside) {
+    const size_t p = size_t(y) * W + x;
+#pragma unroll
+    for (int c = 0; c < 3; ++c) {
+      fin[c] = rgb[3 * p + c];
+      g[c] = dl.rgb ? dl.rgb[3 * p + c] : 0.f;
+    }
+    fin[3] = depth[p], fin[4] = inv_depth[p];
+    g[3] = dl.depth ? dl.depth[p] : 0.f;
+    g[4] = dl.inv_depth ? dl.inv_depth[p] : 0.f;
+    galpha_Tf = dl.alpha ? dl.alpha[p] * (1.f - alpha_img[p]) : 0.f;
+    stop = last[p];
+  }
+  if (threadIdx.x == 0) max_stop = 0;
+  __syncthreads();
+  if (stop > 0) atomicMax(&max_stop, stop);
+  __syncthreads();
+  const uint2 range = ranges[tile];
+  const uint32_t end = range.x + max_stop;
+
+  for (uint32_t base = range.x; base < end; base += kBlock) {
+    __syncthreads();  // the previous batch is consumed
+    load_batch(sm, list, s, base, end, true);
+    __syncthreads();
+    const int m = min(kBlock, int(end - base));
+    for (int i = 0; i < m; ++i) {
+      const float4 a = sm.a[i], b = sm.b[i];
+      const float dx = fx - a.x, dy = fy - a.y;
+      const float power = -0.5f * (b.x * dx * dx + b.z * dy * dy) - (b.y * dy) * dx;
+      const bool live = power >= a.w && base - range.x + i < stop;
+      if (!__any_sync(0xffffffffu, live)) continue;
+      float v[kSplatGrads] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+      if (live) {
+        const float4 c = sm.c[i];
+        const float G = expf(power);
+        const float raw = a.z * G;
+        const bool clamped = raw > k.alpha_max;
+        const float alpha = clamped ? k.alpha_max : raw;
+        const float w = alpha * T;
+        const float inv_1ma = 1.f / (1.f - alpha);
+        const float feat[5] = {c.x, c.y, c.z, b.w, c.w};
+        float dalpha = galpha_Tf * inv_1ma;
+#pragma unroll
+        for (int ch = 0; ch < 5; ++ch) {
+          acc[ch] += w * feat[ch];
+          dalpha += g[ch] * (feat[ch] * T - (fin[ch] - acc[ch]) * inv_1ma);
+        }
+        T *= 1.f - alpha;
+        const float dal = clamped ? 0.f : dalpha;
+        const float gpow = dal * alpha;
+        v[0] = gpow * (b.x * dx + b.y * dy);
+        v[1] = gpow * (b.y * dx + b.z * dy);
+        v[2] = gpow * (-0.5f * dx * dx);
+        v[3] = -gpow * (dx * dy);
+        v[4] = gpow * (-0.5f * dy * dy);
+        v[5] = dal * G;
+        v[6] = w * g[0], v[7] = w * g[1], v[8] = w * g[2];
+        v[9] = w * (g[3] - g[4] * c.w * c.w);
+      }
+      fold<10>(v, lane, 16);
+      fold<5>(v, lane, 8);
+      fold<3>(v, lane, 4);
+      fold<2>(v, lane, 2);
+      v[0] += __shfl_xor_sync(0xffffffffu, v[0], 1);
+      if (writer) atomicAdd(splat_grads + size_t(sm.j[i]) * kSplatGrads + my_index, v[0]);
+    }
+  }
+}
+
+}  // namespace
+
+void composite_forward(const uint2* ranges, const uint32_t* list, SplatData s, const uint32_t* ids, int width,
+                       int height, const RasterConsts& k, ForwardImages out, cudaStream_t stream) {
+  const int tiles = ((width + kTileSize - 1) / kTileSize) * ((height + kTileSize - 1) / kTileSize);
+  forward_kernel<<<tiles, kBlock, 0, stream>>>(ranges, list, s, ids, width, height, k, out);
+}
+
+void composite_backward(const uint2* ranges, const uint32_t* list, SplatData s, int width, int height,
+                        const RasterConsts& k, const float* rgb, const float* depth, const float* inv_depth,
+                        const float* alpha, const uint32_t* last, const DeviceRenderGrads& dl,
+                        float* splat_grads, cudaStream_t stream) {
+  const int tiles = ((width + kTileSize - 1) / kTileSize) * ((height + kTileSize - 1) / kTileSize);
+  backward_kernel<<<tiles, kBlock, 0, stream>>>(ranges, list, s, width, height, k, rgb, depth, inv_depth, alpha,
+                                                last, dl, splat_grads);
+}
+
+}  // namespace chungs::cuda::detail

@@ -1,0 +1,88 @@
+#include <cuda_runtime.h>
+
+#include <utility>
+
+#include "chungs/common/error.hpp"
+#include "chungs/render/cuda/device_buffer.hpp"
+
+namespace chungs::cuda {
+
+namespace {
+void check(cudaError_t e, const char* op, const char* what, size_t bytes) {
+  if (e != cudaSuccess) fail("CUDA ", op, " (", what, ", ", bytes, " bytes): ", cudaGetErrorString(e));
+}
+}  // namespace
+
+DeviceBytes::~DeviceBytes() { release(); }
+
+DeviceBytes::DeviceBytes(DeviceBytes&& o) noexcept
+    : ptr_(std::exchange(o.ptr_, nullptr)), capacity_(std::exchange(o.capacity_, 0)) {}
+
+DeviceBytes& DeviceBytes::operator=(DeviceBytes&& o) noexcept {
+  if (this != &o) {
+    release();
+    ptr_ = std::exchange(o.ptr_, nullptr);
+    capacity_ = std::exchange(o.capacity_, 0);
+  }
+  return *this;
+}
+
+void DeviceBytes::reserve(size_t bytes) {
+  if (bytes <= capacity_) return;
+  release();
+  // Grow with headroom so that a slowly rising count (tile pairs, visible Gaussians) does not
+  // reallocate every frame.
+  const size_t want = bytes + bytes / 4;
+  check(cudaMalloc(&ptr_, want), "cudaMalloc", "device buffer", want);
+  capacity_ = want;
+}
+
+void DeviceBytes::release() {
+  if (ptr_) cudaFree(ptr_);
+  ptr_ = nullptr;
+  capacity_ = 0;
+}
+
+void copy_to_device(void* dst, const void* src, size_t bytes, const char* what) {
+  if (bytes == 0) return;
+  check(cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice), "copy to device", what, bytes);
+}
+
+void copy_to_host(void* dst, const void* src, size_t bytes, const char* what) {
+  if (bytes == 0) return;
+  check(cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost), "copy to host", what, bytes);
+}
+
+void fill_device_bytes(void* dst, int byte, size_t bytes, const char* what) {
+  if (bytes == 0) return;
+  check(cudaMemset(dst, byte, bytes), "memset", what, bytes);
+}
+
+void check_last(const char* what) { check(cudaGetLastError(), "launch", what, 0); }
+
+void synchronize(const char* what) { check(cudaDeviceSynchronize(), "synchronize", what, 0); }
+
+EventTimer::EventTimer() {
+  cudaEvent_t a, b;
+  check(cudaEventCreate(&a), "cudaEventCreate", "timer", 0);
+  check(cudaEventCreate(&b), "cudaEventCreate", "timer", 0);
+  begin_ = a, end_ = b;
+}
+
+EventTimer::~EventTimer() {
+  cudaEventDestroy(static_cast<cudaEvent_t>(begin_));
+  cudaEventDestroy(static_cast<cudaEvent_t>(end_));
+}
+
+void EventTimer::start() { check(cudaEventRecord(static_cast<cudaEvent_t>(begin_)), "event record", "timer", 0); }
+
+double EventTimer::stop_ms() {
+  auto e = static_cast<cudaEvent_t>(end_);
+  check(cudaEventRecord(e), "event record", "timer", 0);
+  check(cudaEventSynchronize(e), "event synchronize", "timer", 0);
+  float ms = 0;
+  check(cudaEventElapsedTime(&ms, static_cast<cudaEvent_t>(begin_), e), "event elapsed", "timer", 0);
+  return ms;
+}
+
+}  // namespace chungs::cuda

@@ -1,0 +1,374 @@
+// Forward orchestration of the CUDA rasterizer: per-Gaussian projection, depth sort, tile-entry
+// emission in depth order, stable sort by tile, tile ranges, then the compositing (composite.cu).
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_scan.cuh>
+
+#include <cmath>
+
+#include "chungs/common/error.hpp"
+#include "chungs/render/cuda/device_buffer.hpp"
+#include "chungs/render/cuda/geometry.cuh"
+#include "chungs/render/cuda/rasterizer.hpp"
+
+namespace chungs::cuda {
+
+using namespace detail;
+
+namespace detail {
+
+RasterConsts make_consts(const RasterConfig& c) {
+  RasterConsts k;
+  k.near_plane = float(c.near_plane);
+  k.low_pass = float(c.low_pass);
+  k.alpha_max = float(c.alpha_max);
+  k.min_T = float(c.min_transmittance);
+  k.extent_sigma = float(c.extent_sigma);
+  k.guard_band = float(c.guard_band);
+  k.min_alpha = float(c.min_alpha);
+  k.log_min_alpha = c.min_alpha > 0 ? float(std::log(c.min_alpha)) : 0.f;
+  for (int i = 0; i < 3; ++i) k.bg[i] = float(c.background[i]);
+  k.sh_degree = c.sh_degree;
+  return k;
+}
+
+}  // namespace detail
+
+namespace {
+
+void check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess) fail("CUDA rasterizer: ", what, ": ", cudaGetErrorString(e));
+}
+
+constexpr uint32_t kInvisibleKey = 0xFFFFFFFFu;
+
+struct PreprocessOut {
+  float4 *a, *b, *c;
+  ushort4* rect;  // tile rectangle tx0, tx1, ty0, ty1
+  uint32_t *tiles, *zkey, *order;
+  float* radius;
+  uint8_t* visible;
+  uint32_t* bad_index;  // smallest j whose slot is out of range
+};
+
+// Projection of Gaussian ids[j] into splat j (cpu::project_splats + make_splat).
+__global__ void preprocess_kernel(GaussianArrays<float> g, const uint32_t* __restrict__ ids, uint32_t n,
+                                  RenderCamera<float> cam, RasterConsts k, int tiles_x, int tiles_y,
+                                  PreprocessOut o) {
+  const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j >= n) return;
+  o.order[j] = j;
+  o.tiles[j] = 0;
+  o.zkey[j] = kInvisibleKey;
+  o.visible[j] = 0;
+  o.radius[j] = 0.f;
+  const uint32_t slot = ids[j];
+  if (slot >= g.capacity) {
+    atomicMin(o.bad_index, j);
+    return;
+  }
+  float shc[kShFloats], basis[kShCoeffs];
+  load_sh(g.sh, slot, shc);
+  Geometry G;
+  if (!compute_geometry(g, slot, cam, k, shc, basis, G)) return;
+  const float z = G.pc[2];
+  const float mx = cam.fx * G.pc[0] / z + cam.cx, my = cam.fy * G.pc[1] / z + cam.cy;
+  const float ca = G.C / G.det, cb = -G.B / G.det, cc = G.A / G.det;
+  if (!isfinite(mx) || !isfinite(my) || !isfinite(ca + cb + cc) || !isfinite(G.opacity) ||
+      !isfinite(G.raw[0] + G.raw[1] + G.raw[2]))
+    return;
+  const float mid = (G.A + G.C) / 2, half = (G.A - G.C) / 2;
+  const float radius = 3 * sqrtf(mid + sqrtf(half * half + G.B * G.B));
+  float pmin = -0.5f * k.extent_sigma * k.extent_sigma;
+  if (k.min_alpha > 0) pmin = fmaxf(pmin, k.log_min_alpha - logf(G.opacity));
+  if (!(pmin < 0.f)) return;
+  const float qmax = -2 * pmin;
+  const float ex = sqrtf(qmax * G.A), ey = sqrtf(qmax * G.C);
+  const float W1 = float(cam.width - 1), H1 = float(cam.height - 1);
+  const float fx0 = ceilf(mx - ex), fx1 = floorf(mx + ex), fy0 = ceilf(my - ey), fy1 = floorf(my + ey);
+  if (!(fx1 >= 0 && fx0 <= W1 && fy1 >= 0 && fy0 <= H1)) return;
+  const int x0 = int(fmaxf(fx0, 0.f)), x1 = int(fminf(fx1, W1));
+  const int y0 = int(fmaxf(fy0, 0.f)), y1 = int(fminf(fy1, H1));
+  const int tx0 = x0 / kTileSize, tx1 = x1 / kTileSize, ty0 = y0 / kTileSize, ty1 = y1 / kTileSize;
+  o.a[j] = make_float4(mx, my, G.opacity, pmin);
+  o.b[j] = make_float4(ca, cb, cc, z);
+  o.c[j] = make_float4(fmaxf(G.raw[0], 0.f), fmaxf(G.raw[1], 0.f), fmaxf(G.raw[2], 0.f), 1.f / z);
+  o.rect[j] = make_ushort4(tx0, tx1, ty0, ty1);
+  o.tiles[j] = uint32_t(tx1 - tx0 + 1) * uint32_t(ty1 - ty0 + 1);
+  o.zkey[j] = __float_as_uint(z);  // z >= near > 0: the bit pattern orders like the value
+  o.visible[j] = 1;
+  o.radius[j] = radius;
+}
+
+__global__ void gather_counts_kernel(const uint32_t* __restrict__ order, const uint32_t* __restrict__ tiles,
+                                     uint32_t n, uint32_t* __restrict__ counts) {
+  const uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
+  if (r < n) counts[r] = tiles[order[r]];
+}
+
+// Splats in depth order write their entries at their offsets: entries are depth-ordered within
+// every tile, and the stable sort by tile keeps that order.
+__global__ void emit_kernel(const uint32_t* __restrict__ order, const uint32_t* __restrict__ ends,
+                            const ushort4* __restrict__ rects, const uint32_t* __restrict__ tiles, uint32_t n,
+                            int tiles_x, uint32_t* __restrict__ keys, uint32_t* __restrict__ vals) {
+  const uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
+  if (r >= n) return;
+  const uint32_t j = order[r];
+  const uint32_t cnt = tiles[j];
+  if (cnt == 0) return;
+  uint32_t off = ends[r] - cnt;
+  const ushort4 t = rects[j];
+  for (int ty = t.z; ty <= t.w; ++ty)
+    for (int tx = t.x; tx <= t.y; ++tx) {
+      keys[off] = uint32_t(ty * tiles_x + tx);
+      vals[off] = j;
+      ++off;
+    }
+}
+
+__global__ void ranges_kernel(const uint32_t* __restrict__ keys, uint32_t total, uint2* __restrict__ ranges) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= total) return;
+  const uint32_t t = keys[i];
+  if (i == 0 || keys[i - 1] != t) ranges[t].x = i;
+  if (i + 1 == total || keys[i + 1] != t) ranges[t].y = i + 1;
+}
+
+unsigned blocks_for(size_t n, unsigned threads) { return unsigned((n + threads - 1) / threads); }
+
+int bits_for(uint32_t v) {
+  int b = 0;
+  while (b < 32 && (uint64_t(1) << b) <= v) ++b;
+  return std::max(b, 1);
+}
+
+}  // namespace
+
+struct CudaRasterizer::State {
+  RasterConfig config;
+  RasterConsts consts;
+  bool timing = false;
+  CudaRasterTimings timings;
+  cudaEvent_t ev[4] = {};
+  cudaStream_t stream = nullptr;  // legacy default stream
+  // Last forward.
+  bool have_forward = false;
+  GaussianArrays<float> g;
+  const uint32_t* ids = nullptr;
+  size_t n = 0;
+  RenderCamera<float> cam;
+  int tiles_x = 0, tiles_y = 0;
+  uint32_t total = 0;
+  DeviceRenderOutput out;
+  DeviceGaussianGrads grads;
+  // Per splat.
+  DeviceArray<float4> a, b, c;
+  DeviceArray<ushort4> rect;
+  DeviceArray<uint32_t> tiles, zkey, zkey_sorted, order, order_sorted, ends;
+  DeviceArray<float> radius;
+  DeviceArray<uint8_t> visible;
+  // Per tile entry, per tile, per pixel.
+  DeviceArray<uint32_t> keys, keys_sorted, vals, vals_sorted;
+  DeviceArray<uint2> ranges;
+  DeviceArray<float> rgb, depth, inv_depth, alpha;
+  DeviceArray<uint32_t> top_id, last;
+  DeviceBytes temp;
+  DeviceArray<uint32_t> flags;  // [0] = smallest bad index
+  uint32_t* host_flags = nullptr;  // pinned: bad index, total entries
+  // Backward.
+  DeviceArray<float> splat_grads, g_mean, g_scale, g_rot, g_op, g_sh;
+
+  State() {
+    for (auto& e : ev) check(cudaEventCreate(&e), "cudaEventCreate");
+    check(cudaMallocHost(&host_flags, 2 * sizeof(uint32_t)), "cudaMallocHost");
+    flags.resize(2);
+  }
+  ~State() {
+    for (auto& e : ev) cudaEventDestroy(e);
+    cudaFreeHost(host_flags);
+  }
+  void mark(int i) {
+    if (timing) check(cudaEventRecord(ev[i], stream), "cudaEventRecord");
+  }
+  double elapsed(int i0, int i1) {
+    float ms = 0;
+    check(cudaEventSynchronize(ev[i1]), "cudaEventSynchronize");
+    check(cudaEventElapsedTime(&ms, ev[i0], ev[i1]), "cudaEventElapsedTime");
+    return ms;
+  }
+  void* scratch(size_t bytes) {
+    temp.reserve(std::max<size_t>(bytes, 1));
+    return temp.data();
+  }
+};
+
+CudaRasterizer::CudaRasterizer(const RasterConfig& config) : s_(std::make_unique<State>()) { set_config(config); }
+CudaRasterizer::~CudaRasterizer() = default;
+
+const RasterConfig& CudaRasterizer::config() const { return s_->config; }
+void CudaRasterizer::set_config(const RasterConfig& config) {
+  config.validate();
+  s_->config = config;
+  s_->consts = make_consts(config);
+  s_->have_forward = false;
+}
+void CudaRasterizer::enable_timings(bool on) { s_->timing = on; }
+const DeviceRenderOutput& CudaRasterizer::output() const { return s_->out; }
+const CudaRasterTimings& CudaRasterizer::timings() const { return s_->timings; }
+size_t CudaRasterizer::tile_entries() const { return s_->total; }
+
+const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g, const uint32_t* ids, size_t n,
+                                                  const RenderCamera<float>& cam) {
+  State& s = *s_;
+  if (cam.width <= 0 || cam.height <= 0)
+    fail("CUDA rasterizer: image size must be positive, got ", cam.width, "x", cam.height);
+  if (!(cam.fx > 0 && cam.fy > 0)) fail("CUDA rasterizer: focal lengths must be positive");
+  if (n >= 0xFFFFFFFFu) fail("CUDA rasterizer: ", n, " indices is more than 2^32 - 1");
+  if (n > 0) {
+    if (!g.mean || !g.log_scale || !g.rotation || !g.opacity || !g.sh || !ids)
+      fail("CUDA rasterizer: Gaussian arrays or index list missing (null pointer) for ", n, " indices");
+    if (reinterpret_cast<uintptr_t>(g.rotation) % 16 || reinterpret_cast<uintptr_t>(g.sh) % 16)
+      fail("CUDA rasterizer: rotation and SH arrays must be 16-byte aligned");
+  }
+  const int W = cam.width, H = cam.height;
+  s.tiles_x = (W + kTileSize - 1) / kTileSize;
+  s.tiles_y = (H + kTileSize - 1) / kTileSize;
+  const uint32_t ntiles = uint32_t(s.tiles_x) * uint32_t(s.tiles_y);
+  s.g = g, s.ids = ids, s.n = n, s.cam = cam;
+  s.have_forward = false;
+  const size_t npix = size_t(W) * H;
+  s.rgb.resize(3 * npix), s.depth.resize(npix), s.inv_depth.resize(npix), s.alpha.resize(npix);
+  s.top_id.resize(npix), s.last.resize(npix), s.ranges.resize(ntiles);
+  for (auto* arr : {&s.tiles, &s.zkey, &s.zkey_sorted, &s.order, &s.order_sorted, &s.ends}) arr->resize(n);
+  s.a.resize(n), s.b.resize(n), s.c.resize(n), s.rect.resize(n), s.radius.resize(n), s.visible.resize(n);
+  cudaStream_t st = s.stream;
+
+  s.mark(0);
+  s.total = 0;
+  if (n > 0) {
+    check(cudaMemsetAsync(s.flags.data(), 0xFF, sizeof(uint32_t), st), "memset");
+    PreprocessOut po{s.a.data(), s.b.data(), s.c.data(), s.rect.data(), s.tiles.data(), s.zkey.data(),
+                     s.order.data(), s.radius.data(), s.visible.data(), s.flags.data()};
+    preprocess_kernel<<<blocks_for(n, 128), 128, 0, st>>>(g, ids, uint32_t(n), cam, s.consts, s.tiles_x,
+                                                          s.tiles_y, po);
+    check(cudaGetLastError(), "preprocess launch");
+    s.mark(1);
+    size_t bytes = 0, scan_bytes = 0;
+    cub::DeviceRadixSort::SortPairs(nullptr, bytes, s.zkey.data(), s.zkey_sorted.data(), s.order.data(),
+                                    s.order_sorted.data(), int(n), 0, 32, st);
+    cub::DeviceScan::InclusiveSum(nullptr, scan_bytes, s.tiles.data(), s.ends.data(), int(n), st);
+    void* tmp = s.scratch(std::max(bytes, scan_bytes));
+    check(cub::DeviceRadixSort::SortPairs(tmp, bytes, s.zkey.data(), s.zkey_sorted.data(), s.order.data(),
+                                          s.order_sorted.data(), int(n), 0, 32, st),
+          "depth sort");
+    // zkey is free now: it holds the per-rank counts.
+    gather_counts_kernel<<<blocks_for(n, 256), 256, 0, st>>>(s.order_sorted.data(), s.tiles.data(), uint32_t(n),
+                                                             s.zkey.data());
+    check(cub::DeviceScan::InclusiveSum(tmp, scan_bytes, s.zkey.data(), s.ends.data(), int(n), st), "scan");
+    check(cudaMemcpyAsync(s.flags.data() + 1, s.ends.data() + (n - 1), sizeof(uint32_t),
+                          cudaMemcpyDeviceToDevice, st),
+          "copy count");
+    check(cudaMemcpyAsync(s.host_flags, s.flags.data(), 2 * sizeof(uint32_t), cudaMemcpyDeviceToHost, st),
+          "copy flags");
+    check(cudaStreamSynchronize(st), "preprocess");
+    if (s.host_flags[0] != 0xFFFFFFFFu) {
+      const uint32_t j = s.host_flags[0];
+      uint32_t slot = 0;
+      check(cudaMemcpy(&slot, ids + j, sizeof slot, cudaMemcpyDeviceToHost), "copy bad index");
+      fail("CUDA rasterizer: index ", j, " names slot ", slot, " but the arrays hold ", g.capacity, " slots");
+    }
+    s.total = s.host_flags[1];
+  } else {
+    s.mark(1);
+  }
+  const uint32_t total = s.total;
+  check(cudaMemsetAsync(s.ranges.data(), 0, ntiles * sizeof(uint2), st), "memset ranges");
+  if (total > 0) {
+    s.keys.resize(total), s.vals.resize(total), s.keys_sorted.resize(total), s.vals_sorted.resize(total);
+    emit_kernel<<<blocks_for(n, 256), 256, 0, st>>>(s.order_sorted.data(), s.ends.data(), s.rect.data(),
+                                                    s.tiles.data(), uint32_t(n), s.tiles_x, s.keys.data(),
+                                                    s.vals.data());
+    check(cudaGetLastError(), "emit launch");
+    const int bits = bits_for(ntiles);
+    size_t bytes = 0;
+    cub::DeviceRadixSort::SortPairs(nullptr, bytes, s.keys.data(), s.keys_sorted.data(), s.vals.data(),
+                                    s.vals_sorted.data(), int(total), 0, bits, st);
+    check(cub::DeviceRadixSort::SortPairs(s.scratch(bytes), bytes, s.keys.data(), s.keys_sorted.data(),
+                                          s.vals.data(), s.vals_sorted.data(), int(total), 0, bits, st),
+          "tile sort");
+    ranges_kernel<<<blocks_for(total, 256), 256, 0, st>>>(s.keys_sorted.data(), total, s.ranges.data());
+    check(cudaGetLastError(), "ranges launch");
+  }
+  s.mark(2);
+  composite_forward(s.ranges.data(), s.vals_sorted.data(), SplatData{s.a.data(), s.b.data(), s.c.data()}, ids,
+                    W, H, s.consts,
+                    ForwardImages{s.rgb.data(), s.depth.data(), s.inv_depth.data(), s.alpha.data(),
+                                  s.top_id.data(), s.last.data()},
+                    st);
+  check(cudaGetLastError(), "composite launch");
+  s.mark(3);
+  if (s.timing) {
+    s.timings.preprocess = s.elapsed(0, 1);
+    s.timings.sort = s.elapsed(1, 2);
+    s.timings.composite = s.elapsed(2, 3);
+  }
+  s.out = DeviceRenderOutput{W,
+                             H,
+                             n,
+                             s.rgb.data(),
+                             s.depth.data(),
+                             s.inv_depth.data(),
+                             s.alpha.data(),
+                             s.top_id.data(),
+                             s.visible.data(),
+                             s.radius.data()};
+  s.have_forward = true;
+  return s.out;
+}
+
+const DeviceGaussianGrads& CudaRasterizer::backward(const DeviceRenderGrads& dloss) {
+  State& s = *s_;
+  if (!s.have_forward) fail("CUDA rasterizer backward: no forward render to differentiate");
+  const size_t n = s.n;
+  cudaStream_t st = s.stream;
+  s.splat_grads.resize(n * kSplatGrads);
+  s.g_mean.resize(3 * n), s.g_scale.resize(3 * n), s.g_rot.resize(4 * n), s.g_op.resize(n);
+  s.g_sh.resize(size_t(kShFloats) * n);
+  s.grads = DeviceGaussianGrads{n, s.g_mean.data(), s.g_scale.data(), s.g_rot.data(), s.g_op.data(), s.g_sh.data()};
+  s.mark(0);
+  if (n > 0) check(cudaMemsetAsync(s.splat_grads.data(), 0, n * kSplatGrads * sizeof(float), st), "memset");
+  if (n > 0 && s.total > 0)
+    composite_backward(s.ranges.data(), s.vals_sorted.data(), SplatData{s.a.data(), s.b.data(), s.c.data()},
+                       s.cam.width, s.cam.height, s.consts, s.rgb.data(), s.depth.data(), s.inv_depth.data(),
+                       s.alpha.data(), s.last.data(), dloss, s.splat_grads.data(), st);
+  check(cudaGetLastError(), "composite backward launch");
+  s.mark(1);
+  if (n > 0)
+    gaussian_backward(s.g, s.ids, n, s.cam, s.consts, s.visible.data(), s.splat_grads.data(), s.grads, st);
+  check(cudaGetLastError(), "Gaussian backward launch");
+  s.mark(2);
+  if (s.timing) {
+    s.timings.composite_backward = s.elapsed(0, 1);
+    s.timings.project_backward = s.elapsed(1, 2);
+  }
+  return s.grads;
+}
+
+void CudaRasterizer::download(RenderOutput<float>& out) const {
+  const State& s = *s_;
+  if (!s.have_forward) fail("CUDA rasterizer: nothing rendered to download");
+  const int W = s.cam.width, H = s.cam.height;
+  out.rgb = Image<float>(W, H, 3), out.depth = Image<float>(W, H, 1), out.inv_depth = Image<float>(W, H, 1);
+  out.alpha = Image<float>(W, H, 1), out.top_id = Image<uint32_t>(W, H, 1);
+  s.rgb.download(out.rgb.vec()), s.depth.download(out.depth.vec()), s.inv_depth.download(out.inv_depth.vec());
+  s.alpha.download(out.alpha.vec()), s.top_id.download(out.top_id.vec());
+  s.visible.download(out.visible), s.radius.download(out.radius);
+}
+
+void CudaRasterizer::download(GaussianGrads<float>& grads) const {
+  const State& s = *s_;
+  if (s.grads.count != s.n || !s.have_forward) fail("CUDA rasterizer: no backward to download");
+  s.g_mean.download(grads.mean), s.g_scale.download(grads.log_scale), s.g_rot.download(grads.rotation);
+  s.g_op.download(grads.opacity), s.g_sh.download(grads.sh);
+}
+
+}  // namespace chungs::cuda

@@ -1,0 +1,198 @@
+// Parity of the CUDA rasterizer with its CPU twin on random scenes: images to 1e-4 and gradients to
+// 1e-3 relative error (norm over each array). Skipped where no CUDA device is present.
+#ifdef CHUNGS_WITH_CUDA
+#include "chungs/render/cuda/rasterizer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "chungs/common/error.hpp"
+#include "chungs/render/cpu/rasterizer.hpp"
+#include "cuda_test_support.hpp"
+#include "random_scene.hpp"
+
+namespace chungs {
+namespace {
+
+using test::DeviceScene;
+using test::rel_error;
+
+struct Renders {
+  RenderOutput<float> gpu;
+  RenderOutput<float> cpu;
+};
+
+// Renders the scene with both rasterizers over the same (shuffled, sparse) slot list.
+void render_both(const test::RandomScene& scene, const RasterConfig& cfg, const std::vector<uint32_t>& ids,
+                 cuda::CudaRasterizer& gpu, CpuRasterizer<float>& cpu, Renders& r) {
+  const auto g = scene.g.cast<float>();
+  const DeviceScene dg(g);
+  const cuda::DeviceArray<uint32_t> dids(ids);
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose.inverse());
+  gpu.set_config(cfg);
+  cpu.set_config(cfg);
+  gpu.forward(dg.view(), dids.data(), ids.size(), cam);
+  gpu.download(r.gpu);
+  r.cpu = cpu.forward(g.view(), ids, cam);
+}
+
+void expect_images_match(const Renders& r, double tol) {
+  EXPECT_LT(rel_error(r.gpu.rgb.vec(), r.cpu.rgb.vec()), tol);
+  EXPECT_LT(rel_error(r.gpu.depth.vec(), r.cpu.depth.vec()), tol);
+  EXPECT_LT(rel_error(r.gpu.inv_depth.vec(), r.cpu.inv_depth.vec()), tol);
+  EXPECT_LT(rel_error(r.gpu.alpha.vec(), r.cpu.alpha.vec()), tol);
+  EXPECT_EQ(r.gpu.visible, r.cpu.visible);
+  EXPECT_LT(rel_error(r.gpu.radius, r.cpu.radius), 1e-5);
+  size_t same = 0;
+  const auto& a = r.gpu.top_id.vec();
+  const auto& b = r.cpu.top_id.vec();
+  for (size_t i = 0; i < a.size(); ++i) same += a[i] == b[i];
+  EXPECT_GE(double(same), 0.995 * double(a.size())) << "top_id differs at " << a.size() - same << " pixels";
+}
+
+std::vector<uint32_t> sparse_ids(size_t n, size_t capacity, unsigned seed) {
+  std::vector<uint32_t> all(capacity);
+  for (size_t i = 0; i < capacity; ++i) all[i] = uint32_t(i);
+  std::mt19937 rng(seed);
+  std::shuffle(all.begin(), all.end(), rng);
+  all.resize(n);
+  return all;
+}
+
+TEST(CudaRasterizer, ForwardMatchesCpuTwinOnRandomScenes) {
+  CHUNGS_REQUIRE_GPU();
+  cuda::CudaRasterizer gpu;
+  CpuRasterizer<float> cpu;
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    SCOPED_TRACE(seed);
+    // Small scenes, and a crowded one whose tiles hold several 256-splat batches.
+    const int n = seed <= 3 ? 300 : 3000;
+    const auto scene = test::make_random_scene(seed, n, seed <= 3 ? 53 : 97, seed <= 3 ? 41 : 70);
+    RasterConfig cfg;
+    if (seed == 2) cfg.background = {0.2, 0.5, 0.9};
+    if (seed == 3) cfg.sh_degree = 1;
+    if (seed == 5) cfg = smooth_raster_config();
+    Renders r;
+    render_both(scene, cfg, sparse_ids(size_t(n) * 4 / 5, size_t(n), seed), gpu, cpu, r);
+    expect_images_match(r, 1e-4);
+  }
+}
+
+TEST(CudaRasterizer, EmptyListRendersBackground) {
+  CHUNGS_REQUIRE_GPU();
+  const auto scene = test::make_random_scene(9, 10);
+  RasterConfig cfg;
+  cfg.background = {0.25, 0.5, 0.75};
+  cuda::CudaRasterizer gpu(cfg);
+  const DeviceScene dg(scene.g.cast<float>());
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose.inverse());
+  gpu.forward(dg.view(), nullptr, 0, cam);
+  RenderOutput<float> out;
+  gpu.download(out);
+  for (int y = 0; y < out.rgb.height(); ++y)
+    for (int x = 0; x < out.rgb.width(); ++x) {
+      ASSERT_EQ(out.rgb(x, y, 1), 0.5f);
+      ASSERT_EQ(out.alpha(x, y), 0.f);
+      ASSERT_EQ(out.top_id(x, y), kNoGaussian);
+    }
+}
+
+TEST(CudaRasterizer, IndexOutOfRangeThrowsNamingIt) {
+  CHUNGS_REQUIRE_GPU();
+  const auto scene = test::make_random_scene(4, 20);
+  const DeviceScene dg(scene.g.cast<float>());
+  std::vector<uint32_t> ids = test::iota_ids(20);
+  ids[7] = 20;
+  const cuda::DeviceArray<uint32_t> dids(ids);
+  cuda::CudaRasterizer gpu;
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose.inverse());
+  try {
+    gpu.forward(dg.view(), dids.data(), ids.size(), cam);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("index 7"), std::string::npos) << e.what();
+  }
+}
+
+// Random dL/d(outputs) for all four images.
+RenderGrads<double> random_grads(int w, int h, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> N(0, 1);
+  RenderGrads<double> g{Image<double>(w, h, 3), Image<double>(w, h, 1), Image<double>(w, h, 1),
+                        Image<double>(w, h, 1)};
+  for (auto* img : {&g.rgb, &g.depth, &g.inv_depth, &g.alpha})
+    for (double& v : img->vec()) v = N(rng);
+  for (double& v : g.depth.vec()) v *= 0.1;
+  return g;
+}
+
+std::vector<float> to_float(const std::vector<double>& v) { return std::vector<float>(v.begin(), v.end()); }
+
+TEST(CudaRasterizer, GradientsMatchFloat64CpuTwin) {
+  CHUNGS_REQUIRE_GPU();
+  cuda::CudaRasterizer gpu;
+  for (unsigned seed = 11; seed <= 14; ++seed) {
+    SCOPED_TRACE(seed);
+    const int n = seed % 2 ? 250 : 1500;
+    const int w = seed % 2 ? 45 : 81, h = seed % 2 ? 38 : 64;
+    const auto scene = test::make_random_scene(seed, n, w, h);
+    RasterConfig cfg = seed <= 12 ? smooth_raster_config() : RasterConfig{};
+    if (seed == 14) cfg.background = {0.3, 0.1, 0.6};
+    const auto ids = sparse_ids(size_t(n) * 3 / 4, size_t(n), seed);
+    const auto cam64 = make_render_camera<double>(scene.camera, scene.pose.inverse());
+    CpuRasterizer<double> cpu(cfg);
+    cpu.forward(scene.g.view(), ids, cam64);
+    const auto dl = random_grads(w, h, seed);
+    GaussianGrads<double> ref;
+    cpu.backward(dl, ref);
+
+    gpu.set_config(cfg);
+    const DeviceScene dg(scene.g.cast<float>());
+    const cuda::DeviceArray<uint32_t> dids(ids);
+    gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose.inverse()));
+    const cuda::DeviceArray<float> drgb(to_float(dl.rgb.vec())), ddepth(to_float(dl.depth.vec())),
+        dinv(to_float(dl.inv_depth.vec())), dalpha(to_float(dl.alpha.vec()));
+    gpu.backward({drgb.data(), ddepth.data(), dinv.data(), dalpha.data()});
+    GaussianGrads<float> got;
+    gpu.download(got);
+    EXPECT_LT(rel_error(got.mean, ref.mean), 1e-3);
+    EXPECT_LT(rel_error(got.log_scale, ref.log_scale), 1e-3);
+    EXPECT_LT(rel_error(got.rotation, ref.rotation), 1e-3);
+    EXPECT_LT(rel_error(got.opacity, ref.opacity), 1e-3);
+    EXPECT_LT(rel_error(got.sh, ref.sh), 1e-3);
+  }
+}
+
+TEST(CudaRasterizer, MissingGradientImagesCountAsZero) {
+  CHUNGS_REQUIRE_GPU();
+  const int w = 40, h = 33;
+  const auto scene = test::make_random_scene(21, 200, w, h);
+  const auto g = scene.g.cast<float>();
+  const auto ids = test::iota_ids(200);
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose.inverse());
+  CpuRasterizer<float> cpu;
+  cpu.forward(g.view(), ids, cam);
+  RenderGrads<float> dl;
+  dl.rgb = Image<float>(w, h, 3);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> U(0, 1);
+  for (float& v : dl.rgb.vec()) v = U(rng);
+  GaussianGrads<float> ref, got;
+  cpu.backward(dl, ref);
+  cuda::CudaRasterizer gpu;
+  const DeviceScene dg(g);
+  const cuda::DeviceArray<uint32_t> dids(ids);
+  gpu.forward(dg.view(), dids.data(), ids.size(), cam);
+  const cuda::DeviceArray<float> drgb(dl.rgb.vec());
+  gpu.backward({drgb.data(), nullptr, nullptr, nullptr});
+  gpu.download(got);
+  EXPECT_LT(rel_error(got.mean, ref.mean), 1e-3);
+  EXPECT_LT(rel_error(got.sh, ref.sh), 1e-3);
+  EXPECT_LT(rel_error(got.opacity, ref.opacity), 1e-3);
+}
+
+}  // namespace
+}  // namespace chungs
+#endif
