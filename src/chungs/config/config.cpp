@@ -85,6 +85,55 @@ void fields(V& v, PruneConfig& c) {
 }
 
 template <class V>
+void fields(V& v, MapperConfig& c) {
+  v("pacing", c.pacing, "fixed (iterations per keyframe, deterministic) | anytime (real-time intake)");
+  v("iterations_per_keyframe", c.iterations_per_keyframe, "fixed pacing: optimisation steps per keyframe");
+  v("final_iterations", c.final_iterations, "refinement steps after the last frame");
+  v("speed", c.speed, "anytime pacing: frames arrive at the dataset rate times this");
+  v("keyframe_every", c.keyframe_every, "every k-th training frame becomes a keyframe");
+  v("keyframe_translation", c.keyframe_translation, "metres of motion that also make a keyframe (0: off)");
+  v("keyframe_rotation_deg", c.keyframe_rotation_deg, "degrees of rotation that also make a keyframe (0: off)");
+  v("holdout_every", c.holdout_every, "frame i is held out (never trained) when i % n == n - 1; 0: none");
+  v("resolution", c.resolution, "image scale factor for mapping (1 = full resolution)");
+  v("depth", c.depth, "auto | sensor | stereo | none");
+  v("checkpoint_every", c.checkpoint_every, "keyframes between checkpoints (resume point)");
+  v("seed", c.seed, "random seed (sampling, keyframe picks)");
+  v("eval_keyframe_stride", c.eval_keyframe_stride, "score every n-th keyframe at the end (paper protocol); 0: off");
+  v("max_saved_renders", c.max_saved_renders, "held-out renders written as PNG at most");
+}
+template <class V>
+void fields(V& v, SamplerConfig& c) {
+  v("density", c.density, "acceptance = density * (P_LoG(image) - P_LoG(render))");
+  v("empty_floor", c.empty_floor, "least acceptance where the render is empty");
+  v("init_opacity", c.init_opacity, "");
+  v("min_scale_px", c.min_scale_px, "footprint of a new Gaussian: clamp(1/sqrt(P), min, fraction * W) px");
+  v("max_scale_fraction", c.max_scale_fraction, "");
+  v("min_per_chunk", c.min_per_chunk, "chunks receiving fewer new Gaussians get none");
+  v("max_per_keyframe", c.max_per_keyframe, "cap on new Gaussians per keyframe (0: none)");
+  v("stride", c.stride, "sample every n-th pixel per axis");
+}
+template <class V>
+void fields(V& v, KeyframeSelectorConfig& c) {
+  v("cell_size", c.cell_size, "metres, keyframe grid cell");
+  v("new_uses", c.new_uses, "remaining uses of a new keyframe");
+  v("top_loss_fraction", c.top_loss_fraction, "share of candidates by loss that get an extra use");
+}
+template <class V>
+void fields(V& v, StereoDepthConfig& c) {
+  v("num_disparities", c.num_disparities, "SGBM search range, pixels at full resolution");
+  v("block_size", c.block_size, "");
+  v("uniqueness", c.uniqueness, "");
+  v("speckle_window", c.speckle_window, "");
+  v("speckle_range", c.speckle_range, "");
+  v("lr_max_diff", c.lr_max_diff, "left-right check tolerance, pixels");
+  v("min_depth", c.min_depth, "metres");
+  v("max_depth", c.max_depth, "metres");
+  v("min_disparity_px", c.min_disparity_px, "");
+  v("confidence_sigma2", c.confidence_sigma2, "");
+  v("min_confidence", c.min_confidence, "pixels below this confidence get no depth");
+}
+
+template <class V>
 void sections(V& v, Config& c) {
   v.section("store", c.store);
   v.section("keyframes", c.keyframes);
@@ -94,6 +143,10 @@ void sections(V& v, Config& c) {
   v.section("loss", c.loss);
   v.section("adam", c.adam);
   v.section("prune", c.prune);
+  v.section("mapper", c.mapper);
+  v.section("sampler", c.sampler);
+  v.section("selector", c.selector);
+  v.section("stereo", c.stereo);
 }
 
 struct Printer {
@@ -162,6 +215,10 @@ void Config::validate() const {
   loss.validate();
   prune.validate();
   raster.validate();
+  mapper.validate();
+  sampler.validate();
+  selector.validate();
+  stereo.validate();
 }
 
 Config config_from_yaml(const std::string& text, const std::string& source) {

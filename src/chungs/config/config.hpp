@@ -4,6 +4,10 @@
 #include <filesystem>
 #include <string>
 
+#include "chungs/depth/stereo_depth.hpp"
+#include "chungs/mapping/keyframe_selector.hpp"
+#include "chungs/mapping/mapper_config.hpp"
+#include "chungs/mapping/sampler.hpp"
 #include "chungs/optim/adam.hpp"
 #include "chungs/optim/loss_config.hpp"
 #include "chungs/optim/prune.hpp"
@@ -24,6 +28,10 @@ struct Config {
   LossConfig loss;
   AdamConfig adam;
   PruneConfig prune;
+  MapperConfig mapper;
+  SamplerConfig sampler;
+  KeyframeSelectorConfig selector;
+  StereoDepthConfig stereo;
 
   void validate() const;  // each section's own checks
 };

@@ -1,0 +1,35 @@
+// Metric depth from a rectified stereo pair: OpenCV semi-global block matching on both views, a
+// left-right consistency check, and a confidence map from the smoothness of the inverse depth.
+#pragma once
+#include "chungs/image/image.hpp"
+
+namespace chungs {
+
+struct StereoDepthConfig {
+  int num_disparities = 128;  // search range in pixels (rounded up to a multiple of 16)
+  int block_size = 5;         // odd SGBM window
+  int uniqueness = 10;        // SGBM uniqueness ratio, percent
+  int speckle_window = 100;   // speckle filter region (pixels), 0 = off
+  int speckle_range = 2;
+  double lr_max_diff = 1.0;   // left and right disparities must agree to this many pixels
+  double min_depth = 0.5, max_depth = 80.0;  // metres kept
+  double min_disparity_px = 1.0;
+  // Confidence exp(-|Sobel(inverse depth)|^2 / confidence_sigma2) with inverse depth scaled by
+  // the median of the valid ones (scale free); pixels below min_confidence are dropped.
+  double confidence_sigma2 = 0.2;
+  double min_confidence = 0.0;
+  void validate() const;
+};
+
+struct StereoDepth {
+  ImageF depth;       // metres along the optical axis, 0 where invalid
+  ImageF confidence;  // [0, 1], 0 where invalid
+  size_t valid = 0;
+};
+
+// left/right: same size, gray or RGB, rectified (rows correspond). fx in pixels, baseline in metres.
+// Throws Error on mismatched shapes or a non-positive focal length or baseline.
+StereoDepth stereo_depth(const Image8& left, const Image8& right, double fx, double baseline,
+                         const StereoDepthConfig& config = {});
+
+}  // namespace chungs

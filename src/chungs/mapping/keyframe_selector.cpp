@@ -1,0 +1,85 @@
+#include "chungs/mapping/keyframe_selector.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "chungs/common/error.hpp"
+
+namespace chungs {
+
+void KeyframeSelectorConfig::validate() const {
+  if (!(cell_size > 0)) fail("keyframe selector: cell_size must be > 0, got ", cell_size);
+  if (new_uses < 1) fail("keyframe selector: new_uses must be >= 1, got ", new_uses);
+  if (!(top_loss_fraction >= 0 && top_loss_fraction <= 1))
+    fail("keyframe selector: top_loss_fraction must be in [0, 1], got ", top_loss_fraction);
+}
+
+KeyframeSelector::KeyframeSelector(const KeyframeSelectorConfig& config) : config_(config) { config_.validate(); }
+
+KeyframeSelector::Cell KeyframeSelector::cell_of(const Eigen::Vector3d& p) const {
+  return {int64_t(std::floor(p.x() / config_.cell_size)), int64_t(std::floor(p.y() / config_.cell_size)),
+          int64_t(std::floor(p.z() / config_.cell_size))};
+}
+
+void KeyframeSelector::add(uint32_t id, const Eigen::Vector3d& position, int uses, double last_loss) {
+  if (!position.allFinite()) fail("keyframe selector: keyframe ", id, " has a non-finite position");
+  if (!keyframes_.count(id)) order_.push_back(id);
+  keyframes_[id] = {id, position, uses < 0 ? config_.new_uses : uses, last_loss};
+  latest_ = id;
+}
+
+std::vector<uint32_t> KeyframeSelector::candidates() const {
+  std::vector<uint32_t> out;
+  if (keyframes_.empty()) return out;
+  const Cell c = cell_of(keyframes_.at(latest_).position);
+  for (const auto& [id, k] : keyframes_)
+    if (cell_of(k.position) == c) out.push_back(id);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+uint32_t KeyframeSelector::pick(std::mt19937_64& rng) {
+  const std::vector<uint32_t> cand = candidates();
+  if (cand.empty()) fail("keyframe selector: no keyframe to pick from");
+  long long total = 0;
+  for (uint32_t id : cand) total += keyframes_[id].uses;
+  if (total == 0) {
+    for (uint32_t id : cand) keyframes_[id].uses += 1;
+    std::vector<uint32_t> by_loss = cand;
+    std::stable_sort(by_loss.begin(), by_loss.end(),
+                     [&](uint32_t a, uint32_t b) { return keyframes_[a].last_loss > keyframes_[b].last_loss; });
+    const size_t top = size_t(std::ceil(config_.top_loss_fraction * double(by_loss.size())));
+    for (size_t i = 0; i < top; ++i) keyframes_[by_loss[i]].uses += 1;
+    total = 0;
+    for (uint32_t id : cand) total += keyframes_[id].uses;
+  }
+  long long r = std::uniform_int_distribution<long long>(0, total - 1)(rng);
+  for (uint32_t id : cand) {
+    r -= keyframes_[id].uses;
+    if (r < 0) {
+      keyframes_[id].uses -= 1;
+      return id;
+    }
+  }
+  fail("keyframe selector: internal error in the weighted pick");
+}
+
+void KeyframeSelector::report_loss(uint32_t id, double loss) {
+  auto it = keyframes_.find(id);
+  if (it == keyframes_.end()) fail("keyframe selector: loss for unknown keyframe ", id);
+  it->second.last_loss = loss;
+}
+
+const KeyframeUsage& KeyframeSelector::usage(uint32_t id) const {
+  auto it = keyframes_.find(id);
+  if (it == keyframes_.end()) fail("keyframe selector: unknown keyframe ", id);
+  return it->second;
+}
+
+std::vector<KeyframeUsage> KeyframeSelector::all() const {
+  std::vector<KeyframeUsage> out;
+  for (uint32_t id : order_) out.push_back(keyframes_.at(id));
+  return out;
+}
+
+}  // namespace chungs

@@ -1,0 +1,56 @@
+// KeyframeSelector: which keyframe the next optimisation step trains on. Keyframes are bucketed on a
+// coarse grid (200 m cells); only those in the latest keyframe's cell are candidates, so training
+// stays near the car and the chunks it needs stay resident (no thrashing between distant places).
+// Within the cell, CaRtGS's usage rule: a new keyframe has `new_uses` remaining uses; when no
+// candidate has any left, every candidate gets +1 and the top quarter by last loss another +1; the
+// pick is random, weighted by remaining uses, and costs the picked keyframe one use.
+#pragma once
+#include <Eigen/Core>
+#include <cstdint>
+#include <random>
+#include <unordered_map>
+#include <vector>
+
+namespace chungs {
+
+struct KeyframeSelectorConfig {
+  double cell_size = 200.0;       // metres
+  int new_uses = 8;
+  double top_loss_fraction = 0.25;
+  void validate() const;
+};
+
+struct KeyframeUsage {
+  uint32_t id = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  int uses = 0;
+  double last_loss = 0;  // loss of its last step (0 before the first)
+};
+
+class KeyframeSelector {
+ public:
+  explicit KeyframeSelector(const KeyframeSelectorConfig& config = {});
+  // Registers a keyframe (the latest one defines the candidate cell). `uses` < 0 means new_uses.
+  void add(uint32_t id, const Eigen::Vector3d& position, int uses = -1, double last_loss = 0);
+  // Throws Error when no keyframe was added.
+  uint32_t pick(std::mt19937_64& rng);
+  void report_loss(uint32_t id, double loss);
+  std::vector<uint32_t> candidates() const;  // keyframes in the latest keyframe's cell, ascending
+  const KeyframeUsage& usage(uint32_t id) const;
+  size_t size() const { return keyframes_.size(); }
+  const KeyframeSelectorConfig& config() const { return config_; }
+  std::vector<KeyframeUsage> all() const;  // ascending id (for saving)
+
+ private:
+  struct Cell {
+    int64_t x, y, z;
+    bool operator==(const Cell&) const = default;
+  };
+  Cell cell_of(const Eigen::Vector3d& p) const;
+  KeyframeSelectorConfig config_;
+  std::unordered_map<uint32_t, KeyframeUsage> keyframes_;
+  std::vector<uint32_t> order_;  // insertion order
+  uint32_t latest_ = 0;
+};
+
+}  // namespace chungs

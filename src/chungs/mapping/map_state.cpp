@@ -1,0 +1,80 @@
+#include "chungs/mapping/map_state.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "chungs/common/text_file.hpp"
+#include "chungs/store/atomic_file.hpp"
+
+namespace chungs {
+
+void write_keyframe_records(const std::filesystem::path& file, const std::vector<KeyframeRecord>& records,
+                            bool durable) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "# id frame stamp width height fx fy cx cy tx ty tz qx qy qz qw uses last_loss\n";
+  for (const auto& r : records) {
+    const auto& c = r.camera;
+    s << r.id << ' ' << r.frame << ' ' << r.stamp << ' ' << c.width << ' ' << c.height << ' ' << c.fx << ' ' << c.fy
+      << ' ' << c.cx << ' ' << c.cy << ' ' << r.pose.t.x() << ' ' << r.pose.t.y() << ' ' << r.pose.t.z() << ' '
+      << r.pose.q.x() << ' ' << r.pose.q.y() << ' ' << r.pose.q.z() << ' ' << r.pose.q.w() << ' ' << r.uses << ' '
+      << r.last_loss << '\n';
+  }
+  const std::string text = s.str();
+  const ConstBuffer part{text.data(), text.size()};
+  write_file_atomically(file, std::span<const ConstBuffer>(&part, 1), durable);
+}
+
+std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& file) {
+  std::vector<KeyframeRecord> out;
+  const std::string text = read_file_text(file);
+  std::istringstream in(text);
+  std::string line;
+  size_t lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    KeyframeRecord r;
+    double t[3], q[4];
+    ls >> r.id >> r.frame >> r.stamp >> r.camera.width >> r.camera.height >> r.camera.fx >> r.camera.fy >>
+        r.camera.cx >> r.camera.cy >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3] >> r.uses >> r.last_loss;
+    if (!ls) fail(file.string(), ":", lineno, ": expected 18 numbers (a keyframe record)");
+    r.pose = SE3(Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+    r.camera.validate(cat(file.string(), ":", lineno));
+    out.push_back(r);
+  }
+  return out;
+}
+
+void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable) {
+  const std::string text = j.dump(1) + "\n";
+  const ConstBuffer part{text.data(), text.size()};
+  write_file_atomically(file, std::span<const ConstBuffer>(&part, 1), durable);
+}
+
+nlohmann::json read_json_file(const std::filesystem::path& file) {
+  const std::string text = read_file_text(file);
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const std::exception& e) {
+    fail(file.string(), ": not valid JSON (", e.what(), ")");
+  }
+}
+
+namespace {
+uint64_t status_kb(const char* key) {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  const std::string k = key;
+  while (std::getline(f, line))
+    if (line.rfind(k, 0) == 0) return std::stoull(line.substr(k.size())) * 1024;
+  return 0;
+}
+}  // namespace
+
+uint64_t current_rss_bytes() { return status_kb("VmRSS:"); }
+uint64_t peak_rss_bytes() { return status_kb("VmHWM:"); }
+
+}  // namespace chungs

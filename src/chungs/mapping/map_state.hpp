@@ -1,0 +1,36 @@
+// The mapper's own part of a map folder, beside the chunk files and manifest: the keyframe list
+// (id, frame, camera, pose, selector usage) and a JSON run state, both replaced crash-safely, so
+// `--resume` continues from the last checkpoint.
+#pragma once
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "chungs/geometry/camera.hpp"
+#include "chungs/geometry/se3.hpp"
+
+namespace chungs {
+
+struct KeyframeRecord {
+  uint32_t id = 0;
+  uint64_t frame = 0;
+  double stamp = 0;
+  Camera camera;
+  SE3 pose;  // camera-to-world
+  int uses = 0;
+  double last_loss = 0;
+};
+
+void write_keyframe_records(const std::filesystem::path& file, const std::vector<KeyframeRecord>& records,
+                            bool durable);
+// Throws Error "FILE:LINE: ..." on malformed lines.
+std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& file);
+
+void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable);
+nlohmann::json read_json_file(const std::filesystem::path& file);
+
+// Resident set size of this process now and its peak, in bytes (0 where /proc is unavailable).
+uint64_t current_rss_bytes();
+uint64_t peak_rss_bytes();
+
+}  // namespace chungs

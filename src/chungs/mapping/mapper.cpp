@@ -1,0 +1,224 @@
+#include "chungs/mapping/mapper.hpp"
+
+#include <algorithm>
+#include <unordered_map>
+
+#include "chungs/common/log.hpp"
+#include "chungs/optim/adam.hpp"
+#include "chungs/optim/loss.hpp"
+#include "chungs/optim/prune.hpp"
+
+namespace chungs {
+
+namespace fs = std::filesystem;
+
+ImageF to_rgb_float(const Image8& img) { return to_rgb(to_float(img)); }
+
+void inverse_depth_of(const ImageF& depth, ImageF& inv, Image8& mask) {
+  inv = ImageF(depth.width(), depth.height(), 1, 0.f);
+  mask = Image8(depth.width(), depth.height(), 1, 0);
+  for (size_t i = 0; i < depth.pixels(); ++i) {
+    const float d = depth.data()[i];
+    if (d > 0 && std::isfinite(d)) {
+      inv.data()[i] = 1.f / d;
+      mask.data()[i] = 1;
+    }
+  }
+}
+
+Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
+    : folder_(folder), config_(config), selector_(config.selector), raster_(config.raster),
+      rng_(config.mapper.seed) {
+  const bool existing = fs::exists(folder / "manifest.txt") || fs::exists(folder / "keyframes.txt");
+  if (existing && !resume)
+    fail(folder.string(), " already holds a map: pass --resume to continue it, or choose another folder");
+  store_ = std::make_unique<ChunkStore>(folder, config_.store);
+  pool_ = std::make_unique<CpuGaussianPool>(config_.residency.budget_gaussians, store_->sh_degree());
+  residency_ = std::make_unique<Residency>(*store_, *pool_, config_.residency);
+  culler_ = std::make_unique<FrustumCuller>(store_->chunk_size(), config_.culling);
+  keyframe_store_ = std::make_unique<KeyframeStore>(folder / "keyframes", config_.keyframes);
+  if (resume && fs::exists(folder / "keyframes.txt")) {
+    keyframes_ = read_keyframe_records(folder / "keyframes.txt");
+    std::vector<uint64_t> known;
+    for (const auto& k : keyframes_) {
+      if (!keyframe_store_->contains(k.id))
+        fail(folder.string(), ": keyframe ", k.id, " is listed in keyframes.txt but its images are missing");
+      selector_.add(k.id, k.pose.t, k.uses, k.last_loss);
+      known.push_back(k.id);
+    }
+    // Keyframes stored after the last checkpoint are dropped: their frames are processed again.
+    for (uint64_t id : keyframe_store_->ids())
+      if (std::find(known.begin(), known.end(), id) == known.end()) keyframe_store_->erase(id);
+  }
+  if (resume && fs::exists(folder / "run_state.json")) {
+    resumed_state_ = read_json_file(folder / "run_state.json");
+    iterations_ = resumed_state_.value("iterations", uint64_t(0));
+    if (resumed_state_.contains("rng")) {
+      std::istringstream s(resumed_state_["rng"].get<std::string>());
+      s >> rng_;
+    }
+  }
+  if (store_->open_report().repaired())
+    log::info("map ", folder.string(), ": repaired after an interrupted run (", store_->open_report().entries_adopted,
+              " chunk files adopted, ", store_->open_report().entries_updated, " updated)");
+}
+
+Mapper::~Mapper() = default;
+
+uint64_t Mapper::total_gaussians() const {
+  uint64_t n = 0;
+  for (const auto& kv : residency_->catalogue()) n += kv.second;
+  return n;
+}
+
+std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose) {
+  culler_->set_chunks_from(residency_->catalogue(), residency_->catalogue_version());
+  std::vector<ChunkId> ids = culler_->cull(camera, pose);
+  const double s = store_->chunk_size();
+  std::vector<std::pair<double, ChunkId>> by_dist;
+  for (ChunkId id : ids) {
+    if (residency_->count(id) == 0) continue;
+    by_dist.emplace_back((chunk_centre(chunk_coord(id), s) - pose.t).squaredNorm(), id);
+  }
+  std::sort(by_dist.begin(), by_dist.end());
+  std::vector<ChunkId> out;
+  uint64_t total = 0;
+  for (auto [d, id] : by_dist) {
+    const uint64_t n = residency_->count(id);
+    if (total + n > residency_->budget()) continue;  // the farthest chunks give way
+    total += n;
+    out.push_back(id);
+  }
+  return out;
+}
+
+const RenderOutput<float>& Mapper::render_visible(const std::vector<ChunkId>& chunks, const Camera& camera,
+                                                  const SE3& pose, std::vector<uint32_t>& slots) {
+  slots.clear();
+  residency_->append_slots(chunks, slots);
+  return raster_.forward(view_of(pool_->params()), slots, make_render_camera<float>(camera, pose));
+}
+
+RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
+  const std::vector<ChunkId> chunks = visible_chunks(camera, pose);
+  const PinResult pr = residency_->pin(chunks);
+  if (!pr.ok) fail("mapper: cannot make the visible chunks resident: ", pr.message);
+  std::vector<uint32_t> slots;
+  RenderOutput<float> out;
+  try {
+    out = render_visible(chunks, camera, pose, slots);
+  } catch (...) {
+    residency_->unpin(chunks);
+    throw;
+  }
+  residency_->unpin(chunks);
+  return out;
+}
+
+SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& color, const std::optional<ImageF>& depth,
+                                 const Camera& camera, const SE3& pose) {
+  camera.validate(cat("keyframe of frame ", frame));
+  if (depth && !depth->same_size(color))
+    fail("mapper: frame ", frame, ": depth ", depth->width(), "x", depth->height(), " does not match the image ",
+         color.width(), "x", color.height());
+  const uint32_t id = keyframes_.empty() ? 0 : keyframes_.back().id + 1;
+  keyframe_store_->put(id, KeyframeImages{color, depth ? *depth : ImageF()});
+  SampleStats stats;
+  if (depth) {
+    const ImageF target = to_rgb_float(color);
+    const RenderOutput<float> r = render(camera, pose);
+    const ImageF prob = sampling_probability(config_.sampler, target, &r.rgb, &r.alpha);
+    auto batches = sample_gaussians(config_.sampler, target, *depth, prob, camera, pose, store_->chunk_size(), id,
+                                    uint32_t(iterations_), rng_, &stats);
+    for (auto& b : batches) {
+      const PinResult res = residency_->add(b.id, b.block);
+      if (!res.ok) stats.kept -= b.block.size();
+    }
+  }
+  KeyframeRecord rec;
+  rec.id = id;
+  rec.frame = frame;
+  rec.stamp = stamp;
+  rec.camera = camera;
+  rec.pose = pose;
+  selector_.add(id, pose.t);
+  rec.uses = selector_.usage(id).uses;
+  keyframes_.push_back(rec);
+  return stats;
+}
+
+StepStats Mapper::step() {
+  if (keyframes_.empty()) fail("mapper: an optimisation step needs at least one keyframe");
+  StepStats st;
+  st.keyframe = selector_.pick(rng_);
+  const auto it = std::find_if(keyframes_.begin(), keyframes_.end(), [&](const auto& k) { return k.id == st.keyframe; });
+  const KeyframeRecord& kf = *it;
+  const auto images = keyframe_store_->get(kf.id);
+  const ImageF target = to_rgb_float(images->color);
+  ImageF inv;
+  Image8 mask;
+  const bool use_depth = !images->depth.empty() && config_.loss.lambda_depth > 0;
+  if (use_depth) inverse_depth_of(images->depth, inv, mask);
+
+  const std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose);
+  const PinResult pr = residency_->pin(chunks);
+  if (!pr.ok) fail("mapper: cannot make the chunks of keyframe ", kf.id, " resident: ", pr.message);
+  try {
+    std::vector<uint32_t> slots;
+    const RenderOutput<float>& out = render_visible(chunks, kf.camera, kf.pose, slots);
+    const LossTerms terms = mapping_loss<float>(config_.loss, out, target, use_depth ? &inv : nullptr,
+                                                use_depth ? &mask : nullptr, &dloss_);
+    st.loss = terms.total;
+    st.rendered = slots.size();
+    st.chunks = chunks.size();
+    if (!slots.empty()) {
+      raster_.backward(dloss_, grads_);
+      sparse_adam_step(config_.adam, mut_view_of(pool_->params()), adam_state_of(pool_->storage()), slots,
+                       out.visible, grads_);
+      residency_->mark_dirty(chunks);
+    }
+    ++iterations_;
+    if (config_.prune.every > 0 && iterations_ % uint64_t(config_.prune.every) == 0 && !slots.empty()) {
+      const std::vector<uint32_t> gone =
+          select_for_pruning(config_.prune, view_of(pool_->params()), slots, out.radius, kf.camera.width);
+      if (!gone.empty()) {
+        std::unordered_map<uint32_t, ChunkId> owner;
+        owner.reserve(gone.size() * 2);
+        for (uint32_t s : gone) owner.emplace(s, 0);
+        for (ChunkId c : chunks)
+          for (uint32_t s : residency_->slots(c)) {
+            auto o = owner.find(s);
+            if (o != owner.end()) o->second = c;
+          }
+        std::unordered_map<ChunkId, std::vector<uint32_t>> per_chunk;
+        for (auto [s, c] : owner) per_chunk[c].push_back(s);
+        for (auto& [c, v] : per_chunk) residency_->remove_slots(c, v);
+        st.pruned = gone.size();
+        pruned_total_ += gone.size();
+      }
+    }
+  } catch (...) {
+    residency_->unpin(chunks);
+    throw;
+  }
+  residency_->unpin(chunks);
+  selector_.report_loss(kf.id, st.loss);
+  return st;
+}
+
+void Mapper::checkpoint(const nlohmann::json& run_state) {
+  residency_->flush();
+  for (auto& k : keyframes_) {
+    k.uses = selector_.usage(k.id).uses;
+    k.last_loss = selector_.usage(k.id).last_loss;
+  }
+  write_keyframe_records(folder_ / "keyframes.txt", keyframes_, config_.store.durable);
+  nlohmann::json j = run_state;
+  j["iterations"] = iterations_;
+  std::ostringstream s;
+  s << rng_;
+  j["rng"] = s.str();
+  write_json_atomically(folder_ / "run_state.json", j, config_.store.durable);
+}
+
+}  // namespace chungs

@@ -1,0 +1,96 @@
+// Mapper: keyframes in, an optimised chunked Gaussian map out. Each new keyframe is sampled into
+// new Gaussians (Sampler); each optimisation step picks a keyframe (KeyframeSelector), culls the
+// chunks it sees, makes them resident within the budget (Residency), renders them from the pool's
+// slots, and applies the loss gradient with sparse Adam, marking the chunks modified; every few
+// steps nearly transparent or oversized Gaussians are pruned. Keyframe images live in the
+// KeyframeStore. checkpoint() makes the folder a complete map that `resume` reopens.
+// Not thread-safe: one thread drives it.
+#pragma once
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <random>
+#include <vector>
+
+#include "chungs/config/config.hpp"
+#include "chungs/mapping/keyframe_selector.hpp"
+#include "chungs/mapping/map_state.hpp"
+#include "chungs/mapping/sampler.hpp"
+#include "chungs/render/cpu/rasterizer.hpp"
+#include "chungs/residency/frustum_culler.hpp"
+#include "chungs/residency/residency.hpp"
+#include "chungs/store/keyframe_store.hpp"
+
+namespace chungs {
+
+struct StepStats {
+  uint32_t keyframe = 0;
+  double loss = 0;
+  size_t rendered = 0;  // Gaussians in the visible chunks
+  size_t chunks = 0;
+  size_t pruned = 0;
+};
+
+class Mapper {
+ public:
+  // Opens or creates the map folder. With resume, keyframes, selector state and run state are read
+  // back from the last checkpoint; without it, a folder that already holds a map is refused.
+  Mapper(const std::filesystem::path& folder, const Config& config, bool resume);
+  ~Mapper();
+  Mapper(const Mapper&) = delete;
+  Mapper& operator=(const Mapper&) = delete;
+
+  // Stores the keyframe, renders the map from its pose, samples new Gaussians where the render
+  // lacks the image's detail. color: 1 or 3 channels; depth: metres (0 invalid), or none.
+  SampleStats add_keyframe(uint64_t frame, double stamp, const Image8& color, const std::optional<ImageF>& depth,
+                           const Camera& camera, const SE3& pose);
+  StepStats step();  // one optimisation step; throws when there is no keyframe yet
+  // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
+  RenderOutput<float> render(const Camera& camera, const SE3& pose);
+
+  // Writes every modified chunk, the manifest, the keyframe list and `run_state`.
+  void checkpoint(const nlohmann::json& run_state);
+  const nlohmann::json& resumed_state() const { return resumed_state_; }
+
+  const std::vector<KeyframeRecord>& keyframes() const { return keyframes_; }
+  uint64_t iterations() const { return iterations_; }
+  uint64_t total_gaussians() const;
+  size_t resident_gaussians() const { return residency_->resident_gaussians(); }
+  size_t peak_resident_gaussians() const { return residency_->peak_resident_gaussians(); }
+  size_t budget() const { return residency_->budget(); }
+  size_t chunk_count() const { return residency_->catalogue().size(); }
+  IoStats io_stats() const { return residency_->stats(); }
+  IoStats keyframe_io_stats() const { return keyframe_store_->counters().snapshot(); }
+  uint64_t pruned_total() const { return pruned_total_; }
+  const std::filesystem::path& folder() const { return folder_; }
+  const Config& config() const { return config_; }
+
+ private:
+  // Visible chunks of a view, nearest first, trimmed so that they fit the budget.
+  std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose);
+  const RenderOutput<float>& render_visible(const std::vector<ChunkId>& chunks, const Camera& camera,
+                                            const SE3& pose, std::vector<uint32_t>& slots);
+  std::filesystem::path folder_;
+  Config config_;
+  std::unique_ptr<ChunkStore> store_;
+  std::unique_ptr<CpuGaussianPool> pool_;
+  std::unique_ptr<Residency> residency_;
+  std::unique_ptr<FrustumCuller> culler_;
+  std::unique_ptr<KeyframeStore> keyframe_store_;
+  KeyframeSelector selector_;
+  CpuRasterizer<float> raster_;
+  std::vector<KeyframeRecord> keyframes_;
+  std::mt19937_64 rng_;
+  uint64_t iterations_ = 0, pruned_total_ = 0;
+  nlohmann::json resumed_state_;
+  RenderGrads<float> dloss_;
+  GaussianGrads<float> grads_;
+};
+
+// Float RGB target of an 8-bit image (gray replicated).
+ImageF to_rgb_float(const Image8& img);
+// Inverse depth (1/m, 0 invalid) and its validity mask.
+void inverse_depth_of(const ImageF& depth, ImageF& inv, Image8& mask);
+
+}  // namespace chungs

@@ -1,0 +1,27 @@
+// Settings of the mapping pipeline (pacing, keyframes, evaluation), with every default here.
+#pragma once
+#include <cstdint>
+#include <string>
+
+namespace chungs {
+
+struct MapperConfig {
+  std::string pacing = "fixed";     // fixed: iterations_per_keyframe steps per keyframe (deterministic);
+                                    // anytime: frames arrive in real time, the mapper trains in between
+  int iterations_per_keyframe = 30;
+  int final_iterations = 0;         // refinement steps after the last frame
+  double speed = 1.0;               // anytime: frames arrive at the dataset rate times this
+  int keyframe_every = 1;           // every k-th training frame is a keyframe ...
+  double keyframe_translation = 0;  // ... or (when > 0) once the camera moved this far (m) ...
+  double keyframe_rotation_deg = 0; // ... or turned this much since the last keyframe
+  int holdout_every = 8;            // frame i is never trained on when i % n == n - 1 (0: none)
+  double resolution = 1.0;          // images (and intrinsics) scaled by this before mapping
+  std::string depth = "auto";       // auto | sensor | stereo | none
+  int checkpoint_every = 5;         // keyframes between checkpoints (flush chunks, save state)
+  uint64_t seed = 1;
+  int eval_keyframe_stride = 1;     // paper protocol: score every n-th keyframe at the end (0: off)
+  int max_saved_renders = 64;       // held-out renders written as PNG at most
+  void validate() const;
+};
+
+}  // namespace chungs

@@ -1,0 +1,203 @@
+#include "chungs/mapping/run_pipeline.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "chungs/common/log.hpp"
+#include "chungs/common/progress.hpp"
+#include "chungs/eval/report.hpp"
+#include "chungs/mapping/evaluation.hpp"
+#include "chungs/mapping/frame_source.hpp"
+#include "chungs/mapping/timeline.hpp"
+#include "chungs/store/atomic_file.hpp"
+
+namespace chungs {
+
+namespace fs = std::filesystem;
+
+bool is_held_out(size_t frame, int holdout_every) {
+  return holdout_every > 0 && frame % size_t(holdout_every) == size_t(holdout_every - 1);
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+TimelineSample sample_now(const Mapper& m, double seconds, uint64_t frame) {
+  TimelineSample t;
+  t.seconds = seconds;
+  t.frame = frame;
+  t.keyframes = m.keyframes().size();
+  t.iterations = m.iterations();
+  t.resident = m.resident_gaussians();
+  t.total = m.total_gaussians();
+  t.chunks = m.chunk_count();
+  t.rss_mb = double(current_rss_bytes()) / (1024.0 * 1024.0);
+  const IoStats io = m.io_stats();
+  t.loads = io.loads;
+  t.saves = io.saves;
+  t.io_ms = io.load_ms + io.save_ms;
+  return t;
+}
+
+void write_text(const fs::path& file, const std::string& text) {
+  const ConstBuffer part{text.data(), text.size()};
+  write_file_atomically(file, std::span<const ConstBuffer>(&part, 1), false);
+}
+
+}  // namespace
+
+nlohmann::json run_mapping(const RunOptions& o) {
+  const Config& cfg = o.config;
+  cfg.mapper.validate();
+  const MapperConfig& mc = cfg.mapper;
+  const auto dataset = open_dataset(o.dataset);
+  const DatasetInfo& info = dataset->info();
+  const DepthMode mode = resolve_depth_mode(parse_depth_mode(mc.depth), info.has_depth, info.has_right);
+  if (mode == DepthMode::None)
+    fail("dataset ", o.dataset, ": depth source 'none' places Gaussians only at a tracker's sparse points, "
+         "and mapping on given poses has none; use an RGB-D or stereo dataset");
+  const auto poses = frame_poses(*dataset, o.poses);
+  const size_t n = o.max_frames ? std::min(o.max_frames, dataset->size()) : dataset->size();
+
+  Mapper mapper(o.out, cfg, o.resume);
+  const nlohmann::json& prev = mapper.resumed_state();
+  size_t start = 0;
+  double carried_seconds = 0;
+  std::vector<TimelineSample> timeline;
+  if (o.resume && !prev.is_null()) {
+    if (prev.value("dataset", std::string()) != o.dataset)
+      fail(o.out.string(), ": the map was made from ", prev.value("dataset", std::string("?")), ", not ", o.dataset);
+    start = prev.value("next_frame", size_t(0));
+    carried_seconds = prev.value("seconds", 0.0);
+    if (prev.contains("timeline")) timeline = timeline_from_json(prev["timeline"]);
+    log::info("resuming ", o.out.string(), " at frame ", start, " with ", mapper.keyframes().size(), " keyframes and ",
+              mapper.total_gaussians(), " Gaussians");
+  }
+  log::info("mapping ", o.dataset, " (", n, " frames, ", info.camera.width, "x", info.camera.height, " x ",
+            mc.resolution, ", depth ", depth_mode_name(mode), ", poses ", o.poses, ", budget ",
+            cfg.residency.budget_gaussians, " Gaussians, chunks of ", cfg.store.chunk_size, " m)");
+
+  const auto t0 = Clock::now();
+  auto seconds = [&] { return carried_seconds + since(t0); };
+  auto state = [&](size_t next_frame, bool finished) {
+    return nlohmann::json{{"dataset", o.dataset}, {"poses", o.poses},           {"next_frame", next_frame},
+                          {"frames", n},          {"finished", finished},      {"seconds", seconds()},
+                          {"timeline", to_json(timeline)}};
+  };
+  // Frame i arrives (anytime pacing) at its dataset time divided by the speed factor.
+  const double stamp0 = n ? dataset->timestamp(0) : 0;
+  auto arrival = [&](size_t i) { return (dataset->timestamp(i) - stamp0) / mc.speed; };
+
+  Progress progress("mapping", (long long)(n - std::min(start, n)));
+  size_t since_keyframe = 0, keyframes_since_checkpoint = 0;
+  std::optional<SE3> last_kf = mapper.keyframes().empty() ? std::nullopt : std::optional(mapper.keyframes().back().pose);
+  uint64_t sampled = 0;
+  for (size_t i = start; i < n; ++i) {
+    progress.step();
+    if (is_held_out(i, mc.holdout_every) || !poses[i]) continue;
+    const SE3& pose = *poses[i];
+    ++since_keyframe;
+    bool key = !last_kf || since_keyframe >= size_t(mc.keyframe_every);
+    if (last_kf && mc.keyframe_translation > 0 && (pose.t - last_kf->t).norm() >= mc.keyframe_translation) key = true;
+    if (last_kf && mc.keyframe_rotation_deg > 0 &&
+        (last_kf->inverse() * pose).angle() * 180.0 / M_PI >= mc.keyframe_rotation_deg)
+      key = true;
+    if (!key) continue;
+    if (mc.pacing == "anytime" && !mapper.keyframes().empty())
+      while (seconds() < arrival(i)) mapper.step();
+    const MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo);
+    const SampleStats ss = mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, pose);
+    sampled += ss.kept;
+    log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
+               " without depth) in ", ss.chunks, " chunks");
+    since_keyframe = 0;
+    last_kf = pose;
+    if (mc.pacing == "fixed")
+      for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
+    timeline.push_back(sample_now(mapper, seconds(), i));
+    if (++keyframes_since_checkpoint >= size_t(mc.checkpoint_every)) {
+      mapper.checkpoint(state(i + 1, false));
+      keyframes_since_checkpoint = 0;
+    }
+  }
+  progress.finish();
+  if (mapper.keyframes().empty()) fail("dataset ", o.dataset, ": no frame with a pose became a keyframe");
+  if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
+    Progress refine("refining", mc.final_iterations);
+    for (int k = 0; k < mc.final_iterations; ++k) {
+      mapper.step();
+      refine.step();
+    }
+    refine.finish();
+  }
+  timeline.push_back(sample_now(mapper, seconds(), n ? n - 1 : 0));
+  mapper.checkpoint(state(n, true));
+  const double map_seconds = seconds();
+
+  nlohmann::json report;
+  report["dataset"] = o.dataset;
+  report["poses"] = o.poses;
+  report["frames"] = n;
+  report["resolution"] = {info.camera.width * mc.resolution, info.camera.height * mc.resolution};
+  report["depth"] = depth_mode_name(mode);
+  report["settings"] = {{"pacing", mc.pacing},
+                        {"iterations_per_keyframe", mc.iterations_per_keyframe},
+                        {"final_iterations", mc.final_iterations},
+                        {"speed", mc.speed},
+                        {"holdout_every", mc.holdout_every},
+                        {"budget_gaussians", cfg.residency.budget_gaussians},
+                        {"chunk_size_m", cfg.store.chunk_size},
+                        {"lambda_depth", cfg.loss.lambda_depth},
+                        {"lr_position", cfg.adam.lr_position},
+                        {"sampler_density", cfg.sampler.density},
+                        {"seed", mc.seed}};
+  report["keyframes"] = mapper.keyframes().size();
+  report["iterations"] = mapper.iterations();
+  report["time"] = {{"mapping_s", map_seconds}, {"processing_fps", map_seconds > 0 ? double(n) / map_seconds : 0}};
+  const IoStats io = mapper.io_stats();
+  report["gaussians"] = {{"total", mapper.total_gaussians()},
+                         {"peak_resident", mapper.peak_resident_gaussians()},
+                         {"budget", mapper.budget()},
+                         {"chunks", mapper.chunk_count()},
+                         {"pruned", mapper.pruned_total()}};
+  double peak_rss = 0;
+  for (const auto& t : timeline) peak_rss = std::max(peak_rss, t.rss_mb);
+  report["memory"] = {{"peak_rss_mb_sampled", peak_rss}, {"peak_rss_mb_process", double(peak_rss_bytes()) / 1048576.0}};
+  report["chunk_io"] = {{"loads", io.loads},
+                        {"saves", io.saves},
+                        {"mean_load_ms", io.mean_load_ms()},
+                        {"mean_save_ms", io.mean_save_ms()},
+                        {"io_time_share", map_seconds > 0 ? (io.load_ms + io.save_ms) / 1000.0 / map_seconds : 0},
+                        {"wait_time_share", map_seconds > 0 ? io.wait_ms / 1000.0 / map_seconds : 0},
+                        {"evictions_clean", io.evictions_clean},
+                        {"evictions_dirty", io.evictions_dirty},
+                        {"summary", io.summary()}};
+  if (o.evaluate) {
+    const auto te = Clock::now();
+    std::vector<size_t> held, kfs;
+    for (size_t i = 0; i < n; ++i)
+      if (is_held_out(i, mc.holdout_every)) held.push_back(i);
+    if (mc.eval_keyframe_stride > 0)
+      for (size_t k = 0; k < mapper.keyframes().size(); k += size_t(mc.eval_keyframe_stride))
+        kfs.push_back(mapper.keyframes()[k].frame);
+    const fs::path rd = o.out / "renders";
+    const ViewSetScore h = score_views(mapper, *dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders);
+    const ViewSetScore k = score_views(mapper, *dataset, poses, kfs, mc.resolution, rd, "keyframe", 4);
+    report["held_out"] = h.to_json(true);
+    report["keyframes_eval"] = k.to_json(false);
+    report["time"]["evaluation_s"] = since(te);
+    log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, " over ", h.views.size(),
+              " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
+  }
+  write_text(o.out / "timeline.csv", timeline_csv(timeline));
+  write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());
+  write_json(o.out / "report.json", report);
+  log::info("map ", o.out.string(), ": ", mapper.total_gaussians(), " Gaussians in ", mapper.chunk_count(),
+            " chunks, ", mapper.keyframes().size(), " keyframes, ", map_seconds, " s (", io.summary(), ")");
+  return report;
+}
+
+}  // namespace chungs

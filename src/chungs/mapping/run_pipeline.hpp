@@ -1,0 +1,28 @@
+// The mapping run behind `diskchungs run`: frames and poses in, a map folder out, with held-out
+// evaluation, renders, a JSON report, a timeline CSV and a memory plot. Resumable after a crash.
+#pragma once
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "chungs/config/config.hpp"
+
+namespace chungs {
+
+struct RunOptions {
+  std::string dataset;        // kind:path
+  std::string poses = "gt";   // gt or a trajectory file (TUM or KITTI)
+  std::filesystem::path out;  // map folder
+  bool resume = false;        // continue the run in `out` from its last checkpoint
+  Config config;
+  size_t max_frames = 0;      // use only the first n frames (0: all)
+  bool evaluate = true;       // render and score held-out frames (and keyframes) at the end
+};
+
+// Runs (or resumes) the mapping and returns the report that it also writes to out/report.json.
+nlohmann::json run_mapping(const RunOptions& options);
+
+// Frame i is held out (never trained on) under the rule of MapperConfig::holdout_every.
+bool is_held_out(size_t frame, int holdout_every);
+
+}  // namespace chungs

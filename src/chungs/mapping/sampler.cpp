@@ -1,0 +1,110 @@
+#include "chungs/mapping/sampler.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "chungs/mapping/log_probability.hpp"
+
+namespace chungs {
+
+void SamplerConfig::validate() const {
+  if (!(density > 0)) fail("sampler: density must be > 0, got ", density);
+  if (!(empty_floor >= 0 && empty_floor <= 1)) fail("sampler: empty_floor must be in [0, 1], got ", empty_floor);
+  if (!(init_opacity > 0 && init_opacity < 1)) fail("sampler: init_opacity must be in (0, 1), got ", init_opacity);
+  if (!(min_scale_px > 0)) fail("sampler: min_scale_px must be > 0, got ", min_scale_px);
+  if (!(max_scale_fraction > 0)) fail("sampler: max_scale_fraction must be > 0, got ", max_scale_fraction);
+  if (stride < 1) fail("sampler: stride must be >= 1, got ", stride);
+}
+
+float sh_dc_of_colour(float c) { return (c - 0.5f) / 0.28209479177387814f; }
+
+ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, const ImageF* render,
+                            const ImageF* render_alpha) {
+  config.validate();
+  ImageF p = log_probability(image);
+  ImageF pr;
+  if (render) {
+    if (!render->same_size(image)) fail("sampler: render and keyframe image differ in size");
+    pr = log_probability(*render);
+  }
+  if (render_alpha && !render_alpha->same_size(image)) fail("sampler: render alpha and keyframe image differ in size");
+  for (int y = 0; y < p.height(); ++y)
+    for (int x = 0; x < p.width(); ++x) {
+      double v = p(x, y) - (render ? pr(x, y) : 0.f);
+      v = config.density * std::max(v, 0.0);
+      if (render_alpha && (*render_alpha)(x, y) < 0.5f) v = std::max(v, config.empty_floor);
+      p(x, y) = float(std::min(v, 1.0));
+    }
+  return p;
+}
+
+std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
+                                         const ImageF& probability, const Camera& camera, const SE3& pose,
+                                         double chunk_size, uint32_t keyframe_id, uint32_t step,
+                                         std::mt19937_64& rng, SampleStats* stats) {
+  config.validate();
+  if (!depth.same_size(image) || !probability.same_size(image) || depth.channels() != 1)
+    fail("sampler: image ", image.width(), "x", image.height(), ", depth ", depth.width(), "x", depth.height(),
+         " and probability ", probability.width(), "x", probability.height(), " must have the same size");
+  SampleStats st;
+  std::uniform_real_distribution<double> U(0, 1);
+  struct Pick {
+    int x, y;
+    float p;
+  };
+  std::vector<Pick> picks;
+  const int s = config.stride;
+  for (int y = 0; y < image.height(); y += s)
+    for (int x = 0; x < image.width(); x += s) {
+      const float p = probability(x, y);
+      // With a stride each visited pixel stands for s^2 pixels.
+      if (p <= 0 || U(rng) >= p) continue;
+      ++st.candidates;
+      if (!(depth(x, y) > 0) || !std::isfinite(depth(x, y))) {
+        ++st.no_depth;
+        continue;
+      }
+      picks.push_back({x, y, p});
+    }
+  if (config.max_per_keyframe && picks.size() > config.max_per_keyframe) {
+    std::shuffle(picks.begin(), picks.end(), rng);
+    picks.resize(config.max_per_keyframe);
+  }
+  const double max_px = config.max_scale_fraction * image.width();
+  const int ch = image.channels();
+  std::map<ChunkId, GaussianBlock> by_chunk;
+  for (const Pick& pk : picks) {
+    const double z = depth(pk.x, pk.y);
+    const Eigen::Vector3d pw = pose * camera.unproject(Eigen::Vector2d(pk.x, pk.y), z);
+    const ChunkId id = chunk_id_of(pw, chunk_size);
+    GaussianBlock& b = by_chunk[id];
+    const size_t i = b.size();
+    b.resize(i + 1);
+    auto& q = b.params;
+    for (int k = 0; k < 3; ++k) q.mean[3 * i + k] = float(pw[k]);
+    const double px = std::clamp(double(s) / std::sqrt(double(pk.p)), config.min_scale_px, max_px);
+    const float ls = float(std::log(px * z / camera.fx));
+    for (int k = 0; k < 3; ++k) q.log_scale[3 * i + k] = ls;
+    q.rotation[4 * i] = 1;
+    q.opacity[i] = float(std::log(config.init_opacity / (1 - config.init_opacity)));
+    for (int c = 0; c < 3; ++c) q.sh[48 * i + c] = sh_dc_of_colour(image(pk.x, pk.y, ch == 1 ? 0 : c));
+    b.created_by_keyframe[i] = keyframe_id;
+    b.created_at_step[i] = step;
+    b.lr_position_factor[i] = 1.f;
+  }
+  std::vector<ChunkBatch> out;
+  for (auto& [id, block] : by_chunk) {
+    if (block.size() < config.min_per_chunk) {
+      st.dropped_small_chunks += block.size();
+      continue;
+    }
+    st.kept += block.size();
+    out.push_back({id, std::move(block)});
+  }
+  st.chunks = out.size();
+  if (stats) *stats = st;
+  return out;
+}
+
+}  // namespace chungs

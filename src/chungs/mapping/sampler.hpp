@@ -1,0 +1,60 @@
+// Sampler: where a new keyframe adds Gaussians. A pixel is taken with probability
+// density * max(P_LoG(keyframe) - P_LoG(render), 0): detail the map does not reproduce yet. Its
+// Gaussian sits at the pixel's depth, isotropic, clamp(1/sqrt(P), min, W/10) pixels wide (so sparse
+// samples in smooth regions cover their share of the image), with the pixel's colour and a low
+// opacity. New Gaussians are grouped by chunk; chunks receiving too few are dropped (stray points
+// would otherwise create chunk files of a handful of Gaussians).
+#pragma once
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "chungs/gaussians/gaussian_block.hpp"
+#include "chungs/geometry/camera.hpp"
+#include "chungs/geometry/se3.hpp"
+#include "chungs/image/image.hpp"
+#include "chungs/store/chunk_id.hpp"
+
+namespace chungs {
+
+struct SamplerConfig {
+  double density = 2.0;            // acceptance = density * (P - P_render)  (paper: 2)
+  double empty_floor = 0.02;       // least probability where the render is empty (alpha < 0.5)
+  double init_opacity = 0.07;      // opacity of a new Gaussian (paper: 0.07)
+  double min_scale_px = 1.0;       // footprint clamp, pixels: [min, max_scale_fraction * W]
+  double max_scale_fraction = 0.1;
+  uint64_t min_per_chunk = 100;    // chunks receiving fewer new Gaussians get none
+  uint64_t max_per_keyframe = 0;   // 0: no cap; else a uniform random subset of this size
+  int stride = 1;                  // consider every stride-th pixel per axis (coarse maps, tests)
+  void validate() const;
+};
+
+struct SampleStats {
+  uint64_t candidates = 0;  // pixels accepted by the Bernoulli draw
+  uint64_t no_depth = 0;    // ... without valid depth
+  uint64_t kept = 0;        // Gaussians returned
+  uint64_t dropped_small_chunks = 0;
+  size_t chunks = 0;
+};
+
+struct ChunkBatch {
+  ChunkId id = 0;
+  GaussianBlock block;
+};
+
+// The per-pixel acceptance probability (1 channel): density * max(P_image - P_render, 0), raised
+// to empty_floor where render_alpha < 0.5. render / render_alpha may be null (empty map).
+ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, const ImageF* render,
+                            const ImageF* render_alpha);
+
+// Samples Gaussians for a keyframe. image: float colour (1 or 3 channels, [0,1]); depth: metres,
+// 0 invalid, same size. Returns batches by chunk in ascending id order.
+std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
+                                         const ImageF& probability, const Camera& camera, const SE3& pose,
+                                         double chunk_size, uint32_t keyframe_id, uint32_t step,
+                                         std::mt19937_64& rng, SampleStats* stats = nullptr);
+
+// SH DC coefficient for a colour value c in [0, 1] (renders as 0.5 + C0 * dc).
+float sh_dc_of_colour(float c);
+
+}  // namespace chungs
