@@ -153,12 +153,16 @@ __global__ void __launch_bounds__(kBlock) backward_kernel(
   __syncthreads();
   const uint2 range = ranges[tile];
   const uint32_t end = range.x + max_stop;
+  // Entries past the last one any pixel of this warp walked need no work from the warp.
+  uint32_t warp_stop = stop;
+#pragma unroll
+  for (int o = 16; o > 0; o >>= 1) warp_stop = max(warp_stop, __shfl_xor_sync(0xffffffffu, warp_stop, o));
 
   for (uint32_t base = range.x; base < end; base += kBlock) {
     __syncthreads();  // the previous batch is consumed
     load_batch(sm, list, s, base, end, true);
     __syncthreads();
-    const int m = min(kBlock, int(end - base));
+    const int m = min(kBlock, int(range.x + warp_stop) - int(base));
     for (int i = 0; i < m; ++i) {
       const float4 a = sm.a[i], b = sm.b[i];
       const float dx = fx - a.x, dy = fy - a.y;
