@@ -1,6 +1,7 @@
 // CUDA rasterizer benchmark on the shared workload (chungs/render/bench_scene.hpp): forward and
 // forward + backward, median of --reps timed calls after --warmup calls, device-event timing.
 // Loss = sum(image * fixed uniform weights), so the backward starts from dL/dRGB = weights.
+// Also timed: the fused mapping loss (L1 + SSIM with gradient) on the rendered image.
 // Usage: bench_cuda_rasterizer [--json FILE] [--ply-dir DIR] [--reps 30] [--warmup 5] [--cases a,b]
 //   --ply-dir writes each case's Gaussians as a standard 3DGS PLY (large: 0.5 M -> 124 MB).
 #include <algorithm>
@@ -18,6 +19,7 @@
 #include "chungs/render/render_camera.hpp"
 #ifdef CHUNGS_WITH_CUDA
 #include "chungs/cuda/devices.hpp"
+#include "chungs/optim/cuda/loss.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
 #include "chungs/render/cuda/rasterizer.hpp"
 #endif
@@ -111,8 +113,8 @@ int main(int argc, char** argv) {
     }
     std::printf("device: %s (sm_%d%d, %d SMs)  median of %d after %d warm-ups\n", devices[0].name.c_str(),
                 devices[0].major, devices[0].minor, devices[0].multiprocessors, reps, warmup);
-    std::printf("%-13s %9s %9s %8s %8s %8s %8s | %6s %6s %6s %6s %6s\n", "case", "pairs", "fwd_ms", "fb_ms",
-                "ref_fwd", "ref_fb", "speedup", "prep", "sort", "comp", "bcomp", "bproj");
+    std::printf("%-13s %9s %9s %8s %8s %8s %8s | %6s %6s %6s %6s %6s | %7s\n", "case", "pairs", "fwd_ms", "fb_ms",
+                "ref_fwd", "ref_fb", "speedup", "prep", "sort", "comp", "bcomp", "bproj", "loss_ms");
     std::string json = "{\n  \"device\": \"" + devices[0].name + "\",\n  \"reps\": " + std::to_string(reps) +
                        ",\n  \"warmup\": " + std::to_string(warmup) + ",\n  \"cases\": [\n";
     bool first = true;
@@ -145,26 +147,40 @@ int main(int argc, char** argv) {
         const double ms = timer.stop_ms();
         if (i >= warmup) fb.push_back(ms);
       }
+      std::vector<double> loss_ms;
+      {
+        cuda::CudaMappingLoss loss;
+        LossConfig lc;
+        lc.lambda_depth = 0;
+        const auto& out = r.forward(g, dids.data(), c.n, cam);
+        for (int i = 0; i < warmup + reps; ++i) {
+          timer.start();
+          loss.evaluate(lc, out, dw.data(), nullptr, nullptr, true);
+          const double ms = timer.stop_ms();
+          if (i >= warmup) loss_ms.push_back(ms);
+        }
+      }
       // One more call with per-stage events (they synchronise, so not part of the medians).
       r.enable_timings(true);
       r.forward(g, dids.data(), c.n, cam);
       r.backward({dw.data(), nullptr, nullptr, nullptr});
       const auto& t = r.timings();
       const double mf = median(fwd), mfb = median(fb);
-      std::printf("%-13s %8.2fM %9.3f %8.3f %8.2f %8.2f %7.2fx | %6.3f %6.3f %6.3f %6.3f %6.3f\n", c.name.c_str(),
-                  r.tile_entries() / 1e6, mf, mfb, c.ref_fwd, c.ref_fwdbwd, c.ref_fwdbwd / mfb, t.preprocess, t.sort,
-                  t.composite, t.composite_backward, t.project_backward);
+      const double ml = median(loss_ms);
+      std::printf("%-13s %8.2fM %9.3f %8.3f %8.2f %8.2f %7.2fx | %6.3f %6.3f %6.3f %6.3f %6.3f | %7.3f\n",
+                  c.name.c_str(), r.tile_entries() / 1e6, mf, mfb, c.ref_fwd, c.ref_fwdbwd, c.ref_fwdbwd / mfb,
+                  t.preprocess, t.sort, t.composite, t.composite_backward, t.project_backward, ml);
       std::fflush(stdout);
       char buf[1024];
       std::snprintf(buf, sizeof buf,
                     "%s    {\"case\": \"%s\", \"width\": %d, \"height\": %d, \"f\": %g, \"gaussians\": %zu, "
                     "\"tile_pairs\": %zu, \"forward_ms\": %.4f, \"forward_backward_ms\": %.4f, "
-                    "\"forward_min_ms\": %.4f, \"forward_backward_min_ms\": %.4f, "
+                    "\"forward_min_ms\": %.4f, \"forward_backward_min_ms\": %.4f, \"mapping_loss_ms\": %.4f, "
                     "\"reference_forward_ms\": %.2f, \"reference_forward_backward_ms\": %.2f, "
                     "\"stages_ms\": {\"preprocess\": %.4f, \"sort\": %.4f, \"composite\": %.4f, "
                     "\"composite_backward\": %.4f, \"project_backward\": %.4f}}",
                     first ? "" : ",\n", c.name.c_str(), c.width, c.height, c.f, c.n, r.tile_entries(), mf, mfb,
-                    *std::min_element(fwd.begin(), fwd.end()), *std::min_element(fb.begin(), fb.end()), c.ref_fwd,
+                    *std::min_element(fwd.begin(), fwd.end()), *std::min_element(fb.begin(), fb.end()), ml, c.ref_fwd,
                     c.ref_fwdbwd, t.preprocess, t.sort, t.composite, t.composite_backward, t.project_backward);
       json += buf;
       first = false;

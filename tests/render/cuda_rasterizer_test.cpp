@@ -47,6 +47,10 @@ void expect_images_match(const Renders& r, double tol) {
               e[4]);
   for (double v : e) EXPECT_LT(v, tol);
   EXPECT_EQ(r.gpu.visible, r.cpu.visible);
+  // The comparison means something only if the scene covers the image.
+  size_t covered = 0;
+  for (float a : r.cpu.alpha.vec()) covered += a > 0.5f;
+  EXPECT_GT(covered, r.cpu.alpha.vec().size() / 4);
   size_t same = 0;
   const auto& a = r.gpu.top_id.vec();
   const auto& b = r.cpu.top_id.vec();

@@ -50,41 +50,6 @@ struct PreprocessOut {
   uint32_t* bad_index;  // smallest j whose slot is out of range
 };
 
-// Whether the cut-off ellipse q(p - m) <= qmax of a splat reaches a pixel centre of the tile whose
-// pixel centres span [X0, X1] x [Y0, Y1]: the minimum of the convex q over the rectangle is 0 inside
-// it, else on an edge at the clamped stationary point. Widened by a hair so rounding never drops a
-// pixel the compositing would draw. Not inlined: counting and emitting must agree bit for bit.
-__device__ __noinline__ bool ellipse_touches(float mx, float my, float ca, float cb, float cc, float qmax, float X0,
-                                             float X1, float Y0, float Y1) {
-  if (mx >= X0 && mx <= X1 && my >= Y0 && my <= Y1) return true;
-  const float ax = X0 - mx, bx = X1 - mx, ay = Y0 - my, by = Y1 - my;
-  float best = INFINITY;
-  for (int e = 0; e < 2; ++e) {
-    const float dx = e ? bx : ax;
-    const float dy = fminf(fmaxf(-cb * dx / cc, ay), by);
-    best = fminf(best, ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy);
-  }
-  for (int e = 0; e < 2; ++e) {
-    const float dy = e ? by : ay;
-    const float dx = fminf(fmaxf(-cb * dy / ca, ax), bx);
-    best = fminf(best, ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy);
-  }
-  return best <= qmax * 1.001f + 1e-3f;
-}
-
-// Tiles of a splat's tile rectangle that its ellipse reaches; fn(tile index) for each.
-template <typename F>
-__device__ __forceinline__ void for_touched_tiles(const float4& a, const float4& b, ushort4 t, int W, int H,
-                                                  int tiles_x, F&& fn) {
-  const float qmax = -2 * a.w;
-  for (int ty = t.z; ty <= t.w; ++ty)
-    for (int tx = t.x; tx <= t.y; ++tx) {
-      const float X0 = float(tx * kTileSize), X1 = float(min(tx * kTileSize + kTileSize, W) - 1);
-      const float Y0 = float(ty * kTileSize), Y1 = float(min(ty * kTileSize + kTileSize, H) - 1);
-      if (ellipse_touches(a.x, a.y, b.x, b.y, b.z, qmax, X0, X1, Y0, Y1)) fn(uint32_t(ty * tiles_x + tx));
-    }
-}
-
 // Projection of Gaussian ids[j] into splat j (cpu::project_splats + make_splat).
 __global__ void preprocess_kernel(GaussianArrays<float> g, const uint32_t* __restrict__ ids, uint32_t n,
                                   RenderCamera<float> cam, RasterConsts k, int tiles_x, int tiles_y,
@@ -124,15 +89,11 @@ __global__ void preprocess_kernel(GaussianArrays<float> g, const uint32_t* __res
   const int x0 = int(fmaxf(fx0, 0.f)), x1 = int(fminf(fx1, W1));
   const int y0 = int(fmaxf(fy0, 0.f)), y1 = int(fminf(fy1, H1));
   const int tx0 = x0 / kTileSize, tx1 = x1 / kTileSize, ty0 = y0 / kTileSize, ty1 = y1 / kTileSize;
-  const float4 va = make_float4(mx, my, G.opacity, pmin), vb = make_float4(ca, cb, cc, z);
-  const ushort4 rect = make_ushort4(tx0, tx1, ty0, ty1);
-  uint32_t touched = 0;
-  for_touched_tiles(va, vb, rect, cam.width, cam.height, tiles_x, [&](uint32_t) { ++touched; });
-  o.a[j] = va;
-  o.b[j] = vb;
+  o.a[j] = make_float4(mx, my, G.opacity, pmin);
+  o.b[j] = make_float4(ca, cb, cc, z);
   o.c[j] = make_float4(fmaxf(G.raw[0], 0.f), fmaxf(G.raw[1], 0.f), fmaxf(G.raw[2], 0.f), 1.f / z);
-  o.rect[j] = rect;
-  o.tiles[j] = touched;
+  o.rect[j] = make_ushort4(tx0, tx1, ty0, ty1);
+  o.tiles[j] = uint32_t(tx1 - tx0 + 1) * uint32_t(ty1 - ty0 + 1);
   o.zkey[j] = __float_as_uint(z);  // z >= near > 0: the bit pattern orders like the value
   o.visible[j] = 1;
   o.radius[j] = radius;
@@ -146,35 +107,28 @@ __global__ void gather_counts_kernel(const uint32_t* __restrict__ order, const u
 
 // Splats in depth order write their entries at their offsets: entries are depth-ordered within
 // every tile, and the stable sort by tile keeps that order.
-// (The counting and this walk run the same non-inlined test, so they agree; should they ever not,
-// surplus entries are dropped and missing ones become key `ntiles`, which no tile range includes.)
 __global__ void emit_kernel(const uint32_t* __restrict__ order, const uint32_t* __restrict__ ends,
-                            const ushort4* __restrict__ rects, const uint32_t* __restrict__ tiles, SplatData s,
-                            uint32_t n, int W, int H, int tiles_x, uint32_t ntiles, uint32_t* __restrict__ keys,
-                            uint32_t* __restrict__ vals) {
+                            const ushort4* __restrict__ rects, const uint32_t* __restrict__ tiles, uint32_t n,
+                            int tiles_x, uint32_t* __restrict__ keys, uint32_t* __restrict__ vals) {
   const uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
   if (r >= n) return;
   const uint32_t j = order[r];
   const uint32_t cnt = tiles[j];
   if (cnt == 0) return;
-  const uint32_t end = ends[r];
-  uint32_t off = end - cnt;
-  for_touched_tiles(s.a[j], s.b[j], rects[j], W, H, tiles_x, [&](uint32_t tile) {
-    if (off < end) {
-      keys[off] = tile;
+  uint32_t off = ends[r] - cnt;
+  const ushort4 t = rects[j];
+  for (int ty = t.z; ty <= t.w; ++ty)
+    for (int tx = t.x; tx <= t.y; ++tx) {
+      keys[off] = uint32_t(ty * tiles_x + tx);
       vals[off] = j;
       ++off;
     }
-  });
-  for (; off < end; ++off) keys[off] = ntiles, vals[off] = j;
 }
 
-__global__ void ranges_kernel(const uint32_t* __restrict__ keys, uint32_t total, uint32_t ntiles,
-                              uint2* __restrict__ ranges) {
+__global__ void ranges_kernel(const uint32_t* __restrict__ keys, uint32_t total, uint2* __restrict__ ranges) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= total) return;
   const uint32_t t = keys[i];
-  if (t >= ntiles) return;
   if (i == 0 || keys[i - 1] != t) ranges[t].x = i;
   if (i + 1 == total || keys[i + 1] != t) ranges[t].y = i + 1;
 }
@@ -330,10 +284,9 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
   check(cudaMemsetAsync(s.ranges.data(), 0, ntiles * sizeof(uint2), st), "memset ranges");
   if (total > 0) {
     s.keys.resize(total), s.vals.resize(total), s.keys_sorted.resize(total), s.vals_sorted.resize(total);
-    emit_kernel<<<blocks_for(n, 256), 256, 0, st>>>(
-        s.order_sorted.data(), s.ends.data(), s.rect.data(), s.tiles.data(),
-        SplatData{s.a.data(), s.b.data(), s.c.data()}, uint32_t(n), W, H, s.tiles_x, ntiles, s.keys.data(),
-        s.vals.data());
+    emit_kernel<<<blocks_for(n, 256), 256, 0, st>>>(s.order_sorted.data(), s.ends.data(), s.rect.data(),
+                                                    s.tiles.data(), uint32_t(n), s.tiles_x, s.keys.data(),
+                                                    s.vals.data());
     check(cudaGetLastError(), "emit launch");
     const int bits = bits_for(ntiles);
     size_t bytes = 0;
@@ -342,7 +295,7 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
     check(cub::DeviceRadixSort::SortPairs(s.scratch(bytes), bytes, s.keys.data(), s.keys_sorted.data(),
                                           s.vals.data(), s.vals_sorted.data(), int(total), 0, bits, st),
           "tile sort");
-    ranges_kernel<<<blocks_for(total, 256), 256, 0, st>>>(s.keys_sorted.data(), total, ntiles, s.ranges.data());
+    ranges_kernel<<<blocks_for(total, 256), 256, 0, st>>>(s.keys_sorted.data(), total, s.ranges.data());
     check(cudaGetLastError(), "ranges launch");
   }
   s.mark(2);

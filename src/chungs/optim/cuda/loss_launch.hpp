@@ -1,0 +1,29 @@
+// Internal: the fused loss kernels' arguments as plain C++17 data (loss.cu compiles as C++17 and
+// cannot see chungs/optim/loss.hpp).
+#pragma once
+#include <cstdint>
+
+namespace chungs::cuda::detail {
+
+struct LossLaunch {
+  int width, height;
+  const float* rgb;          // rendered, 3 channels interleaved
+  const float* target_rgb;   // same shape
+  const float* inv_depth;    // rendered, 1 channel; used when depth_weight > 0
+  const float* target_inv_depth;
+  const uint8_t* depth_mask;  // optional
+  float l1_weight, ssim_weight, depth_weight;  // (1 - ls), ls, ld; a zero weight skips the term
+  bool want_grads;
+  float* grad_rgb;        // overwritten: (1 - ls) dL1 - ls dSSIM
+  float* grad_inv_depth;  // overwritten where the depth term is on
+  float* ssim_planes;     // scratch, 9 planes of width x height
+  double* sums;           // scratch, 4 doubles: sum |d|, sum SSIM, sum |d inv|, valid depth pixels
+};
+
+// Runs the kernels and waits; host_sums gets the 4 sums. Throws Error on a CUDA failure.
+void launch_mapping_loss(const LossLaunch& a, double* host_sums);
+
+// The 11-tap Gaussian window (sigma 1.5) of the SSIM, computed as the CPU twin does.
+void ssim_window(float* w11);
+
+}  // namespace chungs::cuda::detail
