@@ -12,7 +12,7 @@ struct RunArgs {
   RunOptions o;
   std::string config_file, preset = "auto";
   size_t budget = 0;
-  double chunk_size = 0, resolution = 0, speed = 0;
+  double chunk_size = 0, resolution = 0, speed = 0, fill_depth = -1;
   int iterations = -1, final_iterations = -1;
   std::string pacing, depth;
   bool json = false, no_eval = false;
@@ -25,6 +25,7 @@ void apply_preset(Config& c, const std::string& preset, const std::string& datas
   if (p == "outdoor") {
     c.loss = LossConfig::kitti();
     c.adam.lr_position = AdamConfig::kitti().lr_position;
+    c.sampler.fill_depth = 80.0;  // sky and far field beyond the stereo range
   } else if (p == "indoor") {
     c.loss = LossConfig::indoor();
     c.adam.lr_position = AdamConfig::indoor().lr_position;
@@ -49,6 +50,7 @@ const Command cmd{"run", "map a dataset on given poses into a chunked Gaussian m
   app.add_option("--pacing", a->pacing, "fixed | anytime");
   app.add_option("--speed", a->speed, "anytime pacing: intake rate factor on the dataset's frame rate");
   app.add_option("--depth", a->depth, "auto | sensor | stereo | none");
+  app.add_option("--fill-depth", a->fill_depth, "metres for sampled pixels without depth (sky); 0: skip them");
   app.add_option("--max-frames", a->o.max_frames, "use only the first n frames");
   app.add_flag("--no-eval", a->no_eval, "skip the held-out evaluation");
   app.add_flag("--json", a->json, "print the report as JSON");
@@ -69,6 +71,7 @@ const Command cmd{"run", "map a dataset on given poses into a chunked Gaussian m
     if (!a->pacing.empty()) c.mapper.pacing = a->pacing;
     if (a->speed > 0) c.mapper.speed = a->speed;
     if (!a->depth.empty()) c.mapper.depth = a->depth;
+    if (a->fill_depth >= 0) c.sampler.fill_depth = a->fill_depth;
     c.validate();
     a->o.evaluate = !a->no_eval;
     const nlohmann::json r = run_mapping(a->o);

@@ -111,6 +111,7 @@ void fields(V& v, SamplerConfig& c) {
   v("min_per_chunk", c.min_per_chunk, "chunks receiving fewer new Gaussians get none");
   v("max_per_keyframe", c.max_per_keyframe, "cap on new Gaussians per keyframe (0: none)");
   v("stride", c.stride, "sample every n-th pixel per axis");
+  v("fill_depth", c.fill_depth, "metres given to sampled pixels without depth (sky); 0: skip them");
 }
 template <class V>
 void fields(V& v, KeyframeSelectorConfig& c) {

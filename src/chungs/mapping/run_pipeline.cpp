@@ -50,10 +50,15 @@ void write_text(const fs::path& file, const std::string& text) {
 }  // namespace
 
 nlohmann::json run_mapping(const RunOptions& o) {
+  const auto dataset = open_dataset(o.dataset);
+  return run_mapping(o, *dataset);
+}
+
+nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const Config& cfg = o.config;
   cfg.mapper.validate();
   const MapperConfig& mc = cfg.mapper;
-  const auto dataset = open_dataset(o.dataset);
+  const Dataset* dataset = &data;
   const DatasetInfo& info = dataset->info();
   const DepthMode mode = resolve_depth_mode(parse_depth_mode(mc.depth), info.has_depth, info.has_right);
   if (mode == DepthMode::None)

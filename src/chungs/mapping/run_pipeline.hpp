@@ -6,6 +6,7 @@
 #include <string>
 
 #include "chungs/config/config.hpp"
+#include "chungs/datasets/dataset.hpp"
 
 namespace chungs {
 
@@ -21,6 +22,8 @@ struct RunOptions {
 
 // Runs (or resumes) the mapping and returns the report that it also writes to out/report.json.
 nlohmann::json run_mapping(const RunOptions& options);
+// The same on a dataset the caller opened (options.dataset only names it in the report).
+nlohmann::json run_mapping(const RunOptions& options, const Dataset& dataset);
 
 // Frame i is held out (never trained on) under the rule of MapperConfig::holdout_every.
 bool is_held_out(size_t frame, int holdout_every);

@@ -15,6 +15,7 @@ void SamplerConfig::validate() const {
   if (!(min_scale_px > 0)) fail("sampler: min_scale_px must be > 0, got ", min_scale_px);
   if (!(max_scale_fraction > 0)) fail("sampler: max_scale_fraction must be > 0, got ", max_scale_fraction);
   if (stride < 1) fail("sampler: stride must be >= 1, got ", stride);
+  if (!(fill_depth >= 0)) fail("sampler: fill_depth must be >= 0, got ", fill_depth);
 }
 
 float sh_dc_of_colour(float c) { return (c - 0.5f) / 0.28209479177387814f; }
@@ -51,7 +52,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   std::uniform_real_distribution<double> U(0, 1);
   struct Pick {
     int x, y;
-    float p;
+    float p, z;
   };
   std::vector<Pick> picks;
   const int s = config.stride;
@@ -61,11 +62,13 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
       // With a stride each visited pixel stands for s^2 pixels.
       if (p <= 0 || U(rng) >= p) continue;
       ++st.candidates;
-      if (!(depth(x, y) > 0) || !std::isfinite(depth(x, y))) {
+      float z = depth(x, y);
+      if (!(z > 0) || !std::isfinite(z)) {
         ++st.no_depth;
-        continue;
+        if (!(config.fill_depth > 0)) continue;
+        z = float(config.fill_depth);
       }
-      picks.push_back({x, y, p});
+      picks.push_back({x, y, p, z});
     }
   if (config.max_per_keyframe && picks.size() > config.max_per_keyframe) {
     std::shuffle(picks.begin(), picks.end(), rng);
@@ -75,7 +78,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   const int ch = image.channels();
   std::map<ChunkId, GaussianBlock> by_chunk;
   for (const Pick& pk : picks) {
-    const double z = depth(pk.x, pk.y);
+    const double z = pk.z;
     const Eigen::Vector3d pw = pose * camera.unproject(Eigen::Vector2d(pk.x, pk.y), z);
     const ChunkId id = chunk_id_of(pw, chunk_size);
     GaussianBlock& b = by_chunk[id];

@@ -26,6 +26,9 @@ struct SamplerConfig {
   uint64_t min_per_chunk = 100;    // chunks receiving fewer new Gaussians get none
   uint64_t max_per_keyframe = 0;   // 0: no cap; else a uniform random subset of this size
   int stride = 1;                  // consider every stride-th pixel per axis (coarse maps, tests)
+  // Pixels without depth (sky, beyond the stereo range) get this depth in metres (0: skipped), so
+  // the far field is drawn instead of showing the background.
+  double fill_depth = 0;
   void validate() const;
 };
 

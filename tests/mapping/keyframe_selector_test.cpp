@@ -1,0 +1,70 @@
+// The keyframe grid and CaRtGS's usage rule.
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "chungs/common/error.hpp"
+#include "chungs/mapping/keyframe_selector.hpp"
+
+namespace chungs {
+namespace {
+
+TEST(KeyframeSelector, PicksOnlyInTheLatestKeyframesCell) {
+  KeyframeSelector s;
+  s.add(0, {10, 0, 5});
+  s.add(1, {150, 0, 20});
+  s.add(2, {250, 0, 30});  // next cell along x
+  s.add(3, {260, 5, 40});
+  std::mt19937_64 rng(1);
+  for (int i = 0; i < 50; ++i) {
+    const uint32_t id = s.pick(rng);
+    EXPECT_TRUE(id == 2 || id == 3) << id;
+  }
+  EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{2, 3}));
+}
+
+TEST(KeyframeSelector, SpendsUsesThenRefillsWithALossBonus) {
+  KeyframeSelectorConfig c;
+  c.new_uses = 2;
+  KeyframeSelector s(c);
+  for (uint32_t i = 0; i < 8; ++i) s.add(i, {double(i), 0, 0});
+  std::mt19937_64 rng(4);
+  std::map<uint32_t, int> count;
+  for (int k = 0; k < 16; ++k) ++count[s.pick(rng)];
+  for (uint32_t i = 0; i < 8; ++i) EXPECT_EQ(count[i], 2) << "keyframe " << i;  // uses are exact
+  for (uint32_t i = 0; i < 8; ++i) s.report_loss(i, double(i == 5 || i == 2 ? 10 + i : i * 0.1));
+  // None left: all get +1, the top quarter by loss (2 of 8: keyframes 5 and 2) another +1; the
+  // pick then spends one.
+  const uint32_t first = s.pick(rng);
+  int total = 0;
+  for (uint32_t i = 0; i < 8; ++i) {
+    const int expect = 1 + (i == 5 || i == 2 ? 1 : 0) - (i == first ? 1 : 0);
+    EXPECT_EQ(s.usage(i).uses, expect) << "keyframe " << i;
+    total += s.usage(i).uses;
+  }
+  EXPECT_EQ(total, 9);
+}
+
+TEST(KeyframeSelector, PickIsWeightedByRemainingUses) {
+  KeyframeSelectorConfig c;
+  c.new_uses = 1;
+  KeyframeSelector s(c);
+  s.add(0, {0, 0, 0}, 3000);
+  s.add(1, {1, 0, 0}, 1000);
+  std::mt19937_64 rng(2);
+  int zero = 0;
+  for (int k = 0; k < 2000; ++k) zero += s.pick(rng) == 0;
+  // The first 2000 of 4000 uses: expected share 0.75 early, drifting; keyframe 0 dominates.
+  EXPECT_GT(zero, 1350);
+  EXPECT_LT(zero, 1650);
+}
+
+TEST(KeyframeSelector, RefusesAnEmptyPick) {
+  KeyframeSelector s;
+  std::mt19937_64 rng(1);
+  EXPECT_THROW(s.pick(rng), Error);
+  EXPECT_THROW(s.report_loss(3, 1.0), Error);
+}
+
+}  // namespace
+}  // namespace chungs

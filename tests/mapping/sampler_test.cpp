@@ -1,0 +1,126 @@
+// LoG probability, sampling probability and placement of new Gaussians.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "chungs/mapping/log_probability.hpp"
+#include "chungs/mapping/sampler.hpp"
+
+namespace chungs {
+namespace {
+
+ImageF random_image(int w, int h, int ch, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> U(0, 1);
+  ImageF img(w, h, ch);
+  for (auto& v : img.vec()) v = U(rng);
+  return img;
+}
+
+TEST(LogProbability, IsZeroOnFlatImagesAndPositiveAtEdges) {
+  ImageF flat(40, 30, 3, 0.4f);
+  const ImageF pf = log_probability(flat);
+  for (float v : pf.vec()) EXPECT_EQ(v, 0.f);
+  ImageF step(40, 30, 3, 0.1f);
+  for (int y = 0; y < 30; ++y)
+    for (int x = 20; x < 40; ++x)
+      for (int c = 0; c < 3; ++c) step(x, y, c) = 0.9f;
+  const ImageF p = log_probability(step);
+  EXPECT_GT(p(20, 15), 0.05f);
+  EXPECT_GT(p(19, 15), 0.05f);
+  EXPECT_EQ(p(5, 15), 0.f);   // far from the edge
+  EXPECT_EQ(p(35, 15), 0.f);
+  const ImageF pr = log_probability(random_image(30, 20, 3, 1));
+  for (float v : pr.vec()) {
+    EXPECT_GE(v, 0.f);
+    EXPECT_LE(v, 1.f);
+  }
+}
+
+TEST(Sampler, ProbabilityIsScaledPositivePartOfTheDifference) {
+  const ImageF a = random_image(32, 24, 3, 2), b = random_image(32, 24, 3, 3);
+  ImageF alpha(32, 24, 1, 1.f);
+  for (int x = 0; x < 32; ++x) alpha(x, 0) = 0.f;  // an empty row of the render
+  SamplerConfig c;
+  c.density = 1.5;
+  c.empty_floor = 0.3;
+  const ImageF pa = log_probability(a), pb = log_probability(b);
+  const ImageF p = sampling_probability(c, a, &b, &alpha);
+  for (int y = 0; y < 24; ++y)
+    for (int x = 0; x < 32; ++x) {
+      double want = std::min(1.0, 1.5 * std::max(0.0, double(pa(x, y)) - double(pb(x, y))));
+      if (y == 0) want = std::max(want, 0.3);
+      EXPECT_NEAR(p(x, y), want, 1e-6) << x << "," << y;
+    }
+}
+
+TEST(Sampler, AcceptanceRateFollowsTheProbability) {
+  ImageF img(100, 100, 3, 0.5f), depth(100, 100, 1, 2.f), prob(100, 100, 1, 0.f);
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 50; ++x) prob(x, y) = 0.3f;  // right half: never
+  SamplerConfig c;
+  c.min_per_chunk = 1;
+  std::mt19937_64 rng(7);
+  SampleStats st;
+  const Camera cam(100, 100, 80, 80, 49.5, 49.5);
+  auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &st);
+  EXPECT_NEAR(double(st.kept) / 5000.0, 0.3, 0.03);
+  for (const auto& b : batches)
+    for (size_t i = 0; i < b.block.size(); ++i) EXPECT_LT(b.block.params.mean[3 * i], 0.0 + 1e-6);
+}
+
+TEST(Sampler, PlacesGaussiansOnPixelRaysWithFootprintAndChunks) {
+  const Camera cam(40, 30, 35, 36, 19.2, 14.7);
+  const SE3 pose(Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix(),
+                 Eigen::Vector3d(3.1, -1.2, 0.4));
+  std::mt19937 r(5);
+  std::uniform_real_distribution<float> U(0.5f, 9.f);
+  ImageF img = random_image(40, 30, 3, 9), depth(40, 30, 1), prob(40, 30, 1, 0.25f);
+  for (auto& d : depth.vec()) d = U(r);
+  depth(3, 3) = 0;  // no depth: skipped
+  SamplerConfig c;
+  c.min_per_chunk = 1;
+  c.density = 1.0;
+  std::mt19937_64 rng(1);
+  prob(3, 3) = 1.f;
+  SampleStats st;
+  const double s = 2.0;
+  auto batches = sample_gaussians(c, img, depth, prob, cam, pose, s, 4, 17, rng, &st);
+  ASSERT_GT(st.kept, 100u);
+  EXPECT_GE(st.no_depth, 1u);
+  const SE3 inv = pose.inverse();
+  for (const auto& b : batches)
+    for (size_t i = 0; i < b.block.size(); ++i) {
+      const Eigen::Vector3d pw(b.block.params.mean[3 * i], b.block.params.mean[3 * i + 1], b.block.params.mean[3 * i + 2]);
+      EXPECT_EQ(chunk_id_of(pw, s), b.id);
+      const Eigen::Vector3d pc = inv * pw;
+      const Eigen::Vector2d px = cam.project(pc);
+      const int x = int(std::lround(px.x())), y = int(std::lround(px.y()));
+      ASSERT_NEAR(px.x(), x, 1e-3);
+      ASSERT_NEAR(px.y(), y, 1e-3);
+      EXPECT_NEAR(pc.z(), depth(x, y), 1e-4);
+      // 1/sqrt(0.25) = 2 px wide at that depth.
+      EXPECT_NEAR(std::exp(b.block.params.log_scale[3 * i]), 2.0 * pc.z() / cam.fx, 1e-4);
+      EXPECT_NEAR(1 / (1 + std::exp(-b.block.params.opacity[i])), 0.07, 1e-6);
+      EXPECT_NEAR(0.5 + 0.28209479 * b.block.params.sh[48 * i], img(x, y, 0), 1e-5);
+      EXPECT_EQ(b.block.created_by_keyframe[i], 4u);
+      EXPECT_EQ(b.block.created_at_step[i], 17u);
+    }
+}
+
+TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
+  const Camera cam(60, 10, 50, 50, 29.5, 4.5);
+  ImageF img(60, 10, 3, 0.5f), depth(60, 10, 1, 5.f), prob(60, 10, 1, 1.f);
+  for (int y = 0; y < 10; ++y) depth(0, y) = 40.f;  // a far column: its own chunk, 10 points
+  SamplerConfig c;
+  c.min_per_chunk = 20;
+  std::mt19937_64 rng(3);
+  SampleStats st;
+  auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
+  EXPECT_EQ(st.dropped_small_chunks, 10u);
+  for (const auto& b : batches) EXPECT_GE(b.block.size(), 20u);
+}
+
+}  // namespace
+}  // namespace chungs
