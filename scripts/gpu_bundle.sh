@@ -7,7 +7,7 @@
 #
 # Usage: scripts/gpu_bundle.sh [BUNDLE_DIR]      (default: .gpu/bundle; .gpu/ is git-ignored)
 # Env:   BUILD_DIR (default build-gpu), JOBS (default 2), CUDA_ARCHS (default 90),
-#        TARGETS (default: test_render test_optim bench_cuda_rasterizer diskchungs)
+#        TARGETS (default: test_render test_optim test_residency bench_cuda_rasterizer diskchungs)
 # Then on the GPU machine: scripts/gpu_run.sh OUTDIR   (with .gpu carried along)
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -15,7 +15,7 @@ bundle=${1:-$root/.gpu/bundle}
 build=${BUILD_DIR:-$root/build-gpu}
 jobs=${JOBS:-2}
 archs=${CUDA_ARCHS:-90}
-targets=${TARGETS:-"test_render test_optim bench_cuda_rasterizer diskchungs"}
+targets=${TARGETS:-"test_render test_optim test_residency bench_cuda_rasterizer diskchungs"}
 
 mkdir -p "$build"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHUNGS_CUDA=ON \

@@ -31,7 +31,7 @@ void render_both(const test::RandomScene& scene, const RasterConfig& cfg, const 
   const auto g = scene.g.cast<float>();
   const DeviceScene dg(g);
   const cuda::DeviceArray<uint32_t> dids(ids);
-  const auto cam = make_render_camera<float>(scene.camera, scene.pose.inverse());
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose);
   gpu.set_config(cfg);
   cpu.set_config(cfg);
   gpu.forward(dg.view(), dids.data(), ids.size(), cam);
@@ -93,7 +93,7 @@ TEST(CudaRasterizer, EmptyListRendersBackground) {
   cfg.background = {0.25, 0.5, 0.75};
   cuda::CudaRasterizer gpu(cfg);
   const DeviceScene dg(scene.g.cast<float>());
-  const auto cam = make_render_camera<float>(scene.camera, scene.pose.inverse());
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose);
   gpu.forward(dg.view(), nullptr, 0, cam);
   RenderOutput<float> out;
   gpu.download(out);
@@ -113,7 +113,7 @@ TEST(CudaRasterizer, IndexOutOfRangeThrowsNamingIt) {
   ids[7] = 20;
   const cuda::DeviceArray<uint32_t> dids(ids);
   cuda::CudaRasterizer gpu;
-  const auto cam = make_render_camera<float>(scene.camera, scene.pose.inverse());
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose);
   try {
     gpu.forward(dg.view(), dids.data(), ids.size(), cam);
     FAIL() << "no error";
@@ -147,7 +147,7 @@ TEST(CudaRasterizer, GradientsMatchFloat64CpuTwin) {
     RasterConfig cfg = seed <= 12 ? smooth_raster_config() : RasterConfig{};
     if (seed == 14) cfg.background = {0.3, 0.1, 0.6};
     const auto ids = sparse_ids(size_t(n) * 3 / 4, size_t(n), seed);
-    const auto cam64 = make_render_camera<double>(scene.camera, scene.pose.inverse());
+    const auto cam64 = make_render_camera<double>(scene.camera, scene.pose);
     CpuRasterizer<double> cpu(cfg);
     cpu.forward(scene.g.view(), ids, cam64);
     const auto dl = random_grads(w, h, seed);
@@ -157,7 +157,7 @@ TEST(CudaRasterizer, GradientsMatchFloat64CpuTwin) {
     gpu.set_config(cfg);
     const DeviceScene dg(scene.g.cast<float>());
     const cuda::DeviceArray<uint32_t> dids(ids);
-    gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose.inverse()));
+    gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose));
     const cuda::DeviceArray<float> drgb(to_float(dl.rgb.vec())), ddepth(to_float(dl.depth.vec())),
         dinv(to_float(dl.inv_depth.vec())), dalpha(to_float(dl.alpha.vec()));
     gpu.backward({drgb.data(), ddepth.data(), dinv.data(), dalpha.data()});
@@ -178,7 +178,7 @@ TEST(CudaRasterizer, MissingGradientImagesCountAsZero) {
   const auto scene = test::make_random_scene(21, 200, w, h);
   const auto g = scene.g.cast<float>();
   const auto ids = test::iota_ids(200);
-  const auto cam = make_render_camera<float>(scene.camera, scene.pose.inverse());
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose);
   CpuRasterizer<float> cpu;
   cpu.forward(g.view(), ids, cam);
   RenderGrads<float> dl;

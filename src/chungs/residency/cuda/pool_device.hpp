@@ -1,0 +1,28 @@
+// Internal: device memory and transfers of the CUDA Gaussian pool, as plain C++17 (the pool class
+// itself is C++20 and lives in gaussian_pool.cpp). Every array holds 4-byte elements (float or
+// uint32), `width` per slot.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+namespace chungs::cuda::detail {
+
+struct PoolDevice;  // arrays, a non-blocking copy stream, pinned staging buffers, events
+
+PoolDevice* pool_device_create(size_t capacity, const int* widths, int count);
+void pool_device_destroy(PoolDevice* d);
+void* pool_device_array(PoolDevice* d, int array);
+
+// Copies host_arrays[a][i * width_a ..] of n Gaussians into slots[i] of every array. Returns once
+// the host data is staged (the caller may reuse it); the upload and the scatter run on the pool's
+// stream after the work already queued on the default stream (which may still read those slots).
+void pool_device_scatter(PoolDevice* d, const void* const* host_arrays, const uint32_t* slots, size_t n);
+// Copies slots[i] of every array into host_arrays[a][i * width_a ..], after the work queued on the
+// default stream (the optimiser's updates); returns when the data is on the host.
+void pool_device_gather(PoolDevice* d, void* const* host_arrays, const uint32_t* slots, size_t n);
+// Makes work queued later on the default stream wait for the uploads queued so far (no host wait).
+void pool_device_wait_uploads(PoolDevice* d);
+// Host wait for all of the pool's transfers.
+void pool_device_synchronize(PoolDevice* d);
+
+}  // namespace chungs::cuda::detail
