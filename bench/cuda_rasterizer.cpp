@@ -3,7 +3,8 @@
 // Loss = sum(image * fixed uniform weights), so the backward starts from dL/dRGB = weights.
 // Also timed: the fused mapping loss (L1 + SSIM with gradient) on the rendered image.
 // Usage: bench_cuda_rasterizer [--json FILE] [--ply-dir DIR] [--reps 30] [--warmup 5] [--cases a,b]
-//   --ply-dir writes each case's Gaussians as a standard 3DGS PLY (large: 0.5 M -> 124 MB).
+//   --ply-dir writes each selected case's Gaussians as a standard 3DGS PLY (large: 0.5 M -> 124 MB),
+//   also without a GPU.
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -100,6 +101,24 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  auto selected = [&](const Case& c) {
+    return only.empty() || ("," + only + ",").find("," + c.name + ",") != std::string::npos;
+  };
+  // The workload as PLY files needs no GPU: other renderers can be timed on the same Gaussians.
+  if (!ply_dir.empty()) {
+    try {
+      for (const Case& c : kCases) {
+        if (!selected(c)) continue;
+        const Camera camera(c.width, c.height, c.f, c.f, (c.width - 1) / 2.0, (c.height - 1) / 2.0);
+        const std::string path = ply_dir + "/" + c.name + ".ply";
+        write_ply(path, make_bench_gaussians(c.n, camera));
+        std::printf("wrote %s\n", path.c_str());
+      }
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "bench_cuda_rasterizer: %s\n", e.what());
+      return 1;
+    }
+  }
 #ifndef CHUNGS_WITH_CUDA
   std::printf("bench_cuda_rasterizer: built without CUDA\n");
   return 0;
@@ -119,10 +138,9 @@ int main(int argc, char** argv) {
                        ",\n  \"warmup\": " + std::to_string(warmup) + ",\n  \"cases\": [\n";
     bool first = true;
     for (const Case& c : kCases) {
-      if (!only.empty() && ("," + only + ",").find("," + c.name + ",") == std::string::npos) continue;
+      if (!selected(c)) continue;
       const Camera camera(c.width, c.height, c.f, c.f, (c.width - 1) / 2.0, (c.height - 1) / 2.0);
       const GaussianParams p = make_bench_gaussians(c.n, camera);
-      if (!ply_dir.empty()) write_ply(ply_dir + "/" + c.name + ".ply", p);
       const Image<float> weights = make_bench_weights(c.width, c.height);
       cuda::DeviceArray<float> mean(p.mean), ls(p.log_scale), rot(p.rotation), op(p.opacity), sh(p.sh);
       cuda::DeviceArray<float> dw(weights.vec());

@@ -106,23 +106,44 @@ __global__ void gather_counts_kernel(const uint32_t* __restrict__ order, const u
 }
 
 // Splats in depth order write their entries at their offsets: entries are depth-ordered within
-// every tile, and the stable sort by tile keeps that order.
-__global__ void emit_kernel(const uint32_t* __restrict__ order, const uint32_t* __restrict__ ends,
-                            const ushort4* __restrict__ rects, const uint32_t* __restrict__ tiles, uint32_t n,
-                            int tiles_x, uint32_t* __restrict__ keys, uint32_t* __restrict__ vals) {
+// every tile, and the stable sort by tile keeps that order. The 32 consecutive ranks of a warp own
+// one contiguous run of entries, which the warp writes together (lane i writes entry run + i + 32 k
+// after finding its owner by binary search over the lanes' starts), so the stores coalesce.
+__global__ void __launch_bounds__(256) emit_kernel(const uint32_t* __restrict__ order,
+                                                   const uint32_t* __restrict__ ends,
+                                                   const ushort4* __restrict__ rects,
+                                                   const uint32_t* __restrict__ tiles, uint32_t n, int tiles_x,
+                                                   uint32_t* __restrict__ keys, uint32_t* __restrict__ vals) {
+  __shared__ uint32_t s_start[8][32], s_j[8][32];
+  __shared__ ushort4 s_rect[8][32];
   const uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
-  if (r >= n) return;
-  const uint32_t j = order[r];
-  const uint32_t cnt = tiles[j];
-  if (cnt == 0) return;
-  uint32_t off = ends[r] - cnt;
-  const ushort4 t = rects[j];
-  for (int ty = t.z; ty <= t.w; ++ty)
-    for (int tx = t.x; tx <= t.y; ++tx) {
-      keys[off] = uint32_t(ty * tiles_x + tx);
-      vals[off] = j;
-      ++off;
-    }
+  const int w = threadIdx.x >> 5, lane = threadIdx.x & 31;
+  uint32_t j = 0, cnt = 0, end = ends[n - 1];
+  if (r < n) {
+    j = order[r];
+    cnt = tiles[j];
+    end = ends[r];
+  }
+  const uint32_t start = end - cnt;
+  const uint32_t run_begin = __shfl_sync(0xffffffffu, start, 0), run_end = __shfl_sync(0xffffffffu, end, 31);
+  s_start[w][lane] = start - run_begin;
+  s_j[w][lane] = j;
+  if (cnt > 0) s_rect[w][lane] = rects[j];
+  __syncwarp();
+  for (uint32_t p = run_begin + lane; p < run_end; p += 32) {
+    const uint32_t rel = p - run_begin;
+    // The last lane whose run starts at or before rel owns it (lanes with no entries start where
+    // the next one does, so the last such lane is never empty).
+    int lo = 0;
+#pragma unroll
+    for (int step = 16; step > 0; step >>= 1)
+      if (s_start[w][lo + step] <= rel) lo += step;
+    const uint32_t k = rel - s_start[w][lo];
+    const ushort4 t = s_rect[w][lo];
+    const uint32_t width = uint32_t(t.y - t.x + 1);
+    keys[p] = (uint32_t(t.z) + k / width) * uint32_t(tiles_x) + uint32_t(t.x) + k % width;
+    vals[p] = s_j[w][lo];
+  }
 }
 
 __global__ void ranges_kernel(const uint32_t* __restrict__ keys, uint32_t total, uint2* __restrict__ ranges) {
