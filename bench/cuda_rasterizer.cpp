@@ -38,9 +38,12 @@ struct Case {
 };
 
 const std::vector<Case> kCases = {
-    {"kitti_0.5M", 1241, 376, 718, 500000, 1.33, 6.47},   {"kitti_1.5M", 1241, 376, 718, 1500000, 1.94, 9.03},
-    {"tum_0.5M", 640, 480, 525, 500000, 1.26, 4.87},      {"tum_1.5M", 640, 480, 525, 1500000, 1.61, 7.29},
-    {"replica_0.5M", 1200, 680, 600, 500000, 1.69, 9.68}, {"replica_1.5M", 1200, 680, 600, 1500000, 2.33, 12.31},
+    {"kitti_0.5M", 1241, 376, 718, 500000, 1.33, 6.47},
+    {"kitti_1.5M", 1241, 376, 718, 1500000, 1.94, 9.03},
+    {"tum_0.5M", 640, 480, 525, 500000, 1.26, 4.87},
+    {"tum_1.5M", 640, 480, 525, 1500000, 1.61, 7.29},
+    {"replica_0.5M", 1200, 680, 600, 500000, 1.69, 9.68},
+    {"replica_1.5M", 1200, 680, 600, 1500000, 2.33, 12.31},
 };
 
 // Standard 3DGS PLY: x y z nx ny nz f_dc_0..2 f_rest_0..44 opacity scale_0..2 rot_0..3 (opacity as a
@@ -91,11 +94,16 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--json") json_path = value();
-    else if (a == "--ply-dir") ply_dir = value();
-    else if (a == "--reps") reps = std::max(1, std::stoi(value()));
-    else if (a == "--warmup") warmup = std::max(0, std::stoi(value()));
-    else if (a == "--cases") only = value();
+    if (a == "--json")
+      json_path = value();
+    else if (a == "--ply-dir")
+      ply_dir = value();
+    else if (a == "--reps")
+      reps = std::max(1, std::stoi(value()));
+    else if (a == "--warmup")
+      warmup = std::max(0, std::stoi(value()));
+    else if (a == "--cases")
+      only = value();
     else {
       std::fprintf(stderr, "bench_cuda_rasterizer: unknown argument %s\n", a.c_str());
       return 2;
@@ -132,8 +140,8 @@ int main(int argc, char** argv) {
     }
     std::printf("device: %s (sm_%d%d, %d SMs)  median of %d after %d warm-ups\n", devices[0].name.c_str(),
                 devices[0].major, devices[0].minor, devices[0].multiprocessors, reps, warmup);
-    std::printf("%-13s %9s %9s %8s %8s %8s %8s | %6s %6s %6s %6s %6s | %7s\n", "case", "pairs", "fwd_ms", "fb_ms",
-                "ref_fwd", "ref_fb", "speedup", "prep", "sort", "comp", "bcomp", "bproj", "loss_ms");
+    std::printf("%-13s %9s %9s %8s %8s %8s %8s | %6s %6s %6s %6s %6s | %7s\n", "case", "pairs", "fwd_ms",
+                "fb_ms", "ref_fwd", "ref_fb", "speedup", "prep", "sort", "comp", "bcomp", "bproj", "loss_ms");
     std::string json = "{\n  \"device\": \"" + devices[0].name + "\",\n  \"reps\": " + std::to_string(reps) +
                        ",\n  \"warmup\": " + std::to_string(warmup) + ",\n  \"cases\": [\n";
     bool first = true;
@@ -186,8 +194,9 @@ int main(int argc, char** argv) {
       const double mf = median(fwd), mfb = median(fb);
       const double ml = median(loss_ms);
       std::printf("%-13s %8.2fM %9.3f %8.3f %8.2f %8.2f %7.2fx | %6.3f %6.3f %6.3f %6.3f %6.3f | %7.3f\n",
-                  c.name.c_str(), r.tile_entries() / 1e6, mf, mfb, c.ref_fwd, c.ref_fwdbwd, c.ref_fwdbwd / mfb,
-                  t.preprocess, t.sort, t.composite, t.composite_backward, t.project_backward, ml);
+                  c.name.c_str(), r.tile_entries() / 1e6, mf, mfb, c.ref_fwd, c.ref_fwdbwd,
+                  c.ref_fwdbwd / mfb, t.preprocess, t.sort, t.composite, t.composite_backward,
+                  t.project_backward, ml);
       std::fflush(stdout);
       char buf[1024];
       std::snprintf(buf, sizeof buf,
@@ -197,9 +206,10 @@ int main(int argc, char** argv) {
                     "\"reference_forward_ms\": %.2f, \"reference_forward_backward_ms\": %.2f, "
                     "\"stages_ms\": {\"preprocess\": %.4f, \"sort\": %.4f, \"composite\": %.4f, "
                     "\"composite_backward\": %.4f, \"project_backward\": %.4f}}",
-                    first ? "" : ",\n", c.name.c_str(), c.width, c.height, c.f, c.n, r.tile_entries(), mf, mfb,
-                    *std::min_element(fwd.begin(), fwd.end()), *std::min_element(fb.begin(), fb.end()), ml, c.ref_fwd,
-                    c.ref_fwdbwd, t.preprocess, t.sort, t.composite, t.composite_backward, t.project_backward);
+                    first ? "" : ",\n", c.name.c_str(), c.width, c.height, c.f, c.n, r.tile_entries(), mf,
+                    mfb, *std::min_element(fwd.begin(), fwd.end()), *std::min_element(fb.begin(), fb.end()),
+                    ml, c.ref_fwd, c.ref_fwdbwd, t.preprocess, t.sort, t.composite, t.composite_backward,
+                    t.project_backward);
       json += buf;
       first = false;
     }

@@ -1,7 +1,5 @@
 // The fused CUDA sparse Adam against its CPU twin on random parameters, moments and gradients.
 #ifdef CHUNGS_WITH_CUDA
-#include "chungs/optim/cuda/adam.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,15 +8,16 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/cuda/devices.hpp"
+#include "chungs/optim/cuda/adam.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
 
 namespace chungs {
 namespace {
 
-#define REQUIRE_GPU()                                                                        \
-  do {                                                                                       \
-    std::string why_;                                                                        \
-    if (cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_;        \
+#define REQUIRE_GPU()                                                                  \
+  do {                                                                                 \
+    std::string why_;                                                                  \
+    if (cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
   } while (0)
 
 void fill(std::vector<float>& v, std::mt19937& rng, float scale, bool positive = false) {
@@ -30,7 +29,8 @@ GaussianBlock random_block(size_t n, std::mt19937& rng) {
   GaussianBlock b;
   b.resize(n);
   for (auto* p : {&b.params, &b.adam_m, &b.adam_v})
-    for (auto* v : {&p->mean, &p->log_scale, &p->rotation, &p->opacity, &p->sh}) fill(*v, rng, 0.1f, p == &b.adam_v);
+    for (auto* v : {&p->mean, &p->log_scale, &p->rotation, &p->opacity, &p->sh})
+      fill(*v, rng, 0.1f, p == &b.adam_v);
   std::uniform_int_distribution<uint32_t> steps(0, 50);
   std::uniform_real_distribution<float> U(0.01f, 1.f);
   for (auto& s : b.adam_steps) s = steps(rng);
@@ -63,7 +63,8 @@ struct DeviceBlock {
     const cuda::DeviceArray<float>* src[3] = {p, m, v};
     for (int s = 0; s < 3; ++s) {
       src[s][0].download(dst[s]->mean), src[s][1].download(dst[s]->log_scale);
-      src[s][2].download(dst[s]->rotation), src[s][3].download(dst[s]->opacity), src[s][4].download(dst[s]->sh);
+      src[s][2].download(dst[s]->rotation), src[s][3].download(dst[s]->opacity),
+          src[s][4].download(dst[s]->sh);
     }
     steps.download(b.adam_steps);
     factor.download(b.lr_position_factor);
@@ -132,10 +133,11 @@ TEST(CudaAdam, IndexOutOfRangeThrowsAndLeavesOthersValid) {
   cuda::DeviceArray<uint32_t> dids(ids);
   cuda::DeviceArray<uint8_t> dvis(visible);
   cuda::DeviceArray<float> gm(std::vector<float>(9, 1.f)), gs(std::vector<float>(9, 1.f)),
-      gr(std::vector<float>(12, 1.f)), go(std::vector<float>(3, 1.f)), gsh(std::vector<float>(3 * kShFloats, 1.f));
+      gr(std::vector<float>(12, 1.f)), go(std::vector<float>(3, 1.f)),
+      gsh(std::vector<float>(3 * kShFloats, 1.f));
   try {
-    cuda::sparse_adam_step(AdamConfig{}, DeviceBlock::view(gpu.p, 10), gpu.state(), dids.data(), dvis.data(), 3,
-                           {3, gm.data(), gs.data(), gr.data(), go.data(), gsh.data()});
+    cuda::sparse_adam_step(AdamConfig{}, DeviceBlock::view(gpu.p, 10), gpu.state(), dids.data(), dvis.data(),
+                           3, {3, gm.data(), gs.data(), gr.data(), go.data(), gsh.data()});
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("index 2"), std::string::npos) << e.what();

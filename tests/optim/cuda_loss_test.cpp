@@ -1,7 +1,5 @@
 // The fused CUDA mapping loss (L1 + SSIM + inverse-depth L1) against its CPU twin on random images.
 #ifdef CHUNGS_WITH_CUDA
-#include "chungs/optim/cuda/loss.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,13 +7,14 @@
 #include <string>
 
 #include "chungs/cuda/devices.hpp"
+#include "chungs/optim/cuda/loss.hpp"
 
 namespace chungs {
 namespace {
 
-#define REQUIRE_GPU()                                                                 \
-  do {                                                                                \
-    std::string why_;                                                                 \
+#define REQUIRE_GPU()                                                                  \
+  do {                                                                                 \
+    std::string why_;                                                                  \
     if (cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
   } while (0)
 

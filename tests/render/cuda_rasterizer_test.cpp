@@ -1,8 +1,6 @@
 // Parity of the CUDA rasterizer with its CPU twin on random scenes: images to 1e-4 and gradients to
 // 1e-3 relative error (norm over each array). Skipped where no CUDA device is present.
 #ifdef CHUNGS_WITH_CUDA
-#include "chungs/render/cuda/rasterizer.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +9,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/render/cpu/rasterizer.hpp"
+#include "chungs/render/cuda/rasterizer.hpp"
 #include "cuda_test_support.hpp"
 #include "random_scene.hpp"
 
@@ -40,11 +39,12 @@ void render_both(const test::RandomScene& scene, const RasterConfig& cfg, const 
 }
 
 void expect_images_match(const Renders& r, double tol) {
-  const double e[5] = {rel_error(r.gpu.rgb.vec(), r.cpu.rgb.vec()), rel_error(r.gpu.depth.vec(), r.cpu.depth.vec()),
-                       rel_error(r.gpu.inv_depth.vec(), r.cpu.inv_depth.vec()),
-                       rel_error(r.gpu.alpha.vec(), r.cpu.alpha.vec()), rel_error(r.gpu.radius, r.cpu.radius)};
-  std::printf("relative error rgb %.2e depth %.2e inv_depth %.2e alpha %.2e radius %.2e\n", e[0], e[1], e[2], e[3],
-              e[4]);
+  const double e[5] = {
+      rel_error(r.gpu.rgb.vec(), r.cpu.rgb.vec()), rel_error(r.gpu.depth.vec(), r.cpu.depth.vec()),
+      rel_error(r.gpu.inv_depth.vec(), r.cpu.inv_depth.vec()),
+      rel_error(r.gpu.alpha.vec(), r.cpu.alpha.vec()), rel_error(r.gpu.radius, r.cpu.radius)};
+  std::printf("relative error rgb %.2e depth %.2e inv_depth %.2e alpha %.2e radius %.2e\n", e[0], e[1], e[2],
+              e[3], e[4]);
   for (double v : e) EXPECT_LT(v, tol);
   EXPECT_EQ(r.gpu.visible, r.cpu.visible);
   // The comparison means something only if the scene covers the image.
@@ -166,8 +166,8 @@ TEST(CudaRasterizer, GradientsMatchFloat64CpuTwin) {
     const double e[5] = {rel_error(got.mean, ref.mean), rel_error(got.log_scale, ref.log_scale),
                          rel_error(got.rotation, ref.rotation), rel_error(got.opacity, ref.opacity),
                          rel_error(got.sh, ref.sh)};
-    std::printf("relative error d/dmean %.2e d/dlog_scale %.2e d/drotation %.2e d/dopacity %.2e d/dsh %.2e\n", e[0],
-                e[1], e[2], e[3], e[4]);
+    std::printf("relative error d/dmean %.2e d/dlog_scale %.2e d/drotation %.2e d/dopacity %.2e d/dsh %.2e\n",
+                e[0], e[1], e[2], e[3], e[4]);
     for (double v : e) EXPECT_LT(v, 1e-3);
   }
 }

@@ -11,9 +11,9 @@
 #include "chungs/render/cuda/device_buffer.hpp"
 #include "chungs/render/gaussian_view.hpp"
 
-#define CHUNGS_REQUIRE_GPU()                                                       \
-  do {                                                                             \
-    std::string why_;                                                              \
+#define CHUNGS_REQUIRE_GPU()                                                                   \
+  do {                                                                                         \
+    std::string why_;                                                                          \
     if (chungs::cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
   } while (0)
 

@@ -1,8 +1,6 @@
 // The VRAM Gaussian pool behaves as the CPU pool: the same slots hold the same Gaussians after any
 // sequence of scatters (loads), releases and gathers (evictions).
 #ifdef CHUNGS_WITH_CUDA
-#include "chungs/residency/cuda/gaussian_pool.hpp"
-
 #include <cuda_runtime.h>
 #include <gtest/gtest.h>
 
@@ -11,13 +9,14 @@
 #include <string>
 
 #include "chungs/cuda/devices.hpp"
+#include "chungs/residency/cuda/gaussian_pool.hpp"
 
 namespace chungs {
 namespace {
 
-#define REQUIRE_GPU()                                                                 \
-  do {                                                                                \
-    std::string why_;                                                                 \
+#define REQUIRE_GPU()                                                                  \
+  do {                                                                                 \
+    std::string why_;                                                                  \
     if (cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
   } while (0)
 

@@ -10,7 +10,8 @@
 namespace chungs::cuda {
 
 void sparse_adam_step(const AdamConfig& cfg, const GaussianArraysMut<float>& params, const AdamState& state,
-                      const uint32_t* ids, const uint8_t* visible, size_t n, const DeviceGaussianGrads& grads) {
+                      const uint32_t* ids, const uint8_t* visible, size_t n,
+                      const DeviceGaussianGrads& grads) {
   cfg.validate();
   if (grads.count != n) fail("CUDA sparse Adam: ", n, " indices but ", grads.count, " gradients");
   if (n == 0) return;
@@ -37,7 +38,8 @@ void sparse_adam_step(const AdamConfig& cfg, const GaussianArraysMut<float>& par
                        cfg.position_lr_floor};
   const uint32_t bad = detail::launch_sparse_adam(a);
   if (bad != 0xFFFFFFFFu)
-    fail("CUDA sparse Adam: index ", bad, " is at or above the ", a.capacity, " slots of the parameters/state");
+    fail("CUDA sparse Adam: index ", bad, " is at or above the ", a.capacity,
+         " slots of the parameters/state");
 }
 
 }  // namespace chungs::cuda

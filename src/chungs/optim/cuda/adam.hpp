@@ -14,7 +14,8 @@ namespace chungs::cuda {
 // visible and grads are device pointers (state.steps and state.lr_position_factor too); ids must be
 // distinct. Throws Error naming the first index at or above the capacity of params or state (those
 // entries are left untouched) or when grads.count differs from n.
-void sparse_adam_step(const AdamConfig& config, const GaussianArraysMut<float>& params, const AdamState& state,
-                      const uint32_t* ids, const uint8_t* visible, size_t n, const DeviceGaussianGrads& grads);
+void sparse_adam_step(const AdamConfig& config, const GaussianArraysMut<float>& params,
+                      const AdamState& state, const uint32_t* ids, const uint8_t* visible, size_t n,
+                      const DeviceGaussianGrads& grads);
 
 }  // namespace chungs::cuda

@@ -7,11 +7,11 @@ namespace chungs::cuda::detail {
 
 struct LossLaunch {
   int width, height;
-  const float* rgb;          // rendered, 3 channels interleaved
-  const float* target_rgb;   // same shape
-  const float* inv_depth;    // rendered, 1 channel; used when depth_weight > 0
+  const float* rgb;         // rendered, 3 channels interleaved
+  const float* target_rgb;  // same shape
+  const float* inv_depth;   // rendered, 1 channel; used when depth_weight > 0
   const float* target_inv_depth;
-  const uint8_t* depth_mask;  // optional
+  const uint8_t* depth_mask;                   // optional
   float l1_weight, ssim_weight, depth_weight;  // (1 - ls), ls, ld; a zero weight skips the term
   bool want_grads;
   float* grad_rgb;        // overwritten: (1 - ls) dL1 - ls dSSIM

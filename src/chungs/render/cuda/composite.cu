@@ -26,10 +26,9 @@ __device__ __forceinline__ void load_batch(Batch& sm, const uint32_t* list, Spla
   }
 }
 
-__global__ void __launch_bounds__(kBlock) forward_kernel(const uint2* __restrict__ ranges,
-                                                         const uint32_t* __restrict__ list, SplatData s,
-                                                         const uint32_t* __restrict__ ids, int W, int H,
-                                                         RasterConsts k, ForwardImages out) {
+__global__ void __launch_bounds__(kBlock)
+    forward_kernel(const uint2* __restrict__ ranges, const uint32_t* __restrict__ list, SplatData s,
+                   const uint32_t* __restrict__ ids, int W, int H, RasterConsts k, ForwardImages out) {
   __shared__ Batch sm;
   const int tiles_x = (W + kTileSize - 1) / kTileSize;
   const int tile = blockIdx.x;
@@ -113,11 +112,12 @@ __device__ __forceinline__ int reduced_index(int lane) {
   return real > 0 ? idx : -1;
 }
 
-__global__ void __launch_bounds__(kBlock) backward_kernel(
-    const uint2* __restrict__ ranges, const uint32_t* __restrict__ list, SplatData s, int W, int H,
-    RasterConsts k, const float* __restrict__ rgb, const float* __restrict__ depth,
-    const float* __restrict__ inv_depth, const float* __restrict__ alpha_img, const uint32_t* __restrict__ last,
-    DeviceRenderGrads dl, float* __restrict__ splat_grads) {
+__global__ void __launch_bounds__(kBlock)
+    backward_kernel(const uint2* __restrict__ ranges, const uint32_t* __restrict__ list, SplatData s, int W,
+                    int H, RasterConsts k, const float* __restrict__ rgb, const float* __restrict__ depth,
+                    const float* __restrict__ inv_depth, const float* __restrict__ alpha_img,
+                    const uint32_t* __restrict__ last, DeviceRenderGrads dl,
+                    float* __restrict__ splat_grads) {
   __shared__ Batch sm;
   __shared__ uint32_t max_stop;
   const int tiles_x = (W + kTileSize - 1) / kTileSize;
@@ -221,8 +221,8 @@ void composite_backward(const uint2* ranges, const uint32_t* list, SplatData s, 
                         const float* alpha, const uint32_t* last, const DeviceRenderGrads& dl,
                         float* splat_grads, cudaStream_t stream) {
   const int tiles = ((width + kTileSize - 1) / kTileSize) * ((height + kTileSize - 1) / kTileSize);
-  backward_kernel<<<tiles, kBlock, 0, stream>>>(ranges, list, s, width, height, k, rgb, depth, inv_depth, alpha,
-                                                last, dl, splat_grads);
+  backward_kernel<<<tiles, kBlock, 0, stream>>>(ranges, list, s, width, height, k, rgb, depth, inv_depth,
+                                                alpha, last, dl, splat_grads);
 }
 
 }  // namespace chungs::cuda::detail

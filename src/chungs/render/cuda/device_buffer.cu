@@ -74,7 +74,9 @@ EventTimer::~EventTimer() {
   cudaEventDestroy(static_cast<cudaEvent_t>(end_));
 }
 
-void EventTimer::start() { check(cudaEventRecord(static_cast<cudaEvent_t>(begin_)), "event record", "timer", 0); }
+void EventTimer::start() {
+  check(cudaEventRecord(static_cast<cudaEvent_t>(begin_)), "event record", "timer", 0);
+}
 
 double EventTimer::stop_ms() {
   auto e = static_cast<cudaEvent_t>(end_);

@@ -79,7 +79,9 @@ class DeviceArray {
     download(h);
     return h;
   }
-  void fill_bytes(int byte) { fill_device_bytes(bytes_.data(), byte, size_ * sizeof(T), "DeviceArray::fill"); }
+  void fill_bytes(int byte) {
+    fill_device_bytes(bytes_.data(), byte, size_ * sizeof(T), "DeviceArray::fill");
+  }
 
   T* data() { return static_cast<T*>(bytes_.data()); }
   const T* data() const { return static_cast<const T*>(bytes_.data()); }

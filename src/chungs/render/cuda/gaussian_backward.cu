@@ -17,12 +17,10 @@ __device__ __forceinline__ void quat_backward(const float* q, const float* gR, f
                y * gR[7]);
 }
 
-__global__ void __launch_bounds__(128) gaussian_backward_kernel(GaussianArrays<float> g,
-                                                                const uint32_t* __restrict__ ids, uint32_t n,
-                                                                RenderCamera<float> cam, RasterConsts k,
-                                                                const uint8_t* __restrict__ visible,
-                                                                const float* __restrict__ splat_grads,
-                                                                DeviceGaussianGrads out) {
+__global__ void __launch_bounds__(128)
+    gaussian_backward_kernel(GaussianArrays<float> g, const uint32_t* __restrict__ ids, uint32_t n,
+                             RenderCamera<float> cam, RasterConsts k, const uint8_t* __restrict__ visible,
+                             const float* __restrict__ splat_grads, DeviceGaussianGrads out) {
   const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= n) return;
   float4* gsh4 = reinterpret_cast<float4*>(out.sh + size_t(kShFloats) * j);
@@ -77,7 +75,8 @@ __global__ void __launch_bounds__(128) gaussian_backward_kernel(GaussianArrays<f
   // Conic -> 2D covariance: dL/dSigma2 = -K dL/dK K, with the off-diagonal gradient split in two.
   const float ka = o.C / o.det, kb = -o.B / o.det, kc = o.A / o.det;
   const float Ga = gs[2], Gb = gs[3] / 2, Gc = gs[4];
-  const float KG00 = ka * Ga + kb * Gb, KG01 = ka * Gb + kb * Gc, KG10 = kb * Ga + kc * Gb, KG11 = kb * Gb + kc * Gc;
+  const float KG00 = ka * Ga + kb * Gb, KG01 = ka * Gb + kb * Gc, KG10 = kb * Ga + kc * Gb,
+              KG11 = kb * Gb + kc * Gc;
   const float gA = -(KG00 * ka + KG01 * kb), gB2 = -(KG00 * kb + KG01 * kc), gC = -(KG10 * kb + KG11 * kc);
   const float G2[4] = {gA, gB2, gB2, gC};
   float G2T[6];
@@ -150,7 +149,8 @@ void gaussian_backward(const GaussianArrays<float>& g, const uint32_t* ids, size
                        const RenderCamera<float>& cam, const RasterConsts& k, const uint8_t* visible,
                        const float* splat_grads, const DeviceGaussianGrads& out, cudaStream_t stream) {
   const unsigned blocks = unsigned((n + 127) / 128);
-  gaussian_backward_kernel<<<blocks, 128, 0, stream>>>(g, ids, uint32_t(n), cam, k, visible, splat_grads, out);
+  gaussian_backward_kernel<<<blocks, 128, 0, stream>>>(g, ids, uint32_t(n), cam, k, visible, splat_grads,
+                                                       out);
 }
 
 }  // namespace chungs::cuda::detail

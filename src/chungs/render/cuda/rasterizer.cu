@@ -1,9 +1,8 @@
 // Forward orchestration of the CUDA rasterizer: per-Gaussian projection, depth sort, tile-entry
 // emission in depth order, stable sort by tile, tile ranges, then the compositing (composite.cu).
+#include <cmath>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_scan.cuh>
-
-#include <cmath>
 
 #include "chungs/common/error.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
@@ -109,11 +108,10 @@ __global__ void gather_counts_kernel(const uint32_t* __restrict__ order, const u
 // every tile, and the stable sort by tile keeps that order. The 32 consecutive ranks of a warp own
 // one contiguous run of entries, which the warp writes together (lane i writes entry run + i + 32 k
 // after finding its owner by binary search over the lanes' starts), so the stores coalesce.
-__global__ void __launch_bounds__(256) emit_kernel(const uint32_t* __restrict__ order,
-                                                   const uint32_t* __restrict__ ends,
-                                                   const ushort4* __restrict__ rects,
-                                                   const uint32_t* __restrict__ tiles, uint32_t n, int tiles_x,
-                                                   uint32_t* __restrict__ keys, uint32_t* __restrict__ vals) {
+__global__ void __launch_bounds__(256)
+    emit_kernel(const uint32_t* __restrict__ order, const uint32_t* __restrict__ ends,
+                const ushort4* __restrict__ rects, const uint32_t* __restrict__ tiles, uint32_t n,
+                int tiles_x, uint32_t* __restrict__ keys, uint32_t* __restrict__ vals) {
   __shared__ uint32_t s_start[8][32], s_j[8][32];
   __shared__ ushort4 s_rect[8][32];
   const uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
@@ -193,7 +191,7 @@ struct CudaRasterizer::State {
   DeviceArray<float> rgb, depth, inv_depth, alpha;
   DeviceArray<uint32_t> top_id, last;
   DeviceBytes temp;
-  DeviceArray<uint32_t> flags;  // [0] = smallest bad index
+  DeviceArray<uint32_t> flags;     // [0] = smallest bad index
   uint32_t* host_flags = nullptr;  // pinned: bad index, total entries
   // Backward.
   DeviceArray<float> splat_grads, g_mean, g_scale, g_rot, g_op, g_sh;
@@ -222,7 +220,9 @@ struct CudaRasterizer::State {
   }
 };
 
-CudaRasterizer::CudaRasterizer(const RasterConfig& config) : s_(std::make_unique<State>()) { set_config(config); }
+CudaRasterizer::CudaRasterizer(const RasterConfig& config) : s_(std::make_unique<State>()) {
+  set_config(config);
+}
 CudaRasterizer::~CudaRasterizer() = default;
 
 const RasterConfig& CudaRasterizer::config() const { return s_->config; }
@@ -237,8 +237,8 @@ const DeviceRenderOutput& CudaRasterizer::output() const { return s_->out; }
 const CudaRasterTimings& CudaRasterizer::timings() const { return s_->timings; }
 size_t CudaRasterizer::tile_entries() const { return s_->total; }
 
-const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g, const uint32_t* ids, size_t n,
-                                                  const RenderCamera<float>& cam) {
+const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g, const uint32_t* ids,
+                                                  size_t n, const RenderCamera<float>& cam) {
   State& s = *s_;
   if (cam.width <= 0 || cam.height <= 0)
     fail("CUDA rasterizer: image size must be positive, got ", cam.width, "x", cam.height);
@@ -267,8 +267,8 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
   s.total = 0;
   if (n > 0) {
     check(cudaMemsetAsync(s.flags.data(), 0xFF, sizeof(uint32_t), st), "memset");
-    PreprocessOut po{s.a.data(), s.b.data(), s.c.data(), s.rect.data(), s.tiles.data(), s.zkey.data(),
-                     s.order.data(), s.radius.data(), s.visible.data(), s.flags.data()};
+    PreprocessOut po{s.a.data(),    s.b.data(),     s.c.data(),      s.rect.data(),    s.tiles.data(),
+                     s.zkey.data(), s.order.data(), s.radius.data(), s.visible.data(), s.flags.data()};
     preprocess_kernel<<<blocks_for(n, 128), 128, 0, st>>>(g, ids, uint32_t(n), cam, s.consts, s.tiles_x,
                                                           s.tiles_y, po);
     check(cudaGetLastError(), "preprocess launch");
@@ -282,8 +282,8 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
                                           s.order_sorted.data(), int(n), 0, 32, st),
           "depth sort");
     // zkey is free now: it holds the per-rank counts.
-    gather_counts_kernel<<<blocks_for(n, 256), 256, 0, st>>>(s.order_sorted.data(), s.tiles.data(), uint32_t(n),
-                                                             s.zkey.data());
+    gather_counts_kernel<<<blocks_for(n, 256), 256, 0, st>>>(s.order_sorted.data(), s.tiles.data(),
+                                                             uint32_t(n), s.zkey.data());
     check(cub::DeviceScan::InclusiveSum(tmp, scan_bytes, s.zkey.data(), s.ends.data(), int(n), st), "scan");
     check(cudaMemcpyAsync(s.flags.data() + 1, s.ends.data() + (n - 1), sizeof(uint32_t),
                           cudaMemcpyDeviceToDevice, st),
@@ -354,7 +354,8 @@ const DeviceGaussianGrads& CudaRasterizer::backward(const DeviceRenderGrads& dlo
   s.splat_grads.resize(n * kSplatGrads);
   s.g_mean.resize(3 * n), s.g_scale.resize(3 * n), s.g_rot.resize(4 * n), s.g_op.resize(n);
   s.g_sh.resize(size_t(kShFloats) * n);
-  s.grads = DeviceGaussianGrads{n, s.g_mean.data(), s.g_scale.data(), s.g_rot.data(), s.g_op.data(), s.g_sh.data()};
+  s.grads =
+      DeviceGaussianGrads{n, s.g_mean.data(), s.g_scale.data(), s.g_rot.data(), s.g_op.data(), s.g_sh.data()};
   s.mark(0);
   if (n > 0) check(cudaMemsetAsync(s.splat_grads.data(), 0, n * kSplatGrads * sizeof(float), st), "memset");
   if (n > 0 && s.total > 0)

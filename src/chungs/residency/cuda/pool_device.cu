@@ -30,21 +30,25 @@ struct Layout {
 
 // Element e of array blockIdx.y: staging[offset + e] <-> array[slot * width + k].
 template <bool Scatter>
-__global__ void move_kernel(Layout L, uint32_t* __restrict__ staging, const uint32_t* __restrict__ slots, size_t n) {
+__global__ void move_kernel(Layout L, uint32_t* __restrict__ staging, const uint32_t* __restrict__ slots,
+                            size_t n) {
   const int a = blockIdx.y;
   const int w = L.width[a];
   const size_t total = n * size_t(w);
-  for (size_t e = size_t(blockIdx.x) * blockDim.x + threadIdx.x; e < total; e += size_t(gridDim.x) * blockDim.x) {
+  for (size_t e = size_t(blockIdx.x) * blockDim.x + threadIdx.x; e < total;
+       e += size_t(gridDim.x) * blockDim.x) {
     const size_t i = e / w, k = e % w;
     uint32_t* dst = L.arrays[a] + size_t(slots[i]) * w + k;
     uint32_t* st = staging + L.offset[a] + e;
-    if (Scatter) *dst = *st;
-    else *st = *dst;
+    if (Scatter)
+      *dst = *st;
+    else
+      *st = *dst;
   }
 }
 
 struct Staging {
-  uint32_t* host = nullptr;    // pinned
+  uint32_t* host = nullptr;  // pinned
   uint32_t* device = nullptr;
   size_t capacity = 0;         // elements
   cudaEvent_t done = nullptr;  // the last transfer that used this buffer
@@ -116,8 +120,10 @@ struct PoolDevice {
     for (int a = 0; a < count; ++a) widest = std::max(widest, n * size_t(widths[a]));
     const unsigned blocks = unsigned(std::min<size_t>((widest + 255) / 256, 4096));
     const dim3 grid(std::max(blocks, 1u), unsigned(count));
-    if (scatter) move_kernel<true><<<grid, 256, 0, stream>>>(L, staging_dev, slots_dev, n);
-    else move_kernel<false><<<grid, 256, 0, stream>>>(L, staging_dev, slots_dev, n);
+    if (scatter)
+      move_kernel<true><<<grid, 256, 0, stream>>>(L, staging_dev, slots_dev, n);
+    else
+      move_kernel<false><<<grid, 256, 0, stream>>>(L, staging_dev, slots_dev, n);
     check(cudaGetLastError(), "copy kernel");
   }
 };
@@ -180,7 +186,9 @@ void pool_device_gather(PoolDevice* d, void* const* host_arrays, const uint32_t*
     std::memcpy(host_arrays[a], s.host + L.offset[a], n * size_t(d->widths[a]) * 4);
 }
 
-void pool_device_wait_uploads(PoolDevice* d) { check(cudaStreamWaitEvent(0, d->uploads_done, 0), "stream wait"); }
+void pool_device_wait_uploads(PoolDevice* d) {
+  check(cudaStreamWaitEvent(0, d->uploads_done, 0), "stream wait");
+}
 
 void pool_device_synchronize(PoolDevice* d) { check(cudaStreamSynchronize(d->stream), "synchronize"); }
 
