@@ -33,8 +33,9 @@ C3 flat(const Material& m, const SurfacePoint& sp) {
 C3 plaster(const Material& m, const SurfacePoint& sp) {
   const double fp = fpn(sp);
   const float blotch = smoothstep(-0.25f, 0.5f, fbm(sp.s, sp.t, 2.0, 3, m.seed + 7, fp));
-  const float grain = fbm(sp.s, sp.t, 0.5, 7, m.seed + 3, fp);
-  return mix(m.a, m.b, 0.45f * blotch) * (1 + 0.16f * grain);
+  // Trowel marks: a rougher fractal (gain 0.7) keeps contrast down to millimetres.
+  const float grain = fbm(sp.s, sp.t, 0.4, 8, m.seed + 3, fp, 0.7f);
+  return mix(m.a, m.b, 0.45f * blotch) * (1 + 0.28f * grain);
 }
 
 C3 wallpaper(const Material& m, const SurfacePoint& sp) {
