@@ -125,19 +125,21 @@ TEST(Writers, TumAndKittiOutputsLoadThroughTheReaders) {
   test::TempDir dir;
   RoomOptions o;
   MeshScene scene(build_room(o), Environment::indoor());
-  Camera cam = tum_camera(640, 480);
+  Camera cam(320, 240, 301, 305, 158.25, 121.5);  // not the TUM default: calib.txt must carry it
   auto traj = room_trajectory(o, 4);
   SequenceOptions so;
   render_sequence(scene, traj, cam, so, dir / "tum");
   auto ds = open_dataset("tum:" + (dir / "tum").string());
   ASSERT_EQ(ds->size(), 4u);
+  EXPECT_DOUBLE_EQ(ds->info().camera.fy, 305);
+  EXPECT_DOUBLE_EQ(ds->info().camera.cx, 158.25);
   Frame f = ds->frame(3);
   ASSERT_TRUE(f.depth && f.gt_pose);
   EXPECT_LT((f.gt_pose->matrix() - traj.poses[3].matrix()).norm(), 1e-5);
   RenderedFrame ref;
   Rasterizer r;
   render_frame(r, scene, cam, traj.poses[3], 0, RenderOptions{}, ref);
-  EXPECT_NEAR((*f.depth)(320, 240), ref.depth(320, 240), 1.0 / 5000);
+  EXPECT_NEAR((*f.depth)(160, 120), ref.depth(160, 120), 1.0 / 5000);
 
   so.layout = Layout::Kitti;
   so.baseline = 0.2;

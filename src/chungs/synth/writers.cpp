@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iomanip>
 #include <vector>
 
 #include "chungs/common/error.hpp"
@@ -78,6 +79,11 @@ class TumWriter : public SequenceWriter {
     list("depth.txt", "depth", "depth", depth_);
     write_tum_trajectory(out_ / "groundtruth.txt", traj_);
     write_camera_txt(out_ / "camera.txt", cam_, 0, kTumDepthScale);
+    // The TUM reader's intrinsics override, so that any synthetic camera reads back as written.
+    const fs::path calib = out_ / "calib.txt";
+    auto c = open_text(calib);
+    c << std::setprecision(17) << cam_.fx << ' ' << cam_.fy << ' ' << cam_.cx << ' ' << cam_.cy << '\n';
+    close_text(c, calib);
   }
 
  private:

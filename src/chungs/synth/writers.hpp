@@ -1,7 +1,8 @@
 // Writers of rendered sequences in the on-disk layouts the dataset readers load.
 //
 // TUM RGB-D: rgb/<t>.png, depth/<t>.png (uint16, metres * 5000), rgb.txt, depth.txt,
-//   groundtruth.txt (t tx ty tz qx qy qz qw), camera.txt (intrinsics, since TUM folders carry none).
+//   groundtruth.txt (t tx ty tz qx qy qz qw), calib.txt ("fx fy cx cy", the reader's intrinsics
+//   override) and camera.txt (intrinsics, size and depth scale, for people).
 // KITTI odometry: image_2/NNNNNN.png and image_3/NNNNNN.png (colour, left/right), calib.txt (P0..P3,
 //   row-major 3x4; P1 and P3 hold -fx * baseline), times.txt, poses.txt (3x4 camera-to-world of the
 //   left camera), optionally depth/NNNNNN.png (uint16, metres * 256, the KITTI depth convention).
