@@ -57,8 +57,8 @@ std::optional<LoopEvent> LoopCloser::process(Map& map, long kf) {
   for (int i = 0; i < std::min<int>(opt_.candidates, int(ranked.size())); ++i) {
     auto v = verify(map, kf, ranked[i].second);
     if (!v) continue;
-    log::info("loop closure: keyframe ", kf, " matches keyframe ", v->candidate, " (score ", ranked[i].first, ", ",
-              v->pairs.size(), " inliers)");
+    log::info("loop closure: keyframe ", kf, " (frame ", map.kf(kf).frame_index, ") matches keyframe ", v->candidate,
+              " (frame ", map.kf(v->candidate).frame_index, ", score ", ranked[i].first, ", ", v->pairs.size(), " inliers)");
     return close(map, kf, *v);
   }
   return std::nullopt;
@@ -144,8 +144,10 @@ LoopEvent LoopCloser::close(Map& map, long query, const Verified& v) {
   poses[query] = v.T_wq;
   for (auto& [n, s] : map.covisible(query, 15))
     if (poses.count(n) && n > v.candidate + opt_.min_keyframe_gap / 2) poses[n] = C * before.at(n), near_query.push_back(n);
+  // The two sides stay disjoint: a keyframe covisible with both belongs to the query side.
+  const std::unordered_set<long> query_side(near_query.begin(), near_query.end());
   for (auto& [n, s] : map.covisible(v.candidate, 15))
-    if (poses.count(n) && n < query - opt_.min_keyframe_gap / 2) near_match.push_back(n);
+    if (poses.count(n) && n < query - opt_.min_keyframe_gap / 2 && !query_side.count(n)) near_match.push_back(n);
   // Loop edges join both neighbourhoods, as many as the covisibility edges that hold each side together;
   // a single edge would be outvoted by them and leave part of the error at the junction.
   std::vector<PoseGraphEdge> new_loops;

@@ -49,6 +49,8 @@ double optimize_pose_graph(std::unordered_map<long, SE3>& poses, const std::vect
   for (const auto& e : edges) {
     auto a = p.find(e.i), b = p.find(e.j);
     if (a == p.end() || b == p.end()) fail("pose graph: edge ", e.i, " - ", e.j, " names a keyframe without a pose");
+    // Ceres aborts the process on a residual that names one block twice.
+    if (e.i == e.j) fail("pose graph: edge ", e.i, " - ", e.j, " joins a keyframe to itself");
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(
                                  new RelativePoseCost(e.T_ij, e.weight)),
                              nullptr, a->second.data(), a->second.data() + 4, b->second.data(), b->second.data() + 4);

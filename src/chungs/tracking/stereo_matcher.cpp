@@ -95,6 +95,18 @@ int attach_depth(const ImageF& depth, Features& f, double bf, float min_depth, f
     if (x < 0 || y < 0 || x >= depth.width() || y >= depth.height()) continue;
     float z = depth(x, y);
     if (!(z >= min_depth && z <= max_depth)) continue;
+    // Corners on an occluding edge are where the depth jumps: the pixel's depth may belong to either side,
+    // and the corner itself slides along the edge as the camera moves, so it gets no depth at all.
+    float lo = z, hi = z;
+    for (int dy = -2; dy <= 2; ++dy)
+      for (int dx = -2; dx <= 2; ++dx) {
+        const int xx = std::clamp(x + dx, 0, depth.width() - 1), yy = std::clamp(y + dy, 0, depth.height() - 1);
+        const float d = depth(xx, yy);
+        if (!(d > 0)) continue;
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+      }
+    if (hi - lo > 0.1f * lo) continue;
     f.depth[i] = z;
     f.u_right[i] = float(f.kps[i].pt.x - bf / z);
     ++n;
