@@ -6,10 +6,16 @@
 #   gtest_<exe>.json GoogleTest reports
 #   bench_cuda_rasterizer.json
 #   results.json     summary: pass/fail per step, exit codes, device
-# (at most 8 files, flat, so the lent GPU machine hands all of them back).
+#   map_<name>_report.json, map_<name>_timeline.csv   mapper runs (only with MAP_DATA)
+# (at most 8 files, flat, so the lent GPU machine hands all of them back: with MAP_DATA, bundle at
+# most one test executable and set SKIP_BENCH=1 SKIP_MEMCHECK=1).
 # Usage: scripts/gpu_run.sh OUTDIR
 # Env:   BUNDLE (default .gpu/bundle), GTEST_FILTER (default Cuda*), SKIP_MEMCHECK=1, SKIP_BENCH=1,
-#        BENCH_ARGS (extra arguments for bench_cuda_rasterizer, e.g. "--cases kitti_1.5M")
+#        BENCH_ARGS (extra arguments for bench_cuda_rasterizer, e.g. "--cases kitti_1.5M"),
+#        MAP_DATA (a KITTI sequence folder: runs `diskchungs run --device cuda` on it with ground-truth
+#        poses at full resolution, as the CPU mapper run of bench/README.md, once with the default
+#        budget ("full") and once with MAP_SMALL_ARGS ("budget", default --budget 50000 --chunk-size 5)),
+#        MAP_ARGS (extra arguments for both runs; default --final-iterations 200)
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 out=${1:?usage: gpu_run.sh OUTDIR}
@@ -70,6 +76,24 @@ if [[ "${SKIP_BENCH:-0}" != 1 && -x "$bundle/bin/bench_cuda_rasterizer" ]]; then
   # shellcheck disable=SC2086
   "$bundle/bin/bench_cuda_rasterizer" --json "$out/bench_cuda_rasterizer.json" ${BENCH_ARGS:-} 2>&1 | tee -a "$log"
   record bench_cuda_rasterizer "${PIPESTATUS[0]}"
+fi
+
+if [[ -n "${MAP_DATA:-}" && -x "$bundle/bin/diskchungs" ]]; then
+  maps=$(mktemp -d)
+  for name in full budget; do
+    extra=""
+    [[ $name == budget ]] && extra=${MAP_SMALL_ARGS:---budget 50000 --chunk-size 5}
+    say "diskchungs run --device cuda ($name) ${MAP_ARGS:---final-iterations 200} $extra"
+    # shellcheck disable=SC2086
+    "$bundle/bin/diskchungs" run --device cuda --dataset "kitti:$MAP_DATA" --poses gt --out "$maps/$name" \
+      ${MAP_ARGS:---final-iterations 200} $extra >>"$log" 2>&1
+    rc=$?
+    record "map_$name" $rc
+    cp "$maps/$name/report.json" "$out/map_${name}_report.json" 2>/dev/null
+    cp "$maps/$name/timeline.csv" "$out/map_${name}_timeline.csv" 2>/dev/null
+    tail -n 2 "$log"
+  done
+  rm -rf "$maps"
 fi
 
 failed=0

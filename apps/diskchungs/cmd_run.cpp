@@ -14,7 +14,7 @@ struct RunArgs {
   size_t budget = 0;
   double chunk_size = 0, resolution = 0, speed = 0, fill_depth = -1;
   int iterations = -1, final_iterations = -1;
-  std::string pacing, depth;
+  std::string pacing, depth, device;
   bool json = false, no_eval = false;
 };
 
@@ -34,59 +34,69 @@ void apply_preset(Config& c, const std::string& preset, const std::string& datas
   }
 }
 
-const Command cmd{"run", "map a dataset on given poses into a chunked Gaussian map", [](CLI::App& app) {
-  auto a = std::make_shared<RunArgs>();
-  app.add_option("--dataset", a->o.dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch)")->required();
-  app.add_option("--poses", a->o.poses, "gt (ground truth) or a TUM/KITTI trajectory file")->capture_default_str();
-  app.add_option("--out", a->o.out, "map folder (created)")->required();
-  app.add_flag("--resume", a->o.resume, "continue the run in --out from its last checkpoint");
-  app.add_option("--config", a->config_file, "YAML configuration (see diskchungs info --config)");
-  app.add_option("--preset", a->preset, "auto | outdoor | indoor: loss and learning-rate defaults")->capture_default_str();
-  app.add_option("--budget", a->budget, "resident Gaussians at most");
-  app.add_option("--chunk-size", a->chunk_size, "chunk edge in metres (new maps)");
-  app.add_option("--resolution", a->resolution, "image scale for mapping, (0, 1]");
-  app.add_option("--iterations", a->iterations, "optimisation steps per keyframe (fixed pacing)");
-  app.add_option("--final-iterations", a->final_iterations, "refinement steps after the last frame");
-  app.add_option("--pacing", a->pacing, "fixed | anytime");
-  app.add_option("--speed", a->speed, "anytime pacing: intake rate factor on the dataset's frame rate");
-  app.add_option("--depth", a->depth, "auto | sensor | stereo | none");
-  app.add_option("--fill-depth", a->fill_depth, "metres for sampled pixels without depth (sky); 0: skip them");
-  app.add_option("--max-frames", a->o.max_frames, "use only the first n frames");
-  app.add_flag("--no-eval", a->no_eval, "skip the held-out evaluation");
-  app.add_flag("--json", a->json, "print the report as JSON");
-  return [a]() {
-    Config& c = a->o.config;
-    apply_preset(c, a->preset, a->o.dataset);
-    if (!a->config_file.empty()) {
-      const Config file = load_config(a->config_file);
-      const std::string p = a->preset;
-      c = file;
-      if (p != "auto") apply_preset(c, p, a->o.dataset);
-    }
-    if (a->budget) c.residency.budget_gaussians = a->budget;
-    if (a->chunk_size > 0) c.store.chunk_size = a->chunk_size;
-    if (a->resolution > 0) c.mapper.resolution = a->resolution;
-    if (a->iterations >= 0) c.mapper.iterations_per_keyframe = a->iterations;
-    if (a->final_iterations >= 0) c.mapper.final_iterations = a->final_iterations;
-    if (!a->pacing.empty()) c.mapper.pacing = a->pacing;
-    if (a->speed > 0) c.mapper.speed = a->speed;
-    if (!a->depth.empty()) c.mapper.depth = a->depth;
-    if (a->fill_depth >= 0) c.sampler.fill_depth = a->fill_depth;
-    c.validate();
-    a->o.evaluate = !a->no_eval;
-    const nlohmann::json r = run_mapping(a->o);
-    if (a->json) {
-      std::printf("%s\n", r.dump(2).c_str());
-    } else if (r.contains("held_out")) {
-      std::printf("held-out PSNR %.3f dB  SSIM %.4f  (%zu frames); keyframes PSNR %.3f dB; %.1f s, %.3f FPS; report %s\n",
-                  r["held_out"]["mean_psnr"].get<double>(), r["held_out"]["mean_ssim"].get<double>(),
-                  r["held_out"]["count"].get<size_t>(), r["keyframes_eval"]["mean_psnr"].get<double>(),
-                  r["time"]["mapping_s"].get<double>(), r["time"]["processing_fps"].get<double>(),
-                  (a->o.out / "report.json").string().c_str());
-    }
-    return 0;
-  };
-}};
+const Command cmd{
+    "run", "map a dataset on given poses into a chunked Gaussian map", [](CLI::App& app) {
+      auto a = std::make_shared<RunArgs>();
+      app.add_option("--dataset", a->o.dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch)")
+          ->required();
+      app.add_option("--poses", a->o.poses, "gt (ground truth) or a TUM/KITTI trajectory file")
+          ->capture_default_str();
+      app.add_option("--out", a->o.out, "map folder (created)")->required();
+      app.add_flag("--resume", a->o.resume, "continue the run in --out from its last checkpoint");
+      app.add_option("--config", a->config_file, "YAML configuration (see diskchungs info --config)");
+      app.add_option("--preset", a->preset, "auto | outdoor | indoor: loss and learning-rate defaults")
+          ->capture_default_str();
+      app.add_option("--budget", a->budget, "resident Gaussians at most");
+      app.add_option("--chunk-size", a->chunk_size, "chunk edge in metres (new maps)");
+      app.add_option("--resolution", a->resolution, "image scale for mapping, (0, 1]");
+      app.add_option("--iterations", a->iterations, "optimisation steps per keyframe (fixed pacing)");
+      app.add_option("--final-iterations", a->final_iterations, "refinement steps after the last frame");
+      app.add_option("--pacing", a->pacing, "fixed | anytime");
+      app.add_option("--speed", a->speed, "anytime pacing: intake rate factor on the dataset's frame rate");
+      app.add_option("--depth", a->depth, "auto | sensor | stereo | none");
+      app.add_option("--fill-depth", a->fill_depth,
+                     "metres for sampled pixels without depth (sky); 0: skip them");
+      app.add_option("--device", a->device,
+                     "auto | cuda | cpu: where the optimisation runs (auto: cuda when a GPU is usable)");
+      app.add_option("--max-frames", a->o.max_frames, "use only the first n frames");
+      app.add_flag("--no-eval", a->no_eval, "skip the held-out evaluation");
+      app.add_flag("--json", a->json, "print the report as JSON");
+      return [a]() {
+        Config& c = a->o.config;
+        apply_preset(c, a->preset, a->o.dataset);
+        if (!a->config_file.empty()) {
+          const Config file = load_config(a->config_file);
+          const std::string p = a->preset;
+          c = file;
+          if (p != "auto") apply_preset(c, p, a->o.dataset);
+        }
+        if (a->budget) c.residency.budget_gaussians = a->budget;
+        if (a->chunk_size > 0) c.store.chunk_size = a->chunk_size;
+        if (a->resolution > 0) c.mapper.resolution = a->resolution;
+        if (a->iterations >= 0) c.mapper.iterations_per_keyframe = a->iterations;
+        if (a->final_iterations >= 0) c.mapper.final_iterations = a->final_iterations;
+        if (!a->pacing.empty()) c.mapper.pacing = a->pacing;
+        if (a->speed > 0) c.mapper.speed = a->speed;
+        if (!a->depth.empty()) c.mapper.depth = a->depth;
+        if (a->fill_depth >= 0) c.sampler.fill_depth = a->fill_depth;
+        if (!a->device.empty()) c.mapper.device = a->device;
+        c.validate();
+        a->o.evaluate = !a->no_eval;
+        const nlohmann::json r = run_mapping(a->o);
+        if (a->json) {
+          std::printf("%s\n", r.dump(2).c_str());
+        } else if (r.contains("held_out")) {
+          std::printf(
+              "held-out PSNR %.3f dB  SSIM %.4f  (%zu frames); keyframes PSNR %.3f dB; %.1f s, %.3f FPS on "
+              "%s; report %s\n",
+              r["held_out"]["mean_psnr"].get<double>(), r["held_out"]["mean_ssim"].get<double>(),
+              r["held_out"]["count"].get<size_t>(), r["keyframes_eval"]["mean_psnr"].get<double>(),
+              r["time"]["mapping_s"].get<double>(), r["time"]["processing_fps"].get<double>(),
+              r["device"].get<std::string>().c_str(), (a->o.out / "report.json").string().c_str());
+        }
+        return 0;
+      };
+    }};
 
 }  // namespace
 }  // namespace chungs::app

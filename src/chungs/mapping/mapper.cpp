@@ -4,9 +4,6 @@
 #include <unordered_map>
 
 #include "chungs/common/log.hpp"
-#include "chungs/optim/adam.hpp"
-#include "chungs/optim/loss.hpp"
-#include "chungs/optim/prune.hpp"
 
 namespace chungs {
 
@@ -27,14 +24,15 @@ void inverse_depth_of(const ImageF& depth, ImageF& inv, Image8& mask) {
 }
 
 Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
-    : folder_(folder), config_(config), selector_(config.selector), raster_(config.raster),
-      rng_(config.mapper.seed) {
+    : folder_(folder), config_(config), selector_(config.selector), rng_(config.mapper.seed) {
   const bool existing = fs::exists(folder / "manifest.txt") || fs::exists(folder / "keyframes.txt");
   if (existing && !resume)
     fail(folder.string(), " already holds a map: pass --resume to continue it, or choose another folder");
   store_ = std::make_unique<ChunkStore>(folder, config_.store);
-  pool_ = std::make_unique<CpuGaussianPool>(config_.residency.budget_gaussians, store_->sh_degree());
-  residency_ = std::make_unique<Residency>(*store_, *pool_, config_.residency);
+  device_ = resolve_device(config_.mapper.device);
+  backend_ =
+      make_optim_backend(device_, config_.residency.budget_gaussians, store_->sh_degree(), config_.raster);
+  residency_ = std::make_unique<Residency>(*store_, backend_->pool(), config_.residency);
   culler_ = std::make_unique<FrustumCuller>(store_->chunk_size(), config_.culling);
   keyframe_store_ = std::make_unique<KeyframeStore>(folder / "keyframes", config_.keyframes);
   if (resume && fs::exists(folder / "keyframes.txt")) {
@@ -59,8 +57,9 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     }
   }
   if (store_->open_report().repaired())
-    log::info("map ", folder.string(), ": repaired after an interrupted run (", store_->open_report().entries_adopted,
-              " chunk files adopted, ", store_->open_report().entries_updated, " updated)");
+    log::info("map ", folder.string(), ": repaired after an interrupted run (",
+              store_->open_report().entries_adopted, " chunk files adopted, ",
+              store_->open_report().entries_updated, " updated)");
 }
 
 Mapper::~Mapper() = default;
@@ -92,21 +91,15 @@ std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pos
   return out;
 }
 
-const RenderOutput<float>& Mapper::render_visible(const std::vector<ChunkId>& chunks, const Camera& camera,
-                                                  const SE3& pose, std::vector<uint32_t>& slots) {
-  slots.clear();
-  residency_->append_slots(chunks, slots);
-  return raster_.forward(view_of(pool_->params()), slots, make_render_camera<float>(camera, pose));
-}
-
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
   const std::vector<ChunkId> chunks = visible_chunks(camera, pose);
   const PinResult pr = residency_->pin(chunks);
   if (!pr.ok) fail("mapper: cannot make the visible chunks resident: ", pr.message);
-  std::vector<uint32_t> slots;
   RenderOutput<float> out;
   try {
-    out = render_visible(chunks, camera, pose, slots);
+    slots_.clear();
+    residency_->append_slots(chunks, slots_);
+    out = backend_->render(slots_, make_render_camera<float>(camera, pose));
   } catch (...) {
     residency_->unpin(chunks);
     throw;
@@ -115,12 +108,12 @@ RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
   return out;
 }
 
-SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& color, const std::optional<ImageF>& depth,
-                                 const Camera& camera, const SE3& pose) {
+SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& color,
+                                 const std::optional<ImageF>& depth, const Camera& camera, const SE3& pose) {
   camera.validate(cat("keyframe of frame ", frame));
   if (depth && !depth->same_size(color))
-    fail("mapper: frame ", frame, ": depth ", depth->width(), "x", depth->height(), " does not match the image ",
-         color.width(), "x", color.height());
+    fail("mapper: frame ", frame, ": depth ", depth->width(), "x", depth->height(),
+         " does not match the image ", color.width(), "x", color.height());
   const uint32_t id = keyframes_.empty() ? 0 : keyframes_.back().id + 1;
   keyframe_store_->put(id, KeyframeImages{color, depth ? *depth : ImageF()});
   SampleStats stats;
@@ -128,8 +121,8 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
     const ImageF target = to_rgb_float(color);
     const RenderOutput<float> r = render(camera, pose);
     const ImageF prob = sampling_probability(config_.sampler, target, &r.rgb, &r.alpha);
-    auto batches = sample_gaussians(config_.sampler, target, *depth, prob, camera, pose, store_->chunk_size(), id,
-                                    uint32_t(iterations_), rng_, &stats);
+    auto batches = sample_gaussians(config_.sampler, target, *depth, prob, camera, pose, store_->chunk_size(),
+                                    id, uint32_t(iterations_), rng_, &stats);
     for (auto& b : batches) {
       const PinResult res = residency_->add(b.id, b.block);
       if (!res.ok) stats.kept -= b.block.size();
@@ -151,7 +144,8 @@ StepStats Mapper::step() {
   if (keyframes_.empty()) fail("mapper: an optimisation step needs at least one keyframe");
   StepStats st;
   st.keyframe = selector_.pick(rng_);
-  const auto it = std::find_if(keyframes_.begin(), keyframes_.end(), [&](const auto& k) { return k.id == st.keyframe; });
+  const auto it =
+      std::find_if(keyframes_.begin(), keyframes_.end(), [&](const auto& k) { return k.id == st.keyframe; });
   const KeyframeRecord& kf = *it;
   const auto images = keyframe_store_->get(kf.id);
   const ImageF target = to_rgb_float(images->color);
@@ -164,38 +158,34 @@ StepStats Mapper::step() {
   const PinResult pr = residency_->pin(chunks);
   if (!pr.ok) fail("mapper: cannot make the chunks of keyframe ", kf.id, " resident: ", pr.message);
   try {
-    std::vector<uint32_t> slots;
-    const RenderOutput<float>& out = render_visible(chunks, kf.camera, kf.pose, slots);
-    const LossTerms terms = mapping_loss<float>(config_.loss, out, target, use_depth ? &inv : nullptr,
-                                                use_depth ? &mask : nullptr, &dloss_);
+    slots_.clear();
+    residency_->append_slots(chunks, slots_);
+    // Pruning runs on the step that completes `every` iterations, as before the backend split.
+    const bool prune = config_.prune.every > 0 && (iterations_ + 1) % uint64_t(config_.prune.every) == 0;
+    const StepTargets targets{&target, use_depth ? &inv : nullptr, use_depth ? &mask : nullptr};
+    const LossTerms terms =
+        backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
+                       config_.adam, prune ? &config_.prune : nullptr, to_prune_);
     st.loss = terms.total;
-    st.rendered = slots.size();
+    st.rendered = slots_.size();
     st.chunks = chunks.size();
-    if (!slots.empty()) {
-      raster_.backward(dloss_, grads_);
-      sparse_adam_step(config_.adam, mut_view_of(pool_->params()), adam_state_of(pool_->storage()), slots,
-                       out.visible, grads_);
-      residency_->mark_dirty(chunks);
-    }
+    if (!slots_.empty()) residency_->mark_dirty(chunks);
     ++iterations_;
-    if (config_.prune.every > 0 && iterations_ % uint64_t(config_.prune.every) == 0 && !slots.empty()) {
-      const std::vector<uint32_t> gone =
-          select_for_pruning(config_.prune, view_of(pool_->params()), slots, out.radius, kf.camera.width);
-      if (!gone.empty()) {
-        std::unordered_map<uint32_t, ChunkId> owner;
-        owner.reserve(gone.size() * 2);
-        for (uint32_t s : gone) owner.emplace(s, 0);
-        for (ChunkId c : chunks)
-          for (uint32_t s : residency_->slots(c)) {
-            auto o = owner.find(s);
-            if (o != owner.end()) o->second = c;
-          }
-        std::unordered_map<ChunkId, std::vector<uint32_t>> per_chunk;
-        for (auto [s, c] : owner) per_chunk[c].push_back(s);
-        for (auto& [c, v] : per_chunk) residency_->remove_slots(c, v);
-        st.pruned = gone.size();
-        pruned_total_ += gone.size();
-      }
+    if (!to_prune_.empty()) {
+      const std::vector<uint32_t>& gone = to_prune_;
+      std::unordered_map<uint32_t, ChunkId> owner;
+      owner.reserve(gone.size() * 2);
+      for (uint32_t s : gone) owner.emplace(s, 0);
+      for (ChunkId c : chunks)
+        for (uint32_t s : residency_->slots(c)) {
+          auto o = owner.find(s);
+          if (o != owner.end()) o->second = c;
+        }
+      std::unordered_map<ChunkId, std::vector<uint32_t>> per_chunk;
+      for (auto [s, c] : owner) per_chunk[c].push_back(s);
+      for (auto& [c, v] : per_chunk) residency_->remove_slots(c, v);
+      st.pruned = gone.size();
+      pruned_total_ += gone.size();
     }
   } catch (...) {
     residency_->unpin(chunks);

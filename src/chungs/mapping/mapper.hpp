@@ -4,7 +4,8 @@
 // slots, and applies the loss gradient with sparse Adam, marking the chunks modified; every few
 // steps nearly transparent or oversized Gaussians are pruned. Keyframe images live in the
 // KeyframeStore. checkpoint() makes the folder a complete map that `resume` reopens.
-// Not thread-safe: one thread drives it.
+// The pool, the renderer and the optimiser live in an OptimBackend (config.mapper.device: host or
+// GPU). Not thread-safe: one thread drives it.
 #pragma once
 #include <filesystem>
 #include <memory>
@@ -16,8 +17,8 @@
 #include "chungs/config/config.hpp"
 #include "chungs/mapping/keyframe_selector.hpp"
 #include "chungs/mapping/map_state.hpp"
+#include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/sampler.hpp"
-#include "chungs/render/cpu/rasterizer.hpp"
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
 #include "chungs/store/keyframe_store.hpp"
@@ -43,8 +44,8 @@ class Mapper {
 
   // Stores the keyframe, renders the map from its pose, samples new Gaussians where the render
   // lacks the image's detail. color: 1 or 3 channels; depth: metres (0 invalid), or none.
-  SampleStats add_keyframe(uint64_t frame, double stamp, const Image8& color, const std::optional<ImageF>& depth,
-                           const Camera& camera, const SE3& pose);
+  SampleStats add_keyframe(uint64_t frame, double stamp, const Image8& color,
+                           const std::optional<ImageF>& depth, const Camera& camera, const SE3& pose);
   StepStats step();  // one optimisation step; throws when there is no keyframe yet
   // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
@@ -65,27 +66,26 @@ class Mapper {
   uint64_t pruned_total() const { return pruned_total_; }
   const std::filesystem::path& folder() const { return folder_; }
   const Config& config() const { return config_; }
+  const std::string& device() const { return device_; }  // "cpu" or "cuda"
+  std::optional<DeviceMemory> device_memory() const { return backend_->device_memory(); }
 
  private:
   // Visible chunks of a view, nearest first, trimmed so that they fit the budget.
   std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose);
-  const RenderOutput<float>& render_visible(const std::vector<ChunkId>& chunks, const Camera& camera,
-                                            const SE3& pose, std::vector<uint32_t>& slots);
   std::filesystem::path folder_;
   Config config_;
   std::unique_ptr<ChunkStore> store_;
-  std::unique_ptr<CpuGaussianPool> pool_;
+  std::string device_;
+  std::unique_ptr<OptimBackend> backend_;  // owns the pool: declared before residency_, outlives it
   std::unique_ptr<Residency> residency_;
   std::unique_ptr<FrustumCuller> culler_;
   std::unique_ptr<KeyframeStore> keyframe_store_;
   KeyframeSelector selector_;
-  CpuRasterizer<float> raster_;
   std::vector<KeyframeRecord> keyframes_;
   std::mt19937_64 rng_;
   uint64_t iterations_ = 0, pruned_total_ = 0;
   nlohmann::json resumed_state_;
-  RenderGrads<float> dloss_;
-  GaussianGrads<float> grads_;
+  std::vector<uint32_t> slots_, to_prune_;
 };
 
 // Float RGB target of an 8-bit image (gray replicated).

@@ -5,17 +5,23 @@
 namespace chungs {
 
 void MapperConfig::validate() const {
-  if (pacing != "fixed" && pacing != "anytime") fail("mapper: pacing must be fixed or anytime, got '", pacing, "'");
-  if (iterations_per_keyframe < 0) fail("mapper: iterations_per_keyframe must be >= 0, got ", iterations_per_keyframe);
+  if (pacing != "fixed" && pacing != "anytime")
+    fail("mapper: pacing must be fixed or anytime, got '", pacing, "'");
+  if (iterations_per_keyframe < 0)
+    fail("mapper: iterations_per_keyframe must be >= 0, got ", iterations_per_keyframe);
   if (final_iterations < 0) fail("mapper: final_iterations must be >= 0, got ", final_iterations);
   if (!(speed > 0)) fail("mapper: speed must be > 0, got ", speed);
   if (keyframe_every < 1) fail("mapper: keyframe_every must be >= 1, got ", keyframe_every);
-  if (keyframe_translation < 0 || keyframe_rotation_deg < 0) fail("mapper: keyframe motion thresholds must be >= 0");
-  if (holdout_every < 0 || holdout_every == 1) fail("mapper: holdout_every must be 0 or >= 2, got ", holdout_every);
+  if (keyframe_translation < 0 || keyframe_rotation_deg < 0)
+    fail("mapper: keyframe motion thresholds must be >= 0");
+  if (holdout_every < 0 || holdout_every == 1)
+    fail("mapper: holdout_every must be 0 or >= 2, got ", holdout_every);
   if (!(resolution > 0 && resolution <= 1)) fail("mapper: resolution must be in (0, 1], got ", resolution);
   if (depth != "auto" && depth != "sensor" && depth != "stereo" && depth != "none")
     fail("mapper: depth must be auto, sensor, stereo or none, got '", depth, "'");
   if (checkpoint_every < 1) fail("mapper: checkpoint_every must be >= 1, got ", checkpoint_every);
+  if (device != "auto" && device != "cuda" && device != "cpu")
+    fail("mapper: device must be auto, cuda or cpu, got '", device, "'");
   if (eval_keyframe_stride < 0) fail("mapper: eval_keyframe_stride must be >= 0");
 }
 

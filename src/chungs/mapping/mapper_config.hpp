@@ -21,6 +21,7 @@ struct MapperConfig {
   uint64_t seed = 1;
   int eval_keyframe_stride = 1;     // paper protocol: score every n-th keyframe at the end (0: off)
   int max_saved_renders = 64;       // held-out renders written as PNG at most
+  std::string device = "auto";      // optimisation on auto | cuda | cpu (auto: cuda when a GPU is usable)
   void validate() const;
 };
 

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
@@ -42,6 +43,22 @@ TimelineSample sample_now(const Mapper& m, double seconds, uint64_t frame) {
   return t;
 }
 
+// timeline.csv with a vram_used_mb column appended (one value per sample row) on a GPU run.
+std::string with_vram_column(const std::string& csv, const std::vector<double>& vram_mb) {
+  std::istringstream in(csv);
+  std::ostringstream out;
+  std::string line;
+  size_t row = 0;
+  while (std::getline(in, line)) {
+    if (row == 0)
+      out << line << ",vram_used_mb\n";
+    else
+      out << line << ',' << (row - 1 < vram_mb.size() ? vram_mb[row - 1] : 0.0) << '\n';
+    ++row;
+  }
+  return out.str();
+}
+
 void write_text(const fs::path& file, const std::string& text) {
   const ConstBuffer part{text.data(), text.size()};
   write_file_atomically(file, std::span<const ConstBuffer>(&part, 1), false);
@@ -62,7 +79,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const DatasetInfo& info = dataset->info();
   const DepthMode mode = resolve_depth_mode(parse_depth_mode(mc.depth), info.has_depth, info.has_right);
   if (mode == DepthMode::None)
-    fail("dataset ", o.dataset, ": depth source 'none' places Gaussians only at a tracker's sparse points, "
+    fail("dataset ", o.dataset,
+         ": depth source 'none' places Gaussians only at a tracker's sparse points, "
          "and mapping on given poses has none; use an RGB-D or stereo dataset");
   const auto poses = frame_poses(*dataset, o.poses);
   const size_t n = o.max_frames ? std::min(o.max_frames, dataset->size()) : dataset->size();
@@ -72,33 +90,44 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   size_t start = 0;
   double carried_seconds = 0;
   std::vector<TimelineSample> timeline;
+  std::vector<double> vram_mb;  // device memory in use at each timeline sample (GPU runs)
   if (o.resume && !prev.is_null()) {
     if (prev.value("dataset", std::string()) != o.dataset)
-      fail(o.out.string(), ": the map was made from ", prev.value("dataset", std::string("?")), ", not ", o.dataset);
+      fail(o.out.string(), ": the map was made from ", prev.value("dataset", std::string("?")), ", not ",
+           o.dataset);
     start = prev.value("next_frame", size_t(0));
     carried_seconds = prev.value("seconds", 0.0);
     if (prev.contains("timeline")) timeline = timeline_from_json(prev["timeline"]);
-    log::info("resuming ", o.out.string(), " at frame ", start, " with ", mapper.keyframes().size(), " keyframes and ",
-              mapper.total_gaussians(), " Gaussians");
+    if (prev.contains("vram_mb")) vram_mb = prev["vram_mb"].get<std::vector<double>>();
+    log::info("resuming ", o.out.string(), " at frame ", start, " with ", mapper.keyframes().size(),
+              " keyframes and ", mapper.total_gaussians(), " Gaussians");
   }
   log::info("mapping ", o.dataset, " (", n, " frames, ", info.camera.width, "x", info.camera.height, " x ",
             mc.resolution, ", depth ", depth_mode_name(mode), ", poses ", o.poses, ", budget ",
-            cfg.residency.budget_gaussians, " Gaussians, chunks of ", cfg.store.chunk_size, " m)");
+            cfg.residency.budget_gaussians, " Gaussians, chunks of ", cfg.store.chunk_size, " m, device ",
+            mapper.device(), ")");
 
   const auto t0 = Clock::now();
   auto seconds = [&] { return carried_seconds + since(t0); };
   auto state = [&](size_t next_frame, bool finished) {
-    return nlohmann::json{{"dataset", o.dataset}, {"poses", o.poses},           {"next_frame", next_frame},
-                          {"frames", n},          {"finished", finished},      {"seconds", seconds()},
-                          {"timeline", to_json(timeline)}};
+    return nlohmann::json{{"dataset", o.dataset},          {"poses", o.poses},
+                          {"next_frame", next_frame},      {"frames", n},
+                          {"finished", finished},          {"seconds", seconds()},
+                          {"timeline", to_json(timeline)}, {"vram_mb", vram_mb}};
   };
   // Frame i arrives (anytime pacing) at its dataset time divided by the speed factor.
   const double stamp0 = n ? dataset->timestamp(0) : 0;
+  auto record = [&](uint64_t frame) {
+    timeline.push_back(sample_now(mapper, seconds(), frame));
+    const auto dm = mapper.device_memory();
+    vram_mb.push_back(dm ? dm->used_mb : 0.0);
+  };
   auto arrival = [&](size_t i) { return (dataset->timestamp(i) - stamp0) / mc.speed; };
 
   Progress progress("mapping", (long long)(n - std::min(start, n)));
   size_t since_keyframe = 0, keyframes_since_checkpoint = 0;
-  std::optional<SE3> last_kf = mapper.keyframes().empty() ? std::nullopt : std::optional(mapper.keyframes().back().pose);
+  std::optional<SE3> last_kf =
+      mapper.keyframes().empty() ? std::nullopt : std::optional(mapper.keyframes().back().pose);
   uint64_t sampled = 0;
   for (size_t i = start; i < n; ++i) {
     progress.step();
@@ -106,7 +135,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     const SE3& pose = *poses[i];
     ++since_keyframe;
     bool key = !last_kf || since_keyframe >= size_t(mc.keyframe_every);
-    if (last_kf && mc.keyframe_translation > 0 && (pose.t - last_kf->t).norm() >= mc.keyframe_translation) key = true;
+    if (last_kf && mc.keyframe_translation > 0 && (pose.t - last_kf->t).norm() >= mc.keyframe_translation)
+      key = true;
     if (last_kf && mc.keyframe_rotation_deg > 0 &&
         (last_kf->inverse() * pose).angle() * 180.0 / M_PI >= mc.keyframe_rotation_deg)
       key = true;
@@ -114,7 +144,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (mc.pacing == "anytime" && !mapper.keyframes().empty())
       while (seconds() < arrival(i)) mapper.step();
     const MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo);
-    const SampleStats ss = mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, pose);
+    const SampleStats ss =
+        mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, pose);
     sampled += ss.kept;
     log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
                " without depth) in ", ss.chunks, " chunks");
@@ -122,7 +153,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     last_kf = pose;
     if (mc.pacing == "fixed")
       for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
-    timeline.push_back(sample_now(mapper, seconds(), i));
+    record(i);
     if (++keyframes_since_checkpoint >= size_t(mc.checkpoint_every)) {
       mapper.checkpoint(state(i + 1, false));
       keyframes_since_checkpoint = 0;
@@ -138,7 +169,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     }
     refine.finish();
   }
-  timeline.push_back(sample_now(mapper, seconds(), n ? n - 1 : 0));
+  record(n ? n - 1 : 0);
   mapper.checkpoint(state(n, true));
   const double map_seconds = seconds();
 
@@ -159,9 +190,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                         {"lr_position", cfg.adam.lr_position},
                         {"sampler_density", cfg.sampler.density},
                         {"seed", mc.seed}};
+  report["device"] = mapper.device();
   report["keyframes"] = mapper.keyframes().size();
   report["iterations"] = mapper.iterations();
-  report["time"] = {{"mapping_s", map_seconds}, {"processing_fps", map_seconds > 0 ? double(n) / map_seconds : 0}};
+  report["time"] = {{"mapping_s", map_seconds},
+                    {"processing_fps", map_seconds > 0 ? double(n) / map_seconds : 0}};
   const IoStats io = mapper.io_stats();
   report["gaussians"] = {{"total", mapper.total_gaussians()},
                          {"peak_resident", mapper.peak_resident_gaussians()},
@@ -170,16 +203,26 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                          {"pruned", mapper.pruned_total()}};
   double peak_rss = 0;
   for (const auto& t : timeline) peak_rss = std::max(peak_rss, t.rss_mb);
-  report["memory"] = {{"peak_rss_mb_sampled", peak_rss}, {"peak_rss_mb_process", double(peak_rss_bytes()) / 1048576.0}};
-  report["chunk_io"] = {{"loads", io.loads},
-                        {"saves", io.saves},
-                        {"mean_load_ms", io.mean_load_ms()},
-                        {"mean_save_ms", io.mean_save_ms()},
-                        {"io_time_share", map_seconds > 0 ? (io.load_ms + io.save_ms) / 1000.0 / map_seconds : 0},
-                        {"wait_time_share", map_seconds > 0 ? io.wait_ms / 1000.0 / map_seconds : 0},
-                        {"evictions_clean", io.evictions_clean},
-                        {"evictions_dirty", io.evictions_dirty},
-                        {"summary", io.summary()}};
+  report["memory"] = {{"peak_rss_mb_sampled", peak_rss},
+                      {"peak_rss_mb_process", double(peak_rss_bytes()) / 1048576.0}};
+  if (const auto dm = mapper.device_memory()) {
+    double peak_vram = 0;
+    for (double v : vram_mb) peak_vram = std::max(peak_vram, v);
+    // Device-wide (cudaMemGetInfo): includes the CUDA context and any other process on the GPU.
+    report["memory"]["vram_used_mb_peak_sampled"] = peak_vram;
+    report["memory"]["vram_used_mb_end"] = dm->used_mb;
+    report["memory"]["vram_total_mb"] = dm->total_mb;
+  }
+  report["chunk_io"] = {
+      {"loads", io.loads},
+      {"saves", io.saves},
+      {"mean_load_ms", io.mean_load_ms()},
+      {"mean_save_ms", io.mean_save_ms()},
+      {"io_time_share", map_seconds > 0 ? (io.load_ms + io.save_ms) / 1000.0 / map_seconds : 0},
+      {"wait_time_share", map_seconds > 0 ? io.wait_ms / 1000.0 / map_seconds : 0},
+      {"evictions_clean", io.evictions_clean},
+      {"evictions_dirty", io.evictions_dirty},
+      {"summary", io.summary()}};
   if (o.evaluate) {
     const auto te = Clock::now();
     std::vector<size_t> held, kfs;
@@ -189,7 +232,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       for (size_t k = 0; k < mapper.keyframes().size(); k += size_t(mc.eval_keyframe_stride))
         kfs.push_back(mapper.keyframes()[k].frame);
     const fs::path rd = o.out / "renders";
-    const ViewSetScore h = score_views(mapper, *dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders);
+    const ViewSetScore h =
+        score_views(mapper, *dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders);
     const ViewSetScore k = score_views(mapper, *dataset, poses, kfs, mc.resolution, rd, "keyframe", 4);
     report["held_out"] = h.to_json(true);
     report["keyframes_eval"] = k.to_json(false);
@@ -197,7 +241,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, " over ", h.views.size(),
               " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
   }
-  write_text(o.out / "timeline.csv", timeline_csv(timeline));
+  const std::string csv = timeline_csv(timeline);
+  write_text(o.out / "timeline.csv", mapper.device_memory() ? with_vram_column(csv, vram_mb) : csv);
   write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());
   write_json(o.out / "report.json", report);
   log::info("map ", o.out.string(), ": ", mapper.total_gaussians(), " Gaussians in ", mapper.chunk_count(),

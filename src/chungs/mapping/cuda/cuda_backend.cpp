@@ -1,0 +1,78 @@
+#if CHUNGS_WITH_CUDA
+#include "chungs/mapping/cuda/cuda_backend.hpp"
+
+#include "chungs/mapping/cuda/device_memory.hpp"
+#include "chungs/optim/cuda/adam.hpp"
+
+namespace chungs::cuda {
+
+namespace {
+
+GaussianArraysMut<float> params_of(const PoolDeviceArrays& d, int k) {
+  return {d.mean[k], d.log_scale[k], d.rotation[k], d.opacity[k], d.sh[k], d.capacity};
+}
+
+}  // namespace
+
+CudaOptimBackend::CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster)
+    : pool_(capacity, sh_degree), raster_(raster) {}
+
+const DeviceRenderOutput& CudaOptimBackend::forward(std::span<const uint32_t> slots,
+                                                    const RenderCamera<float>& camera) {
+  ids_.upload(slots.data(), slots.size());
+  pool_.wait_uploads();  // chunks scattered by Residency since the last render
+  return raster_.forward(params_of(pool_.device_arrays(), 0), ids_.data(), slots.size(), camera);
+}
+
+RenderOutput<float> CudaOptimBackend::render(std::span<const uint32_t> slots,
+                                             const RenderCamera<float>& camera) {
+  forward(slots, camera);
+  RenderOutput<float> out;
+  raster_.download(out);
+  return out;
+}
+
+LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                 const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                                 const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
+  to_prune.clear();
+  const ImageF& rgb = *targets.rgb;
+  target_rgb_.upload(rgb.data(), rgb.size());
+  const bool depth = targets.inv_depth && targets.mask;
+  if (depth) {
+    target_inv_.upload(targets.inv_depth->data(), targets.inv_depth->size());
+    mask_.upload(targets.mask->data(), targets.mask->size());
+  }
+  const DeviceRenderOutput& out = forward(slots, camera);
+  if (out.width != rgb.width() || out.height != rgb.height() || rgb.channels() != 3)
+    fail("cuda mapping step: target ", rgb.width(), "x", rgb.height(), "x", rgb.channels(),
+         " does not match the ", out.width, "x", out.height, " render");
+  const LossTerms terms = loss_.evaluate(loss, out, target_rgb_.data(), depth ? target_inv_.data() : nullptr,
+                                         depth ? mask_.data() : nullptr, !slots.empty());
+  if (slots.empty()) return terms;
+  const DeviceGaussianGrads& g = raster_.backward(loss_.grads());
+  const PoolDeviceArrays& d = pool_.device_arrays();
+  const AdamState state{params_of(d, 1), params_of(d, 2), d.adam_steps, d.lr_position_factor, d.capacity};
+  sparse_adam_step(adam, params_of(d, 0), state, ids_.data(), out.visible, slots.size(), g);
+  if (prune) {
+    // The rule reads only opacities (whole array: one copy) and the screen radii of this render.
+    opacity_.resize(d.capacity);
+    copy_to_host(opacity_.data(), d.opacity[0], d.capacity * sizeof(float), "pruning opacities");
+    radius_.resize(slots.size());
+    copy_to_host(radius_.data(), out.radius, slots.size() * sizeof(float), "pruning radii");
+    // select_for_pruning checks every pointer of the view; the other arrays are never read.
+    const float* o = opacity_.data();
+    const GaussianArrays<float> view{o, o, o, o, o, d.capacity};
+    to_prune = select_for_pruning(*prune, view, slots, radius_, camera.width);
+  }
+  return terms;
+}
+
+std::optional<DeviceMemory> CudaOptimBackend::device_memory() const {
+  size_t free_b = 0, total_b = 0;
+  if (!device_memory_info(free_b, total_b)) return std::nullopt;
+  return DeviceMemory{double(total_b - free_b) / 1048576.0, double(total_b) / 1048576.0};
+}
+
+}  // namespace chungs::cuda
+#endif

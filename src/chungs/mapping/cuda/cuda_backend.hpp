@@ -1,0 +1,38 @@
+// The optimisation on the GPU: CudaGaussianPool (VRAM slots; Residency loads and evicts chunks through
+// its host<->device copies), CudaRasterizer, the fused CUDA loss and fused sparse Adam. Per step only
+// the targets and the slot list go up, and only the loss sums come back (plus the screen radii and
+// opacities on pruning steps); render() downloads the images for the sampler and the evaluation.
+// Built only with CHUNGS_WITH_CUDA; no CUDA headers here.
+#pragma once
+#include "chungs/mapping/optim_backend.hpp"
+#include "chungs/optim/cuda/loss.hpp"
+#include "chungs/render/cuda/device_buffer.hpp"
+#include "chungs/render/cuda/rasterizer.hpp"
+#include "chungs/residency/cuda/gaussian_pool.hpp"
+
+namespace chungs::cuda {
+
+class CudaOptimBackend final : public OptimBackend {
+ public:
+  CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster);
+  std::string name() const override { return "cuda"; }
+  GaussianPool& pool() override { return pool_; }
+  RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) override;
+  LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                 const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                 const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;
+  std::optional<DeviceMemory> device_memory() const override;
+
+ private:
+  const DeviceRenderOutput& forward(std::span<const uint32_t> slots, const RenderCamera<float>& camera);
+
+  CudaGaussianPool pool_;
+  CudaRasterizer raster_;
+  CudaMappingLoss loss_;
+  DeviceArray<uint32_t> ids_;
+  DeviceArray<float> target_rgb_, target_inv_;
+  DeviceArray<uint8_t> mask_;
+  std::vector<float> opacity_, radius_;  // host copies for the pruning rule
+};
+
+}  // namespace chungs::cuda

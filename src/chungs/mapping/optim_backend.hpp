@@ -1,0 +1,59 @@
+// Where the optimisation runs. The mapper drives one OptimBackend: it owns the Gaussian pool that
+// Residency fills (host RAM or VRAM), renders an index list of pool slots, and takes one step
+// (render, loss, backward, sparse Adam, pruning selection). The CPU and CUDA implementations compute
+// the same function; only the place of the arrays and the kernels differ, so the mapper has no
+// per-device branches. Include only from C++ files: no CUDA headers here.
+#pragma once
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "chungs/optim/adam.hpp"
+#include "chungs/optim/loss.hpp"
+#include "chungs/optim/prune.hpp"
+#include "chungs/render/raster_config.hpp"
+#include "chungs/render/render_camera.hpp"
+#include "chungs/render/render_output.hpp"
+#include "chungs/residency/gaussian_pool.hpp"
+
+namespace chungs {
+
+// Targets of one step on the host; inv_depth and mask are null without a depth term.
+struct StepTargets {
+  const ImageF* rgb = nullptr;
+  const ImageF* inv_depth = nullptr;
+  const Image8* mask = nullptr;
+};
+
+struct DeviceMemory {
+  double used_mb = 0, total_mb = 0;  // whole device (cudaMemGetInfo), not only this process
+};
+
+class OptimBackend {
+ public:
+  virtual ~OptimBackend() = default;
+  virtual std::string name() const = 0;  // "cpu" or "cuda"
+  virtual GaussianPool& pool() = 0;
+
+  // A host copy of the render of the given pool slots.
+  virtual RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) = 0;
+  // Renders the slots, evaluates the loss against the targets and, when slots is non-empty, applies
+  // the gradient with sparse Adam to the visible ones. With `prune`, `to_prune` receives the slots
+  // that the pruning rule selects after the update (else it is cleared).
+  virtual LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                         const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                         const PruneConfig* prune, std::vector<uint32_t>& to_prune) = 0;
+  // Device memory now, on a GPU backend; none on the CPU.
+  virtual std::optional<DeviceMemory> device_memory() const { return std::nullopt; }
+};
+
+// "auto" -> "cuda" when this build has the CUDA backend and a device is present, else "cpu".
+// "cuda" without either throws Error saying which is missing; anything but auto|cpu|cuda throws.
+std::string resolve_device(const std::string& device);
+// A backend for a resolved device with a pool of `capacity` slots.
+std::unique_ptr<OptimBackend> make_optim_backend(const std::string& device, size_t capacity, int sh_degree,
+                                                 const RasterConfig& raster);
+
+}  // namespace chungs
