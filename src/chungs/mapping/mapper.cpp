@@ -25,11 +25,11 @@ void inverse_depth_of(const ImageF& depth, ImageF& inv, Image8& mask) {
 
 Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     : folder_(folder), config_(config), selector_(config.selector), rng_(config.mapper.seed) {
+  device_ = resolve_device(config_.mapper.device);  // before anything is written to the folder
   const bool existing = fs::exists(folder / "manifest.txt") || fs::exists(folder / "keyframes.txt");
   if (existing && !resume)
     fail(folder.string(), " already holds a map: pass --resume to continue it, or choose another folder");
   store_ = std::make_unique<ChunkStore>(folder, config_.store);
-  device_ = resolve_device(config_.mapper.device);
   backend_ =
       make_optim_backend(device_, config_.residency.budget_gaussians, store_->sh_degree(), config_.raster);
   residency_ = std::make_unique<Residency>(*store_, backend_->pool(), config_.residency);

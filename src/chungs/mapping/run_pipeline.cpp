@@ -9,6 +9,7 @@
 #include "chungs/eval/report.hpp"
 #include "chungs/mapping/evaluation.hpp"
 #include "chungs/mapping/frame_source.hpp"
+#include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/timeline.hpp"
 #include "chungs/store/atomic_file.hpp"
 
@@ -67,6 +68,7 @@ void write_text(const fs::path& file, const std::string& text) {
 }  // namespace
 
 nlohmann::json run_mapping(const RunOptions& o) {
+  resolve_device(o.config.mapper.device);  // an unusable device fails before the dataset is read
   const auto dataset = open_dataset(o.dataset);
   return run_mapping(o, *dataset);
 }
