@@ -1,0 +1,91 @@
+// `diskchungs render`: a map folder rendered along a trajectory file or a dataset's poses, chunks
+// streamed under the budget; with a dataset, each render is also scored against its image.
+#include <cstdio>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
+#include "chungs/mapping/frame_source.hpp"
+#include "chungs/mapping/render_poses.hpp"
+#include "command.hpp"
+
+namespace chungs::app {
+namespace {
+
+struct RenderArgs {
+  std::string map, poses_file, dataset, dataset_poses = "gt", out, config_file;
+  double resolution = 0;
+  size_t stride = 1, budget = 0;
+  bool stack = false, json = false;
+};
+
+int run_render(const RenderArgs& a) {
+  if (a.poses_file.empty() == a.dataset.empty()) fail("render: give exactly one of --poses FILE and --dataset KIND:PATH");
+  if (a.resolution < 0 || a.resolution > 1) fail("--resolution must be in (0, 1], got ", a.resolution);
+  Config c = a.config_file.empty() ? Config{} : load_config(a.config_file);
+  // The map's own budget unless told otherwise: renders then need no more memory than mapping did.
+  const size_t from_report = map_budget_from_report(a.map);
+  if (a.budget) c.residency.budget_gaussians = a.budget;
+  else if (from_report) c.residency.budget_gaussians = from_report;
+  MapRenderer renderer(a.map, c);
+  const std::filesystem::path out = a.out.empty() ? std::filesystem::path(a.map) / "render" : std::filesystem::path(a.out);
+  RenderPosesSummary s;
+  if (!a.poses_file.empty()) {
+    const Trajectory traj = read_trajectory(a.poses_file);
+    if (traj.empty()) fail(a.poses_file, ": no poses");
+    const Camera cam = renderer.mapping_camera().scaled(a.resolution > 0 ? a.resolution : 1.0);
+    log::info("rendering ", traj.size(), " poses of ", a.poses_file, " at ", cam.width, "x", cam.height);
+    s = render_trajectory(renderer, traj, cam, out, a.stride);
+  } else {
+    const auto dataset = open_dataset(a.dataset);
+    // By default the resolution the map was made at, so scores match the mapper's evaluation.
+    double f = a.resolution;
+    if (f == 0)
+      f = renderer.keyframes().empty() ? 1.0
+                                       : double(renderer.mapping_camera().width) / dataset->info().camera.width;
+    const auto poses = frame_poses(*dataset, a.dataset_poses);
+    log::info("rendering ", a.dataset, " (", dataset->size(), " frames) at ", f, " of ",
+              dataset->info().camera.width, "x", dataset->info().camera.height);
+    s = render_dataset(renderer, *dataset, poses, f, out, a.stride, a.stack);
+  }
+  const IoStats io = renderer.io_stats();
+  if (a.json) {
+    nlohmann::json j = s.to_json();
+    j["out"] = out.string();
+    j["gaussians"] = {{"total", renderer.total_gaussians()},
+                      {"peak_resident", renderer.peak_resident_gaussians()},
+                      {"budget", renderer.budget()}};
+    j["chunk_io"] = {{"loads", io.loads}, {"mean_load_ms", io.mean_load_ms()}};
+    j["chunks_skipped_for_budget"] = renderer.chunks_skipped();
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  std::printf("rendered %zu views to %s in %.1f s; %llu Gaussians, peak resident %zu of budget %zu, %llu chunk loads",
+              s.views.size(), out.string().c_str(), s.seconds, (unsigned long long)renderer.total_gaussians(),
+              renderer.peak_resident_gaussians(), renderer.budget(), (unsigned long long)io.loads);
+  if (renderer.chunks_skipped()) std::printf(", %zu visible chunks left out for the budget", renderer.chunks_skipped());
+  std::printf("\n");
+  if (s.scored) std::printf("PSNR %.3f dB  SSIM %.4f  (mean over %zu frames)\n", s.mean_psnr, s.mean_ssim, s.scored);
+  return 0;
+}
+
+const Command cmd{"render", "render a map along a trajectory file or a dataset's poses (PNG; PSNR/SSIM with a dataset)",
+                  [](CLI::App& app) {
+  auto a = std::make_shared<RenderArgs>();
+  app.add_option("--map", a->map, "map folder")->required();
+  app.add_option("--poses", a->poses_file, "trajectory file (TUM, KITTI or 4x4 per line): render with the map's camera");
+  app.add_option("--dataset", a->dataset, "dataset as kind:path: render its frames with its camera and score them");
+  app.add_option("--dataset-poses", a->dataset_poses, "with --dataset: gt or a TUM/KITTI trajectory file")->capture_default_str();
+  app.add_option("--out", a->out, "folder for the PNGs (default MAP/render)");
+  app.add_option("--resolution", a->resolution,
+                 "image scale in (0, 1]: of the map's camera with --poses (default 1), of the dataset's images with "
+                 "--dataset (default the map's mapping resolution)");
+  app.add_option("--stride", a->stride, "render every n-th pose")->capture_default_str();
+  app.add_option("--budget", a->budget, "resident Gaussians at most (default the map's, from report.json)");
+  app.add_option("--config", a->config_file, "YAML configuration (culling, raster, residency)");
+  app.add_flag("--stack", a->stack, "with --dataset: write the render above the image");
+  app.add_flag("--json", a->json, "print a JSON summary");
+  return [a]() { return run_render(*a); };
+}};
+
+}  // namespace
+}  // namespace chungs::app

@@ -1,0 +1,198 @@
+#include "chungs/mapping/render_poses.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+#include "chungs/common/log.hpp"
+#include "chungs/common/progress.hpp"
+#include "chungs/image/image_io.hpp"
+#include "chungs/mapping/evaluation.hpp"
+#include "chungs/mapping/frame_source.hpp"
+#include "chungs/mapping/mapper.hpp"
+#include "chungs/render/cpu/rasterizer.hpp"
+#include "chungs/render/gaussian_view.hpp"
+#include "chungs/render/render_camera.hpp"
+#include "chungs/residency/frustum_culler.hpp"
+#include "chungs/residency/residency.hpp"
+
+namespace chungs {
+
+namespace fs = std::filesystem;
+
+struct MapRenderer::Impl {
+  ChunkStore store;
+  CpuGaussianPool pool;
+  Residency residency;
+  FrustumCuller culler;
+  CpuRasterizer<float> raster;
+  Impl(const fs::path& folder, const Config& c)
+      : store(folder, c.store),
+        pool(c.residency.budget_gaussians, store.sh_degree()),
+        residency(store, pool, c.residency),
+        culler(store.chunk_size(), c.culling),
+        raster(c.raster) {}
+};
+
+MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
+  if (!fs::exists(folder / "manifest.txt")) fail(folder.string(), ": not a map folder (no manifest.txt)");
+  impl_ = std::make_unique<Impl>(folder, config);
+  if (fs::exists(folder / "keyframes.txt")) keyframes_ = read_keyframe_records(folder / "keyframes.txt");
+}
+
+MapRenderer::~MapRenderer() = default;
+
+const Camera& MapRenderer::mapping_camera() const {
+  if (keyframes_.empty()) fail("map ", impl_->store.folder().string(), ": no keyframes.txt, so no camera to render with");
+  return keyframes_.front().camera;
+}
+
+uint64_t MapRenderer::total_gaussians() const {
+  uint64_t n = 0;
+  for (const auto& kv : impl_->residency.catalogue()) n += kv.second;
+  return n;
+}
+size_t MapRenderer::peak_resident_gaussians() const { return impl_->residency.peak_resident_gaussians(); }
+size_t MapRenderer::budget() const { return impl_->residency.budget(); }
+IoStats MapRenderer::io_stats() const { return impl_->residency.stats(); }
+
+RenderOutput<float> MapRenderer::render(const Camera& camera, const SE3& pose) {
+  Residency& res = impl_->residency;
+  impl_->culler.set_chunks_from(res.catalogue(), res.catalogue_version());
+  // Nearest chunks first, so that the budget drops the far field, which covers the fewest pixels.
+  std::vector<std::pair<double, ChunkId>> by_dist;
+  for (ChunkId id : impl_->culler.cull(camera, pose))
+    if (res.count(id) > 0)
+      by_dist.emplace_back((chunk_centre(chunk_coord(id), impl_->store.chunk_size()) - pose.t).squaredNorm(), id);
+  std::sort(by_dist.begin(), by_dist.end());
+  std::vector<ChunkId> chunks;
+  uint64_t total = 0, visible = 0;
+  for (auto [d, id] : by_dist) {
+    visible += res.count(id);
+    const uint64_t n = res.count(id);
+    if (total + n > res.budget()) {
+      ++skipped_;
+      continue;
+    }
+    total += n;
+    chunks.push_back(id);
+  }
+  largest_view_ = std::max(largest_view_, visible);
+  const PinResult pr = res.pin(chunks);
+  if (!pr.ok) fail("render: cannot make the visible chunks resident: ", pr.message);
+  RenderOutput<float> out;
+  try {
+    std::vector<uint32_t> slots;
+    res.append_slots(chunks, slots);
+    out = impl_->raster.forward(view_of(impl_->pool.params()), slots, make_render_camera<float>(camera, pose));
+  } catch (...) {
+    res.unpin(chunks);
+    throw;
+  }
+  res.unpin(chunks);
+  ++views_;
+  return out;
+}
+
+size_t map_budget_from_report(const fs::path& folder) {
+  const fs::path f = folder / "report.json";
+  if (!fs::exists(f)) return 0;
+  const nlohmann::json j = read_json_file(f);
+  if (!j.contains("settings") || !j["settings"].contains("budget_gaussians")) return 0;
+  return j["settings"]["budget_gaussians"].get<size_t>();
+}
+
+nlohmann::json RenderPosesSummary::to_json() const {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& v : views) {
+    nlohmann::json e = {{"index", v.index}};
+    if (v.metrics) {
+      e["psnr"] = v.metrics->psnr;
+      e["ssim"] = v.metrics->ssim;
+    }
+    a.push_back(e);
+  }
+  nlohmann::json j = {{"rendered", views.size()}, {"seconds", seconds}, {"views", a}};
+  if (scored) {
+    j["scored"] = scored;
+    j["mean_psnr"] = mean_psnr;
+    j["mean_ssim"] = mean_ssim;
+  }
+  return j;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+fs::path png_name(const fs::path& out, size_t index) {
+  char name[48];
+  std::snprintf(name, sizeof name, "render_%06zu.png", index);
+  return out / name;
+}
+
+ImageF clamped_rgb(const RenderOutput<float>& r) {
+  ImageF img = r.rgb;
+  for (auto& v : img.vec()) v = std::clamp(v, 0.f, 1.f);  // what an 8-bit render shows
+  return img;
+}
+
+void finish(RenderPosesSummary& s, Clock::time_point t0) {
+  for (const auto& v : s.views)
+    if (v.metrics) {
+      s.mean_psnr += v.metrics->psnr;
+      s.mean_ssim += v.metrics->ssim;
+      ++s.scored;
+    }
+  if (s.scored) {
+    s.mean_psnr /= double(s.scored);
+    s.mean_ssim /= double(s.scored);
+  }
+  s.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+RenderPosesSummary render_trajectory(MapRenderer& renderer, const Trajectory& traj, const Camera& camera,
+                                     const fs::path& out, size_t stride) {
+  if (stride == 0) fail("render: stride must be positive");
+  camera.validate("render camera");
+  fs::create_directories(out);
+  const auto t0 = Clock::now();
+  RenderPosesSummary s;
+  Progress progress("rendering", (long long)((traj.size() + stride - 1) / stride));
+  for (size_t i = 0; i < traj.size(); i += stride) {
+    progress.step();
+    write_png(png_name(out, i), to_u8(clamped_rgb(renderer.render(camera, traj.poses[i]))));
+    s.views.push_back({i, std::nullopt});
+  }
+  progress.finish();
+  finish(s, t0);
+  return s;
+}
+
+RenderPosesSummary render_dataset(MapRenderer& renderer, const Dataset& dataset,
+                                  const std::vector<std::optional<SE3>>& poses, double resolution,
+                                  const fs::path& out, size_t stride, bool stack) {
+  if (stride == 0) fail("render: stride must be positive");
+  if (!(resolution > 0 && resolution <= 1)) fail("render: resolution must be in (0, 1], got ", resolution);
+  fs::create_directories(out);
+  const auto t0 = Clock::now();
+  RenderPosesSummary s;
+  const size_t n = std::min(poses.size(), dataset.size());
+  Progress progress("rendering", (long long)((n + stride - 1) / stride));
+  for (size_t i = 0; i < n; i += stride) {
+    progress.step();
+    if (!poses[i]) continue;
+    const MappingFrame m = load_mapping_frame(dataset, i, resolution, DepthMode::None, {}, false);
+    const ImageF render = clamped_rgb(renderer.render(m.frame.camera, *poses[i]));
+    const ImageF ref = to_rgb_float(m.frame.left);
+    s.views.push_back({i, compare_images(ref, render)});
+    write_png(png_name(out, i), stack ? stack_vertically(render, ref) : to_u8(render));
+  }
+  progress.finish();
+  finish(s, t0);
+  return s;
+}
+
+}  // namespace chungs

@@ -1,0 +1,106 @@
+// `diskchungs demo` end to end on a short room sequence, then `diskchungs render` on the map it made.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cli/cli_support.hpp"
+#include "test_support.hpp"
+
+using chungs::test::run_cli;
+namespace fs = std::filesystem;
+
+namespace {
+
+// One short demo for the whole file: 16 frames at a quarter resolution (a few seconds).
+struct DemoRun {
+  chungs::test::TempDir dir;
+  chungs::test::CliResult result;
+  DemoRun() { result = run_cli("-q demo --frames 16 --final-iterations 30 --out " + dir.path().string()); }
+};
+
+DemoRun& demo() {
+  static DemoRun d;
+  return d;
+}
+
+nlohmann::json read_json(const fs::path& f) {
+  std::ifstream in(f);
+  return nlohmann::json::parse(in);
+}
+
+double number_after(const std::string& text, const std::string& key) {
+  const size_t k = text.find(key);
+  if (k == std::string::npos) return -1;
+  return std::stod(text.substr(k + key.size()));
+}
+
+}  // namespace
+
+TEST(CliDemo, MapsTheRoomAndReportsHeldOutQuality) {
+  DemoRun& d = demo();
+  ASSERT_EQ(d.result.code, 0) << d.result.out;
+  const fs::path report = d.dir / "map/report.json";
+  ASSERT_TRUE(fs::exists(report));
+  const auto r = read_json(report);
+  EXPECT_EQ(r["frames"].get<int>(), 16);
+  EXPECT_EQ(r["held_out"]["count"].get<int>(), 2);
+  EXPECT_GT(r["held_out"]["mean_psnr"].get<double>(), 22.0);
+  EXPECT_GT(r["held_out"]["mean_ssim"].get<double>(), 0.7);
+  EXPECT_TRUE(fs::exists(d.dir / "map.ply"));
+  EXPECT_TRUE(fs::exists(d.dir / "map/memory.png"));
+  EXPECT_NEAR(number_after(d.result.out, "held-out PSNR "), r["held_out"]["mean_psnr"].get<double>(), 0.01)
+      << d.result.out;
+}
+
+TEST(CliDemo, RefusesToReplaceAFolderItDidNotMake) {
+  chungs::test::TempDir dir;
+  fs::create_directories(dir / "room");
+  std::ofstream(dir / "room/notes.txt") << "mine";
+  auto r = run_cli("-q demo --frames 8 --final-iterations 0 --out " + dir.path().string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("room"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "room/notes.txt"));
+}
+
+TEST(CliRender, ScoresADatasetAgainstItsImages) {
+  DemoRun& d = demo();
+  ASSERT_EQ(d.result.code, 0) << d.result.out;
+  const fs::path out = d.dir / "render_ds";
+  auto r = run_cli("-q render --json --map " + (d.dir / "map").string() + " --dataset tum:" + (d.dir / "room").string() +
+                   " --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["rendered"].get<int>(), 16);
+  EXPECT_EQ(j["scored"].get<int>(), 16);
+  // Held-out and trained frames together: at least as good as the held-out ones alone, minus noise.
+  EXPECT_GT(j["mean_psnr"].get<double>(), 22.0);
+  EXPECT_LE(j["gaussians"]["peak_resident"].get<uint64_t>(), j["gaussians"]["budget"].get<uint64_t>());
+  EXPECT_TRUE(fs::exists(out / "render_000000.png"));
+  EXPECT_TRUE(fs::exists(out / "render_000015.png"));
+}
+
+TEST(CliRender, RendersATrajectoryFileEveryNthPose) {
+  DemoRun& d = demo();
+  ASSERT_EQ(d.result.code, 0) << d.result.out;
+  const fs::path out = d.dir / "render_traj";
+  auto r = run_cli("-q render --map " + (d.dir / "map").string() + " --poses " + (d.dir / "room/groundtruth.txt").string() +
+                   " --stride 5 --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("rendered 4 views"), std::string::npos) << r.out;
+  for (const char* f : {"render_000000.png", "render_000005.png", "render_000010.png", "render_000015.png"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_FALSE(fs::exists(out / "render_000001.png"));
+}
+
+TEST(CliRender, NeedsExactlyOnePoseSource) {
+  DemoRun& d = demo();
+  auto both = run_cli("render --map " + (d.dir / "map").string() + " --poses x.txt --dataset tum:y");
+  EXPECT_NE(both.code, 0);
+  EXPECT_NE(both.out.find("exactly one"), std::string::npos) << both.out;
+  auto none = run_cli("render --map " + (d.dir / "map").string());
+  EXPECT_NE(none.code, 0);
+  auto nomap = run_cli("render --map /nowhere/map --poses x.txt");
+  EXPECT_NE(nomap.code, 0);
+  EXPECT_NE(nomap.out.find("/nowhere/map"), std::string::npos) << nomap.out;
+}
