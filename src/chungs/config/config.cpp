@@ -211,17 +211,6 @@ struct Loader {
 
 }  // namespace
 
-void Config::validate() const {
-  adam.validate();
-  loss.validate();
-  prune.validate();
-  raster.validate();
-  mapper.validate();
-  sampler.validate();
-  selector.validate();
-  stereo.validate();
-}
-
 Config config_from_yaml(const std::string& text, const std::string& source) {
   Config c;
   Loader l;

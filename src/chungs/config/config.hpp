@@ -33,7 +33,18 @@ struct Config {
   KeyframeSelectorConfig selector;
   StereoDepthConfig stereo;
 
-  void validate() const;  // each section's own checks
+  // Each section's own checks. Inline, so that the mapping library, which takes the whole tree,
+  // needs only the section modules it already links and not the YAML code of this module.
+  void validate() const {
+    adam.validate();
+    loss.validate();
+    prune.validate();
+    raster.validate();
+    mapper.validate();
+    sampler.validate();
+    selector.validate();
+    stereo.validate();
+  }
 };
 
 // YAML with one mapping per section (store:, keyframes:, ...). Keys absent from the text keep their
