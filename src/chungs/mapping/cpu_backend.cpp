@@ -1,5 +1,7 @@
 #include "chungs/mapping/cpu_backend.hpp"
 
+#include "chungs/mapping/sampler.hpp"
+
 namespace chungs {
 
 CpuOptimBackend::CpuOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster)
@@ -8,6 +10,12 @@ CpuOptimBackend::CpuOptimBackend(size_t capacity, int sh_degree, const RasterCon
 RenderOutput<float> CpuOptimBackend::render(std::span<const uint32_t> slots,
                                             const RenderCamera<float>& camera) {
   return raster_.forward(view_of(pool_.params()), slots, camera);
+}
+
+ImageF CpuOptimBackend::sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                             const SamplerConfig& sampler, const ImageF& image) {
+  const RenderOutput<float>& r = raster_.forward(view_of(pool_.params()), slots, camera);
+  return chungs::sampling_probability(sampler, image, &r.rgb, &r.alpha);
 }
 
 LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,

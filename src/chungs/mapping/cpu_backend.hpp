@@ -14,6 +14,8 @@ class CpuOptimBackend final : public OptimBackend {
   LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                  const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;
+  ImageF sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                              const SamplerConfig& sampler, const ImageF& image) override;
 
  private:
   CpuGaussianPool pool_;

@@ -20,6 +20,8 @@
 
 namespace chungs {
 
+struct SamplerConfig;
+
 // Targets of one step on the host; inv_depth and mask are null without a depth term.
 struct StepTargets {
   const ImageF* rgb = nullptr;
@@ -45,6 +47,11 @@ class OptimBackend {
   virtual LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                          const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                          const PruneConfig* prune, std::vector<uint32_t>& to_prune) = 0;
+  // The sampler's acceptance map (1 channel) for a keyframe image against the render of the slots:
+  // chungs::sampling_probability(sampler, image, &render.rgb, &render.alpha), computed where the
+  // render lives.
+  virtual ImageF sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                      const SamplerConfig& sampler, const ImageF& image) = 0;
   // Device memory now, on a GPU backend; none on the CPU.
   virtual std::optional<DeviceMemory> device_memory() const { return std::nullopt; }
 };

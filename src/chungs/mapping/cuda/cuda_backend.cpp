@@ -2,6 +2,7 @@
 #include "chungs/mapping/cuda/cuda_backend.hpp"
 
 #include "chungs/mapping/cuda/device_memory.hpp"
+#include "chungs/mapping/sampler.hpp"
 #include "chungs/optim/cuda/adam.hpp"
 
 namespace chungs::cuda {
@@ -30,6 +31,23 @@ RenderOutput<float> CudaOptimBackend::render(std::span<const uint32_t> slots,
   RenderOutput<float> out;
   raster_.download(out);
   return out;
+}
+
+ImageF CudaOptimBackend::sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                              const SamplerConfig& sampler, const ImageF& image) {
+  sampler.validate();
+  const DeviceRenderOutput& out = forward(slots, camera);
+  if (out.width != image.width() || out.height != image.height())
+    fail("sampler: render and keyframe image differ in size (", out.width, "x", out.height, " vs ",
+         image.width(), "x", image.height(), ")");
+  // The keyframe goes up once and only the 1-channel map comes back (not the render's images).
+  target_rgb_.upload(image.data(), image.size());
+  probability_.resize(size_t(image.width()) * image.height());
+  log_probability_.sampling_probability(target_rgb_.data(), image.channels(), out.rgb, out.alpha, out.width,
+                                        out.height, sampler.density, sampler.empty_floor, probability_.data());
+  ImageF p(image.width(), image.height(), 1);
+  probability_.download(p.vec());
+  return p;
 }
 
 LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,

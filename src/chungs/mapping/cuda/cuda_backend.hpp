@@ -1,9 +1,10 @@
 // The optimisation on the GPU: CudaGaussianPool (VRAM slots; Residency loads and evicts chunks through
 // its host<->device copies), CudaRasterizer, the fused CUDA loss and fused sparse Adam. Per step only
 // the targets and the slot list go up, and only the loss sums come back (plus the screen radii and
-// opacities on pruning steps); render() downloads the images for the sampler and the evaluation.
+// opacities on pruning steps); render() downloads the images for the evaluation; the sampler's map is computed on the device.
 // Built only with CHUNGS_WITH_CUDA; no CUDA headers here.
 #pragma once
+#include "chungs/mapping/cuda/log_probability.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/optim/cuda/loss.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
@@ -21,6 +22,8 @@ class CudaOptimBackend final : public OptimBackend {
   LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                  const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;
+  ImageF sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                              const SamplerConfig& sampler, const ImageF& image) override;
   std::optional<DeviceMemory> device_memory() const override;
 
  private:
@@ -29,8 +32,9 @@ class CudaOptimBackend final : public OptimBackend {
   CudaGaussianPool pool_;
   CudaRasterizer raster_;
   CudaMappingLoss loss_;
+  CudaLogProbability log_probability_;
   DeviceArray<uint32_t> ids_;
-  DeviceArray<float> target_rgb_, target_inv_;
+  DeviceArray<float> target_rgb_, target_inv_, probability_;
   DeviceArray<uint8_t> mask_;
   std::vector<float> opacity_, radius_;  // host copies for the pruning rule
 };
