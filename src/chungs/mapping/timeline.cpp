@@ -76,9 +76,10 @@ struct Canvas {
   void line(double x0, double y0, double x1, double y1, const uint8_t* c, int thick = 2, int dash = 0) {
     const int n = int(std::max(std::abs(x1 - x0), std::abs(y1 - y0))) + 1;
     for (int i = 0; i <= n; ++i) {
-      if (dash && (i / dash) % 2) continue;
       const double t = double(i) / n;
       const int x = int(std::lround(x0 + t * (x1 - x0))), y = int(std::lround(y0 + t * (y1 - y0)));
+      // Dashes by column, so a polyline of many short segments still reads as dashed.
+      if (dash && (x / dash) % 2) continue;
       for (int dy = 0; dy < thick; ++dy)
         for (int dx = 0; dx < thick; ++dx) px(x + dx, y + dy, c);
     }
@@ -100,18 +101,31 @@ struct Canvas {
   }
 };
 
-double nice_ceiling(double v) {
-  if (!(v > 0)) return 1;
-  const double p = std::pow(10.0, std::floor(std::log10(v)));
+// Axis from 0 to a multiple of a round step (1, 2, 2.5 or 5 times a power of ten) with at most six
+// intervals, ending at the first multiple at or above v: 105 keyframes end at 120, not at 200.
+struct Axis {
+  double step = 1, end = 1;
+  int ticks = 1;
+};
+
+Axis axis_for(double v) {
+  if (!(v > 0)) v = 1;
+  const double target = v / 6.0, p = std::pow(10.0, std::floor(std::log10(target)));
+  Axis a;
   for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
-    if (m * p >= v) return m * p;
-  return 10 * p;
+    if (m * p >= target * (1 - 1e-12)) {
+      a.step = m * p;
+      break;
+    }
+  a.ticks = std::max(1, int(std::ceil(v / a.step - 1e-9)));
+  a.end = a.ticks * a.step;
+  return a;
 }
 
 std::string tick_label(double v) {
   char buf[32];
   if (v == std::floor(v)) std::snprintf(buf, sizeof buf, "%.0f", v);
-  else std::snprintf(buf, sizeof buf, "%.1f", v);
+  else std::snprintf(buf, sizeof buf, "%g", v);
   return buf;
 }
 
@@ -121,54 +135,68 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
   const int W = 900, H = 420, L = 80, R = 80, T = 50, B = 50;
   Canvas cv{Image8(W, H, 3, 255)};
   const uint8_t black[3] = {0, 0, 0}, grey[3] = {170, 170, 170}, blue[3] = {30, 80, 220}, red[3] = {220, 40, 40},
-                green[3] = {20, 150, 60};
-  double max_x = 1, max_g = double(budget), max_rss = 1;
+                green[3] = {20, 150, 60}, white[3] = {255, 255, 255};
+  double max_x = 1, max_g = 0, max_rss = 1;
   for (const auto& s : samples) {
     max_x = std::max(max_x, double(s.keyframes));
     max_g = std::max({max_g, double(s.total), double(s.resident)});
     max_rss = std::max(max_rss, s.rss_mb);
   }
-  max_x = nice_ceiling(max_x);
-  max_g = nice_ceiling(max_g / 1000.0);
-  max_rss = nice_ceiling(max_rss);
+  // The budget line is drawn when it is near the data; a budget far above would flatten the curves.
+  const bool show_budget = budget > 0 && double(budget) <= 1.5 * std::max(max_g, 1.0);
+  if (show_budget) max_g = std::max(max_g, double(budget));
+  const Axis ax = axis_for(max_x), ag = axis_for(std::max(max_g, 1.0) / 1000.0), ar = axis_for(max_rss);
   const double pw = W - L - R, ph = H - T - B;
-  auto X = [&](double v) { return L + v / max_x * pw; };
-  auto YG = [&](double v) { return T + ph - v / 1000.0 / max_g * ph; };
-  auto YR = [&](double v) { return T + ph - v / max_rss * ph; };
+  auto X = [&](double v) { return L + v / ax.end * pw; };
+  auto YG = [&](double v) { return T + ph - v / 1000.0 / ag.end * ph; };
+  auto YR = [&](double v) { return T + ph - v / ar.end * ph; };
   cv.line(L, T, L, T + ph, black, 1);
   cv.line(L, T + ph, L + pw, T + ph, black, 1);
   cv.line(L + pw, T, L + pw, T + ph, black, 1);
-  for (int i = 0; i <= 5; ++i) {
-    const double f = i / 5.0;
-    const double y = T + ph - f * ph, x = L + f * pw;
+  for (int i = 0; i <= ag.ticks; ++i) {
+    const double y = YG(i * ag.step * 1000.0);
+    const std::string l = tick_label(i * ag.step);
     cv.line(L - 5, y, L, y, black, 1);
+    cv.text(L - 10 - int(l.size()) * 8, int(y) - 5, l, black);
+  }
+  for (int i = 0; i <= ar.ticks; ++i) {
+    const double y = YR(i * ar.step);
     cv.line(L + pw, y, L + pw + 5, y, black, 1);
+    cv.text(int(L + pw) + 10, int(y) - 5, tick_label(i * ar.step), black);
+  }
+  for (int i = 0; i <= ax.ticks; ++i) {
+    const double x = X(i * ax.step);
+    const std::string l = tick_label(i * ax.step);
     cv.line(x, T + ph, x, T + ph + 5, black, 1);
-    const std::string gl = tick_label(f * max_g), rl = tick_label(f * max_rss), xl = tick_label(f * max_x);
-    cv.text(L - 10 - int(gl.size()) * 8, int(y) - 5, gl, black);
-    cv.text(int(L + pw) + 10, int(y) - 5, rl, black);
-    cv.text(int(x) - int(xl.size()) * 4, int(T + ph) + 10, xl, black);
+    cv.text(int(x) - int(l.size()) * 4, int(T + ph) + 10, l, black);
   }
   cv.text(L + int(pw) / 2 - 40, H - 20, "KEYFRAMES", black);
   cv.text(8, 12, "GAUSSIANS (K)", black);
   cv.text(W - 90, 12, "RSS (MB)", black);
-  if (budget > 0 && double(budget) / 1000.0 <= max_g) cv.line(L, YG(double(budget)), L + pw, YG(double(budget)), grey, 1, 6);
+  if (show_budget) cv.line(L, YG(double(budget)), L + pw, YG(double(budget)), grey, 1, 6);
+  // Resident first, total over it dashed: while nothing is evicted the two coincide and both show.
   for (size_t i = 1; i < samples.size(); ++i) {
     const auto &a = samples[i - 1], &b = samples[i];
-    cv.line(X(double(a.keyframes)), YG(double(a.total)), X(double(b.keyframes)), YG(double(b.total)), blue);
-    cv.line(X(double(a.keyframes)), YG(double(a.resident)), X(double(b.keyframes)), YG(double(b.resident)), red);
+    cv.line(X(double(a.keyframes)), YG(double(a.resident)), X(double(b.keyframes)), YG(double(b.resident)), red, 3);
     cv.line(X(double(a.keyframes)), YR(a.rss_mb), X(double(b.keyframes)), YR(b.rss_mb), green);
   }
+  for (size_t i = 1; i < samples.size(); ++i) {
+    const auto &a = samples[i - 1], &b = samples[i];
+    cv.line(X(double(a.keyframes)), YG(double(a.total)), X(double(b.keyframes)), YG(double(b.total)), blue, 2, 5);
+  }
   int lx = L + 10, ly = T + 8;
-  auto legend = [&](const uint8_t* c, const std::string& s) {
-    cv.line(lx, ly + 4, lx + 24, ly + 4, c);
+  // The legend sits on a white box so that curves passing under it do not cross its text.
+  for (int y = ly - 4; y < ly + 4 * 16; ++y)
+    for (int x = lx - 4; x < lx + 300; ++x) cv.px(x, y, white);
+  auto legend = [&](const uint8_t* c, const std::string& s, int dash = 0) {
+    cv.line(lx, ly + 4, lx + 24, ly + 4, c, 2, dash);
     cv.text(lx + 30, ly, s, black);
     ly += 16;
   };
-  legend(blue, "TOTAL GAUSSIANS");
+  legend(blue, "TOTAL GAUSSIANS", 5);
   legend(red, "RESIDENT GAUSSIANS");
   legend(green, "RSS MB");
-  legend(grey, "BUDGET");
+  legend(grey, show_budget ? "BUDGET" : "BUDGET " + std::to_string(budget) + " (OFF SCALE)");
   write_png(file, cv.img);
 }
 
