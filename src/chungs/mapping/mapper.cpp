@@ -91,21 +91,32 @@ std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pos
   return out;
 }
 
-RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
-  const std::vector<ChunkId> chunks = visible_chunks(camera, pose);
-  const PinResult pr = residency_->pin(chunks);
+namespace {
+
+// Runs f(slots) over the slots of `chunks` while they are pinned, unpinning on every path.
+template <class F>
+auto with_pinned_slots(Residency& residency, const std::vector<ChunkId>& chunks, std::vector<uint32_t>& slots, F&& f) {
+  const PinResult pr = residency.pin(chunks);
   if (!pr.ok) fail("mapper: cannot make the visible chunks resident: ", pr.message);
-  RenderOutput<float> out;
+  decltype(f(slots)) out;
   try {
-    slots_.clear();
-    residency_->append_slots(chunks, slots_);
-    out = backend_->render(slots_, make_render_camera<float>(camera, pose));
+    slots.clear();
+    residency.append_slots(chunks, slots);
+    out = f(slots);
   } catch (...) {
-    residency_->unpin(chunks);
+    residency.unpin(chunks);
     throw;
   }
-  residency_->unpin(chunks);
+  residency.unpin(chunks);
   return out;
+}
+
+}  // namespace
+
+RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
+  return with_pinned_slots(*residency_, visible_chunks(camera, pose), slots_, [&](const std::vector<uint32_t>& slots) {
+    return backend_->render(slots, make_render_camera<float>(camera, pose));
+  });
 }
 
 SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& color,
@@ -119,8 +130,12 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   SampleStats stats;
   if (depth) {
     const ImageF target = to_rgb_float(color);
-    const RenderOutput<float> r = render(camera, pose);
-    const ImageF prob = sampling_probability(config_.sampler, target, &r.rgb, &r.alpha);
+    // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
+    const ImageF prob =
+        with_pinned_slots(*residency_, visible_chunks(camera, pose), slots_, [&](const std::vector<uint32_t>& slots) {
+          return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler,
+                                                target);
+        });
     auto batches = sample_gaussians(config_.sampler, target, *depth, prob, camera, pose, store_->chunk_size(),
                                     id, uint32_t(iterations_), rng_, &stats);
     for (auto& b : batches) {
