@@ -87,7 +87,9 @@ TEST(MeshRasterizer, CoverageMatchesProjectionAndNearClippingKeepsVisiblePart) {
     for (int x = 0; x < cam.width; ++x) {
       bool inside = std::abs(x - cam.cx) < 25 && std::abs(y - cam.cy) < 25;
       bool edge = std::abs(std::abs(x - cam.cx) - 25) < 0.6 || std::abs(std::abs(y - cam.cy) - 25) < 0.6;
-      if (!edge) EXPECT_EQ(d(x, y) > 0, inside) << x << "," << y;
+      if (!edge) {
+        EXPECT_EQ(d(x, y) > 0, inside) << x << "," << y;
+      }
       covered += d(x, y) > 0;
     }
   EXPECT_NEAR(covered, 50 * 50, 60);

@@ -24,7 +24,7 @@ struct StreetOptions {
   double step_m = 1.0;       // distance driven per frame
   double rate_hz = 10;
   double camera_height = 1.65;
-  double lane_offset = 2.0;  // camera path right of the centreline
+  double lane_offset = 1.6;  // camera path right of the centreline (middle of a 3 m lane)
   double turn_radius = 6.0;
   double far = 150;          // far plane the world is culled to
   size_t max_blocks = 512;   // blocks kept in memory

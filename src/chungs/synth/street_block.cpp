@@ -175,8 +175,10 @@ class BlockBuilder {
     const float lamp_u = float(rng_.uniform(u0, u1));
     const V3f lb = f.at(lamp_u, 0.35f, 0.15f);
     b_.prism(lb, 0.08f, 0.06f, 6.0f, 6, metal_);
-    const V3f arm_end = f.at(lamp_u, -1.2f, 6.0f);
-    b_.box(lb.cwiseMin(arm_end) + V3f(-0.05f, -0.05f, -0.12f), lb.cwiseMax(arm_end) + V3f(0.05f, 0.05f, 0), metal_);
+    const V3f arm0 = f.at(lamp_u, 0.35f, 5.88f), arm1 = f.at(lamp_u, -1.2f, 6.0f);
+    b_.box(arm0.cwiseMin(arm1) - V3f(0.05f, 0.05f, 0), arm0.cwiseMax(arm1) + V3f(0.05f, 0.05f, 0), metal_);
+    const V3f head = f.at(lamp_u, -1.2f, 5.75f);
+    b_.box(head - V3f(0.25f, 0.25f, 0), head + V3f(0.25f, 0.25f, 0.25f), metal_, false);
     for (int k = 0; k < 2; ++k) {
       if (!rng_.chance(0.5)) continue;
       const float u = float(rng_.uniform(u0, u1));
@@ -194,7 +196,7 @@ class BlockBuilder {
   }
 
   void car(const V3f& centre, float yaw) {
-    static const V3f paints[] = {{0.7f, 0.05f, 0.05f}, {0.1f, 0.2f, 0.5f}, {0.85f, 0.85f, 0.85f}, {0.1f, 0.1f, 0.1f},
+    static const V3f paints[] = {{0.7f, 0.05f, 0.05f}, {0.1f, 0.2f, 0.5f}, {0.85f, 0.85f, 0.85f}, {0.22f, 0.22f, 0.25f},
                                  {0.5f, 0.52f, 0.55f}, {0.2f, 0.4f, 0.25f}, {0.8f, 0.6f, 0.1f}};
     const V3f c = paints[rng_.range(0, 6)];
     const auto body = b_.add_material(make(MaterialKind::Paint, c, c * 0.6f, 1, seed()));
@@ -209,7 +211,7 @@ class BlockBuilder {
   // Parking lanes of the block's own roads (south road along x, west road along y), clear of the
   // intersections so that turning cars never meet them.
   void parked_cars() {
-    const float lane = hw_ - 1.1f;
+    const float lane = hw_ - 1.0f;
     for (float u = hw_ + 8; u < P_ - hw_ - 8; u += 5.5f) {
       if (rng_.chance(0.45)) car(V3f(u, -lane, 0), 0);
       if (rng_.chance(0.45)) car(V3f(u, lane, 0), float(M_PI));

@@ -171,7 +171,7 @@ Trajectory street_trajectory(const StreetOptions& o, size_t max_frames) {
   Rng rng(hash_combine(o.seed, 0x73776179ULL));
   const double ph1 = rng.uniform(0, 6.3), ph2 = rng.uniform(0, 6.3), ph3 = rng.uniform(0, 6.3);
   // Small smooth lateral sway, bounce, pitch and roll: the motion is not perfectly planar.
-  auto sway = [&](double s) { return 0.15 * std::sin(2 * M_PI * s / 41 + ph1) + 0.08 * std::sin(2 * M_PI * s / 17 + ph2); };
+  auto sway = [&](double s) { return 0.1 * std::sin(2 * M_PI * s / 41 + ph1) + 0.05 * std::sin(2 * M_PI * s / 17 + ph2); };
   Trajectory traj;
   size_t pi = 0;
   double start = 0;  // arc length where piece pi starts
