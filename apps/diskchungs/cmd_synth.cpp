@@ -19,7 +19,7 @@ struct SynthArgs {
   uint64_t seed = 1;
   int width = 0, height = 0;
   double length_m = 1000, baseline = 0.1, rate_hz = 30;
-  bool json = false;
+  bool json = false, no_depth = false;
 };
 
 void report(const synth::SequenceReport& r, const std::string& out) {
@@ -36,6 +36,7 @@ int run_room(const SynthArgs& a) {
   synth::SequenceOptions so;
   so.layout = synth::parse_layout(a.layout);
   so.baseline = a.baseline;
+  so.kitti_depth = !a.no_depth;
   so.render.far = 30;
   report(synth::render_sequence(scene, synth::room_trajectory(o, a.frames), cam, so, a.out), a.out);
   return 0;
@@ -51,6 +52,7 @@ int run_street(const SynthArgs& a) {
   synth::SequenceOptions so;
   so.layout = synth::Layout::Kitti;
   so.baseline = synth::kKittiBaseline;
+  so.kitti_depth = !a.no_depth;
   so.render.far = o.far;
   auto rep = synth::render_sequence(world, synth::street_trajectory(o, a.max_frames), cam, so, a.out);
   report(rep, a.out);
@@ -67,6 +69,7 @@ int run_mesh(const SynthArgs& a) {
   s.camera = synth::parse_intrinsics(a.intrinsics);
   s.seq.layout = synth::parse_layout(a.layout);
   s.seq.baseline = a.baseline;
+  s.seq.kitti_depth = !a.no_depth;
   s.every = a.every;
   s.max_frames = a.max_frames;
   s.rate_hz = a.rate_hz;
@@ -96,6 +99,7 @@ const Command synth_cmd("synth", "render synthetic sequences (room, street, a me
     s->add_option("--width", a->width, "image width (default per scene)");
     s->add_option("--height", a->height, "image height (default per scene)");
     s->add_option("--seed", a->seed, "random seed: same seed, same bytes");
+    s->add_flag("--no-depth", a->no_depth, "KITTI layout: leave out depth/ (uint16, metres * 256)");
   };
   auto* room = app.add_subcommand("room", "furnished textured room, RGB-D (TUM layout, 640x480, 30 Hz)");
   room->add_option("--out", a->out, "output folder")->required();
@@ -117,6 +121,7 @@ const Command synth_cmd("synth", "render synthetic sequences (room, street, a me
   mesh->add_option("--baseline", a->baseline, "stereo baseline for the kitti layout, metres")->capture_default_str();
   mesh->add_option("--every", a->every, "use every N-th pose")->capture_default_str();
   mesh->add_option("--frames", a->max_frames, "at most this many frames (0: all)");
+  mesh->add_flag("--no-depth", a->no_depth, "KITTI layout: leave out depth/ (uint16, metres * 256)");
   mesh->add_option("--rate", a->rate_hz, "frame rate for trajectories without stamps")->capture_default_str();
   auto* check = app.add_subcommand("check-office0", "render office0 at its first pose and compare with the real depth");
   check->add_option("--data", a->data, "the replica_office0 folder")->required();

@@ -175,4 +175,18 @@ TEST(Writers, TumFilesParseBackExactly) {
   for (size_t i = 0; i < d.pixels(); ++i) ASSERT_NEAR(d.data()[i] / 5000.0, ref.depth.data()[i], 0.5 / 5000 + 1e-6);
 }
 
+TEST(Writers, RewritingAFolderDropsTheOldFrames) {
+  test::TempDir dir;
+  RoomOptions o;
+  MeshScene scene(build_room(o), Environment::indoor());
+  const Camera cam = tum_camera(32, 24);
+  render_sequence(scene, room_trajectory(o, 4), cam, SequenceOptions{}, dir.path());
+  o.start_time = 100;  // other names: the old files would survive a plain overwrite
+  render_sequence(scene, room_trajectory(o, 2), cam, SequenceOptions{}, dir.path());
+  size_t n = 0;
+  for (const auto& e : fs::directory_iterator(dir / "rgb")) n += e.path().extension() == ".png";
+  EXPECT_EQ(n, 2u);
+  EXPECT_EQ(lines(dir / "rgb.txt").size(), 2u);
+}
+
 }  // namespace chungs::synth

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
 #include "chungs/image/image_io.hpp"
 
 namespace chungs::synth {
@@ -44,6 +45,16 @@ void close_text(std::ofstream& out, const fs::path& file) {
   if (!out) fail(file, ": write failed");
 }
 
+// Creates `dir` and removes the PNG frames an earlier run left there: a shorter new sequence must
+// not be read back with the old one's tail.
+void prepare_frame_dir(const fs::path& dir) {
+  fs::create_directories(dir);
+  size_t removed = 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file() && e.path().extension() == ".png") removed += fs::remove(e.path()) ? 1 : 0;
+  if (removed) log::warn(dir.string(), ": replaced ", removed, " frames of an earlier sequence");
+}
+
 std::string stamp_name(double t) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6f", t);
@@ -53,8 +64,8 @@ std::string stamp_name(double t) {
 class TumWriter : public SequenceWriter {
  public:
   TumWriter(fs::path out, const Camera& cam) : out_(std::move(out)), cam_(cam) {
-    fs::create_directories(out_ / "rgb");
-    fs::create_directories(out_ / "depth");
+    prepare_frame_dir(out_ / "rgb");
+    prepare_frame_dir(out_ / "depth");
   }
   void add(const FrameOut& f) override {
     if (!f.left) fail("TUM writer: frame ", f.index, " has no colour image");
@@ -97,9 +108,10 @@ class KittiWriter : public SequenceWriter {
  public:
   KittiWriter(fs::path out, const Camera& cam, double baseline, bool depth)
       : out_(std::move(out)), cam_(cam), baseline_(baseline), depth_(depth) {
-    fs::create_directories(out_ / "image_2");
-    fs::create_directories(out_ / "image_3");
-    if (depth_) fs::create_directories(out_ / "depth");
+    prepare_frame_dir(out_ / "image_2");
+    prepare_frame_dir(out_ / "image_3");
+    if (depth_) prepare_frame_dir(out_ / "depth");
+    else if (fs::is_directory(out_ / "depth")) prepare_frame_dir(out_ / "depth");
   }
   void add(const FrameOut& f) override {
     if (!f.left || !f.right) fail("KITTI writer: frame ", f.index, " needs a left and a right image");
