@@ -38,6 +38,8 @@ TEST(Street, ShortRouteAlreadyClosesALoop) {
   o.length_m = 200;  // one lap of the first block is ~180 m
   const auto traj = street_trajectory(o);
   ASSERT_EQ(traj.size(), 201u);
+  o.length_m = 3000;  // long routes turn often; the rounded corners must not make them short
+  EXPECT_EQ(street_trajectory(o).size(), 3001u);
   bool revisit = false;
   for (size_t i = 0; i < traj.size() && !revisit; ++i) {
     bool left = false;
