@@ -23,7 +23,7 @@ float road_marks(double x, double dy, double dxi, double W, double fx, double fy
   const float far_from_cross = 1 - box_coverage(dxi, -(hw + 4), hw + 4, fx);
   const float centre = box_coverage(dy, -0.07, 0.07, fy) * pulse_train(x, 6.0, 0, 3.0, fx) * far_from_cross;
   const float edge = box_coverage(std::abs(dy), hw - 0.35, hw - 0.2, fy) * away;
-  const float zebra = pulse_train(dy + 0.25, 1.0, 0, 0.5, fy) * box_coverage(std::abs(dy), 0, hw - 0.6, fy) *
+  const float zebra = pulse_train(dy + 0.25, 1.0, 0, 0.5, fy) * box_coverage(dy, 0.6 - hw, hw - 0.6, fy) *
                       box_coverage(std::abs(dxi), hw + 0.6, hw + 3.4, fx);
   const float stop = box_coverage(std::abs(dxi), hw + 3.8, hw + 4.2, fx) *
                      box_coverage(dy * (dxi > 0 ? 1 : -1), -(hw - 0.4), 0, fy);
@@ -91,10 +91,12 @@ C3 facade(const Material& m, const SurfacePoint& sp) {
 
 C3 asphalt(const Material& m, const SurfacePoint& sp) {
   const double fp = fpn(sp), x = sp.p.x(), y = sp.p.y();
-  const float agg = fbm(x, y, 0.06, 3, m.seed, fp);
-  const float mid = fbm(x, y, 2.5, 6, m.seed + 1, fp);
+  // Aggregate from 25 cm down to 1.5 cm, filtered anisotropically: the road is seen at grazing
+  // angles, where the footprint along the view is many times the one across it.
+  const float agg = fbm_aniso(x, y, 0.25, 5, m.seed, sp.fs, sp.ft, 0.8f);
+  const float mid = fbm(x, y, 2.5, 4, m.seed + 1, fp, 0.6f);
   const float patch = smoothstep(0.2f, 0.3f, fbm(x, y, 9.0, 2, m.seed + 2, fp));
-  C3 c = m.a * (1 + 0.35f * agg + 0.18f * mid) * (1 - 0.25f * patch);
+  C3 c = m.a * (1 + 0.6f * agg + 0.3f * mid) * (1 - 0.25f * patch);
   const double G = m.param, W = m.scale;
   if (G > 0 && W > 0) {
     const double dy = y - std::round(y / G) * G, dxi = x - std::round(x / G) * G;
@@ -113,7 +115,7 @@ C3 paving(const Material& m, const SurfacePoint& sp) {
   const float joints = std::max(line_train(sp.s, T, 0.012, sp.fs), line_train(sp.t, T, 0.012, sp.ft));
   const float h = hash01(int64_t(std::floor(sp.s / T)), int64_t(std::floor(sp.t / T)), m.seed);
   const float tint = 1 + 0.2f * (h - 0.5f) * detail_weight(T, fp);
-  const float grain = fbm(sp.s, sp.t, 0.1, 4, m.seed + 1, fp);
+  const float grain = fbm_aniso(sp.s, sp.t, 0.1, 4, m.seed + 1, sp.fs, sp.ft, 0.7f);
   const float stain = smoothstep(0.1f, 0.5f, fbm(sp.s, sp.t, 3.0, 3, m.seed + 2, fp));
   return mix(m.a * (tint + 0.2f * grain) * (1 - 0.2f * stain), m.b, joints);
 }
@@ -128,7 +130,7 @@ C3 concrete(const Material& m, const SurfacePoint& sp) {
 
 C3 grass(const Material& m, const SurfacePoint& sp) {
   const double fp = fpn(sp);
-  const float n = fbm(sp.s, sp.t, 2.5, 9, m.seed, fp, 0.6f);
+  const float n = fbm_aniso(sp.s, sp.t, 2.5, 9, m.seed, sp.fs, sp.ft, 0.6f);
   const float dry = smoothstep(0.2f, 0.6f, fbm(sp.s, sp.t, 6.0, 2, m.seed + 1, fp));
   C3 c = mix(m.a, m.b, clamp01(0.5f + 1.2f * n));
   return mix(c, C3(0.55f, 0.5f, 0.3f), 0.4f * dry);

@@ -36,6 +36,29 @@ float fbm(double x, double y, double period, int octaves, uint32_t seed, double 
   return sum / norm;
 }
 
+float fbm_aniso(double x, double y, double period, int octaves, uint32_t seed, double fs, double ft, float gain) {
+  const double fmax = std::max(fs, ft), feff = std::max(std::min(fs, ft), 0.25 * fmax);
+  const bool long_x = fs >= ft;
+  float sum = 0, norm = 0, amp = 1;
+  double freq = 1 / period;
+  for (int o = 0; o < octaves; ++o, amp *= gain, freq *= 2) {
+    norm += amp;
+    const float w = detail_weight(1 / freq, feff);
+    if (w <= 0) continue;
+    const double ox = 17.3 * o, oy = -9.1 * o;
+    const uint32_t s = seed + 101u * uint32_t(o);
+    // Stratified samples across the long footprint, about two per period.
+    const int n = std::clamp(int(std::ceil(2 * fmax * freq)), 1, 4);
+    float v = 0;
+    for (int k = 0; k < n; ++k) {
+      const double d = n == 1 ? 0 : ((k + 0.5) / n - 0.5) * fmax;
+      v += value_noise((x + (long_x ? d : 0)) * freq + ox, (y + (long_x ? 0 : d)) * freq + oy, s);
+    }
+    sum += w * amp * v / float(n);
+  }
+  return sum / norm;
+}
+
 float pulse_train(double x, double period, double a, double b, double fp) {
   auto cumulative = [&](double v) {  // measure of the "on" set within [0, v] (extended to all v)
     double n = std::floor(v / period);

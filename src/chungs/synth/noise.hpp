@@ -32,6 +32,13 @@ inline float detail_weight(double period, double fp) {
 // roughly in [-1, 1] (normalised by the total amplitude of all octaves).
 float fbm(double x, double y, double period, int octaves, uint32_t seed, double fp, float gain = 0.5f);
 
+// fbm for grazing views (roads seen from a car): footprints fs along x and ft along y may differ
+// by several times. Each octave is averaged over up to 4 samples along the longer footprint, so
+// detail across the view survives that a single isotropic footprint would blur away; anisotropy
+// beyond 4:1 is filtered as if the short footprint were a quarter of the long one.
+float fbm_aniso(double x, double y, double period, int octaves, uint32_t seed, double fs, double ft,
+                float gain = 0.5f);
+
 // Fraction of the box filter [x - fp/2, x + fp/2] covered by the pulse train that is "on" on
 // [k*period + a, k*period + b] for all integers k (0 <= a < b <= period). Exact box filtering.
 float pulse_train(double x, double period, double a, double b, double fp);
