@@ -191,4 +191,44 @@ TEST(Writers, RewritingAFolderDropsTheOldFrames) {
   EXPECT_EQ(lines(dir / "rgb.txt").size(), 2u);
 }
 
+TEST(Street, FarTextureMatchesASupersampledRender) {
+  // Detail finer than a pixel is filtered out rather than point-sampled: inside surfaces (not at
+  // their edges) beyond 25 m, a 1x render is close to a 4x4 supersampled one: measured 0.37 of the
+  // image gradient; 3 mm white noise on the façades (aliasing) raises it to 0.48.
+  StreetOptions o;
+  o.length_m = 200;
+  const auto traj = street_trajectory(o);
+  StreetWorld world(o);
+  const Camera cam = kitti_camera(310, 94);
+  const int k = 4;
+  const Camera big(cam.width * k, cam.height * k, cam.fx * k, cam.fy * k, (cam.cx + 0.5) * k - 0.5,
+                   (cam.cy + 0.5) * k - 0.5);
+  Rasterizer r;
+  double diff = 0, contrast = 0;
+  for (size_t fi : {20u, 120u}) {
+    RenderedFrame a, b;
+    render_frame(r, world, cam, traj.poses[fi], 0, RenderOptions{}, a);
+    render_frame(r, world, big, traj.poses[fi], 0, RenderOptions{}, b);
+    for (int y = 1; y < cam.height; ++y)
+      for (int x = 1; x < cam.width; ++x) {
+        float dmin = 1e9f, dmax = 0;
+        double mean[3] = {0, 0, 0};
+        for (int j = 0; j < k; ++j)
+          for (int i = 0; i < k; ++i) {
+            const float d = b.depth(x * k + i, y * k + j);
+            dmin = std::min(dmin, d), dmax = std::max(dmax, d);
+            for (int c = 0; c < 3; ++c) mean[c] += b.left(x * k + i, y * k + j, c) / double(k * k);
+          }
+        if (dmin < 25 || dmax > 1.02f * dmin) continue;  // near, sky or an edge between surfaces
+        for (int c = 0; c < 3; ++c) {
+          diff += std::abs(a.left(x, y, c) - mean[c]);
+          contrast += std::abs(int(a.left(x, y, c)) - int(a.left(x - 1, y, c)));
+        }
+      }
+  }
+  ASSERT_GT(contrast, 0);
+  std::printf("far texture: |1x - supersampled| / |gradient| = %.3f\n", diff / contrast);
+  EXPECT_LT(diff / contrast, 0.42) << "difference " << diff << ", contrast " << contrast;
+}
+
 }  // namespace chungs::synth
