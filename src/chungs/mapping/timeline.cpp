@@ -135,7 +135,7 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
   const int W = 900, H = 420, L = 80, R = 80, T = 50, B = 50;
   Canvas cv{Image8(W, H, 3, 255)};
   const uint8_t black[3] = {0, 0, 0}, grey[3] = {170, 170, 170}, blue[3] = {30, 80, 220}, red[3] = {220, 40, 40},
-                green[3] = {20, 150, 60}, white[3] = {255, 255, 255};
+                green[3] = {20, 150, 60};
   double max_x = 1, max_g = 0, max_rss = 1;
   for (const auto& s : samples) {
     max_x = std::max(max_x, double(s.keyframes));
@@ -184,14 +184,13 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
     const auto &a = samples[i - 1], &b = samples[i];
     cv.line(X(double(a.keyframes)), YG(double(a.total)), X(double(b.keyframes)), YG(double(b.total)), blue, 2, 5);
   }
-  int lx = L + 10, ly = T + 8;
-  // The legend sits on a white box so that curves passing under it do not cross its text.
-  for (int y = ly - 4; y < ly + 4 * 16; ++y)
-    for (int x = lx - 4; x < lx + 300; ++x) cv.px(x, y, white);
+  // The legend is one row in the top margin, so no curve can pass under it.
+  int lx = L + 20;
+  const int ly = 28;
   auto legend = [&](const uint8_t* c, const std::string& s, int dash = 0) {
     cv.line(lx, ly + 4, lx + 24, ly + 4, c, 2, dash);
     cv.text(lx + 30, ly, s, black);
-    ly += 16;
+    lx += 30 + int(s.size()) * 8 + 20;
   };
   legend(blue, "TOTAL GAUSSIANS", 5);
   legend(red, "RESIDENT GAUSSIANS");
