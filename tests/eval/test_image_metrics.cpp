@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include "image_fixtures.hpp"
+
 #include <cmath>
 #include <random>
 
@@ -9,6 +11,7 @@
 #include "test_support.hpp"
 
 using namespace chungs;
+using chungs::test::box_blur;
 
 namespace {
 
@@ -40,23 +43,6 @@ double reference_psnr(const ImageF& a, const ImageF& b, const Image8* mask) {
       }
     }
   return 10.0 * std::log10(1.0 / (sq / double(n)));
-}
-
-ImageF box_blur(const ImageF& img, int r) {
-  ImageF out(img.width(), img.height(), img.channels());
-  for (int y = 0; y < img.height(); ++y)
-    for (int x = 0; x < img.width(); ++x)
-      for (int c = 0; c < img.channels(); ++c) {
-        double s = 0;
-        int n = 0;
-        for (int dy = -r; dy <= r; ++dy)
-          for (int dx = -r; dx <= r; ++dx) {
-            int yy = std::clamp(y + dy, 0, img.height() - 1), xx = std::clamp(x + dx, 0, img.width() - 1);
-            s += img(xx, yy, c), ++n;
-          }
-        out(x, y, c) = float(s / n);
-      }
-  return out;
 }
 
 }  // namespace

@@ -41,6 +41,18 @@ struct Material {
   bool lit = true;  // multiply by the environment's light (false for pre-lit vertex colours)
 };
 
+inline Material make_material(MaterialKind kind, const Eigen::Vector3f& a, const Eigen::Vector3f& b, float scale,
+                              uint32_t seed, float param = 0) {
+  Material m;
+  m.kind = kind;
+  m.a = a;
+  m.b = b;
+  m.scale = scale;
+  m.seed = seed;
+  m.param = param;
+  return m;
+}
+
 struct Mesh {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // world position of local (0, 0, 0)
   std::vector<Eigen::Vector3f> vertices;             // local coordinates

@@ -10,17 +10,6 @@ namespace {
 
 using V3f = Eigen::Vector3f;
 
-Material mat(MaterialKind k, V3f a, V3f b, float scale, uint32_t seed, float param = 0) {
-  Material m;
-  m.kind = k;
-  m.a = a;
-  m.b = b;
-  m.scale = scale;
-  m.seed = seed;
-  m.param = param;
-  return m;
-}
-
 // A wall seen from inside: positions in (u along the wall, d into the room, z up).
 struct Wall {
   Eigen::Vector2f origin, along, inward;
@@ -84,17 +73,17 @@ class RoomBuilder {
   void shell() {
     MeshBuilder b = begin();
     const float X = float(o_.size_x), Y = float(o_.size_y), Z = float(o_.height);
-    const auto floor = b.add_material(mat(MaterialKind::Wood, jitter({0.72f, 0.55f, 0.38f}, 0.3f), {0.42f, 0.28f, 0.17f}, 0.16f, seed()));
-    const auto ceil = b.add_material(mat(MaterialKind::Tiles, {0.9f, 0.9f, 0.87f}, {0.55f, 0.55f, 0.55f}, 0.6f, seed()));
+    const auto floor = b.add_material(make_material(MaterialKind::Wood, jitter({0.72f, 0.55f, 0.38f}, 0.3f), {0.42f, 0.28f, 0.17f}, 0.16f, seed()));
+    const auto ceil = b.add_material(make_material(MaterialKind::Tiles, {0.9f, 0.9f, 0.87f}, {0.55f, 0.55f, 0.55f}, 0.6f, seed()));
     Material wall_mats[4] = {
-        mat(MaterialKind::Brick, jitter({0.62f, 0.32f, 0.24f}, 0.3f), {0.78f, 0.76f, 0.72f}, 0.075f, seed(10)),
-        mat(MaterialKind::Wallpaper, jitter({0.86f, 0.8f, 0.64f}, 0.2f), jitter({0.5f, 0.32f, 0.3f}, 0.4f), 0.22f, seed(11)),
-        mat(MaterialKind::Plaster, jitter({0.74f, 0.8f, 0.86f}, 0.2f), {0.55f, 0.62f, 0.7f}, 1.f, seed(12)),
-        mat(MaterialKind::Plaster, jitter({0.86f, 0.78f, 0.68f}, 0.2f), {0.68f, 0.58f, 0.48f}, 1.f, seed(13))};
+        make_material(MaterialKind::Brick, jitter({0.62f, 0.32f, 0.24f}, 0.3f), {0.78f, 0.76f, 0.72f}, 0.075f, seed(10)),
+        make_material(MaterialKind::Wallpaper, jitter({0.86f, 0.8f, 0.64f}, 0.2f), jitter({0.5f, 0.32f, 0.3f}, 0.4f), 0.22f, seed(11)),
+        make_material(MaterialKind::Plaster, jitter({0.74f, 0.8f, 0.86f}, 0.2f), {0.55f, 0.62f, 0.7f}, 1.f, seed(12)),
+        make_material(MaterialKind::Plaster, jitter({0.86f, 0.78f, 0.68f}, 0.2f), {0.68f, 0.58f, 0.48f}, 1.f, seed(13))};
     for (int i = 3; i > 0; --i) std::swap(wall_mats[i], wall_mats[rng_.range(0, i)]);
     b.quad({0, 0, 0}, {X, 0, 0}, {X, Y, 0}, {0, Y, 0}, floor);
     b.quad({0, 0, Z}, {0, Y, Z}, {X, Y, Z}, {X, 0, Z}, ceil);
-    const auto skirting = b.add_material(mat(MaterialKind::Paint, {0.92f, 0.91f, 0.88f}, {0.7f, 0.7f, 0.68f}, 1, seed()));
+    const auto skirting = b.add_material(make_material(MaterialKind::Paint, {0.92f, 0.91f, 0.88f}, {0.7f, 0.7f, 0.68f}, 1, seed()));
     for (int i = 0; i < 4; ++i) {
       const Wall& w = walls_[i];
       const auto m = b.add_material(wall_mats[i]);
@@ -137,8 +126,8 @@ class RoomBuilder {
 
   void bookshelf(const Wall& w, float u0, float u1) {
     MeshBuilder b = begin();
-    const auto wood = b.add_material(mat(MaterialKind::Wood, jitter({0.6f, 0.45f, 0.3f}, 0.4f), {0.35f, 0.22f, 0.12f}, 0.1f, seed()));
-    const auto books = b.add_material(mat(MaterialKind::Books, {0, 0, 0}, {0.12f, 0.09f, 0.07f}, 0.4f, seed()));
+    const auto wood = b.add_material(make_material(MaterialKind::Wood, jitter({0.6f, 0.45f, 0.3f}, 0.4f), {0.35f, 0.22f, 0.12f}, 0.1f, seed()));
+    const auto books = b.add_material(make_material(MaterialKind::Books, {0, 0, 0}, {0.12f, 0.09f, 0.07f}, 0.4f, seed()));
     const float h = 0.4f * float(rng_.range(4, 5)) + 0.02f, d = 0.35f;
     wall_box(b, w, u0, u0 + 0.02f, 0, d, 0, h, wood);
     wall_box(b, w, u1 - 0.02f, u1, 0, d, 0, h, wood);
@@ -151,9 +140,9 @@ class RoomBuilder {
 
   void cabinet(const Wall& w, float u0, float u1) {
     MeshBuilder b = begin();
-    const auto wood = b.add_material(mat(MaterialKind::Wood, jitter({0.55f, 0.38f, 0.25f}, 0.4f), {0.3f, 0.18f, 0.1f}, 0.12f, seed()));
-    const auto front = b.add_material(mat(MaterialKind::Paint, jitter({0.3f, 0.45f, 0.55f}, 0.6f), {0.2f, 0.2f, 0.2f}, 1, seed()));
-    const auto metal = b.add_material(mat(MaterialKind::Paint, {0.75f, 0.72f, 0.6f}, {0.4f, 0.4f, 0.4f}, 1, seed()));
+    const auto wood = b.add_material(make_material(MaterialKind::Wood, jitter({0.55f, 0.38f, 0.25f}, 0.4f), {0.3f, 0.18f, 0.1f}, 0.12f, seed()));
+    const auto front = b.add_material(make_material(MaterialKind::Paint, jitter({0.3f, 0.45f, 0.55f}, 0.6f), {0.2f, 0.2f, 0.2f}, 1, seed()));
+    const auto metal = b.add_material(make_material(MaterialKind::Paint, {0.75f, 0.72f, 0.6f}, {0.4f, 0.4f, 0.4f}, 1, seed()));
     const float h = float(rng_.uniform(0.75, 1.0)), d = 0.5f;
     wall_box(b, w, u0, u1, 0, d, 0, h, wood);
     const int drawers = 3;
@@ -164,7 +153,7 @@ class RoomBuilder {
       const float um = 0.5f * (u0 + u1);
       wall_box(b, w, um - 0.06f, um + 0.06f, d + 0.02f, d + 0.04f, z0 + 0.5f * dh - 0.015f, z0 + 0.5f * dh + 0.015f, metal);
     }
-    const auto vase = b.add_material(mat(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, 0.15f, seed()));
+    const auto vase = b.add_material(make_material(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, 0.15f, seed()));
     b.prism(w.world(u0 + 0.25f, 0.25f, h), 0.08f, 0.05f, 0.3f, 8, vase);
     wall_box(b, w, u1 - 0.45f, u1 - 0.15f, 0.1f, 0.35f, h, h + 0.06f, vase);
   }
@@ -172,8 +161,8 @@ class RoomBuilder {
   void sofa(const Wall& w, float u0, float u1) {
     MeshBuilder b = begin();
     const V3f c1 = jitter({0.35f, 0.4f, 0.55f}, 0.8f), c2 = jitter({0.75f, 0.7f, 0.55f}, 0.5f);
-    const auto fabric = b.add_material(mat(MaterialKind::Fabric, c1, c1 * 0.6f, 0.12f, seed()));
-    const auto cushion = b.add_material(mat(MaterialKind::Fabric, c2, c1, 0.08f, seed()));
+    const auto fabric = b.add_material(make_material(MaterialKind::Fabric, c1, c1 * 0.6f, 0.12f, seed()));
+    const auto cushion = b.add_material(make_material(MaterialKind::Fabric, c2, c1, 0.08f, seed()));
     wall_box(b, w, u0, u1, 0, 0.85f, 0, 0.42f, fabric);
     wall_box(b, w, u0, u1, 0, 0.22f, 0.42f, 0.88f, fabric);
     wall_box(b, w, u0, u0 + 0.2f, 0.22f, 0.85f, 0.42f, 0.62f, fabric);
@@ -185,10 +174,10 @@ class RoomBuilder {
 
   void desk(const Wall& w, float u0, float u1) {
     MeshBuilder b = begin();
-    const auto wood = b.add_material(mat(MaterialKind::Wood, jitter({0.7f, 0.55f, 0.4f}, 0.3f), {0.45f, 0.3f, 0.2f}, 0.2f, seed()));
-    const auto dark = b.add_material(mat(MaterialKind::Paint, {0.12f, 0.12f, 0.13f}, {0.3f, 0.3f, 0.3f}, 1, seed()));
-    const auto screen = b.add_material(mat(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, 0.25f, seed()));
-    const auto chair = b.add_material(mat(MaterialKind::Fabric, jitter({0.6f, 0.2f, 0.15f}, 0.6f), {0.2f, 0.2f, 0.2f}, 0.05f, seed()));
+    const auto wood = b.add_material(make_material(MaterialKind::Wood, jitter({0.7f, 0.55f, 0.4f}, 0.3f), {0.45f, 0.3f, 0.2f}, 0.2f, seed()));
+    const auto dark = b.add_material(make_material(MaterialKind::Paint, {0.12f, 0.12f, 0.13f}, {0.3f, 0.3f, 0.3f}, 1, seed()));
+    const auto screen = b.add_material(make_material(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, 0.25f, seed()));
+    const auto chair = b.add_material(make_material(MaterialKind::Fabric, jitter({0.6f, 0.2f, 0.15f}, 0.6f), {0.2f, 0.2f, 0.2f}, 0.05f, seed()));
     wall_box(b, w, u0, u1, 0, 0.7f, 0.72f, 0.75f, wood);
     for (float lu : {u0 + 0.03f, u1 - 0.07f})
       for (float ld : {0.03f, 0.63f}) wall_box(b, w, lu, lu + 0.04f, ld, ld + 0.04f, 0, 0.72f, dark);
@@ -204,17 +193,17 @@ class RoomBuilder {
 
   void plant(const V3f& base) {
     MeshBuilder b = begin();
-    const auto pot = b.add_material(mat(MaterialKind::Concrete, jitter({0.7f, 0.45f, 0.35f}, 0.4f), {0, 0, 0}, 0.3f, seed()));
-    const auto leaves = b.add_material(mat(MaterialKind::Foliage, {0.12f, 0.3f, 0.1f}, {0.35f, 0.6f, 0.2f}, 0.12f, seed()));
+    const auto pot = b.add_material(make_material(MaterialKind::Concrete, jitter({0.7f, 0.45f, 0.35f}, 0.4f), {0, 0, 0}, 0.3f, seed()));
+    const auto leaves = b.add_material(make_material(MaterialKind::Foliage, {0.12f, 0.3f, 0.1f}, {0.35f, 0.6f, 0.2f}, 0.12f, seed()));
     b.prism(base, 0.16f, 0.2f, 0.35f, 10, pot);
     b.blob(base + V3f(0, 0, 0.8f), 0.32f, 0.32f, 0.42f, 0.25f, seed(), leaves);
   }
 
   void door(const Wall& w, float u) {
     MeshBuilder b = begin();
-    const auto frame = b.add_material(mat(MaterialKind::Paint, {0.93f, 0.92f, 0.9f}, {0.8f, 0.8f, 0.8f}, 1, seed()));
-    const auto leaf = b.add_material(mat(MaterialKind::Wood, jitter({0.65f, 0.48f, 0.3f}, 0.3f), {0.38f, 0.25f, 0.15f}, 0.9f, seed()));
-    const auto metal = b.add_material(mat(MaterialKind::Paint, {0.7f, 0.68f, 0.6f}, {0.4f, 0.4f, 0.4f}, 1, seed()));
+    const auto frame = b.add_material(make_material(MaterialKind::Paint, {0.93f, 0.92f, 0.9f}, {0.8f, 0.8f, 0.8f}, 1, seed()));
+    const auto leaf = b.add_material(make_material(MaterialKind::Wood, jitter({0.65f, 0.48f, 0.3f}, 0.3f), {0.38f, 0.25f, 0.15f}, 0.9f, seed()));
+    const auto metal = b.add_material(make_material(MaterialKind::Paint, {0.7f, 0.68f, 0.6f}, {0.4f, 0.4f, 0.4f}, 1, seed()));
     wall_box(b, w, u - 0.08f, u + 0.98f, 0, 0.025f, 0, 2.12f, frame);
     wall_box(b, w, u, u + 0.9f, 0, 0.04f, 0, 2.05f, leaf);
     wall_box(b, w, u + 0.75f, u + 0.85f, 0.04f, 0.07f, 1.0f, 1.03f, metal);
@@ -222,12 +211,12 @@ class RoomBuilder {
 
   void window(const Wall& w, float u) {
     MeshBuilder b = begin();
-    const auto frame = b.add_material(mat(MaterialKind::Paint, {0.95f, 0.95f, 0.93f}, {0.8f, 0.8f, 0.8f}, 1, seed()));
+    const auto frame = b.add_material(make_material(MaterialKind::Paint, {0.95f, 0.95f, 0.93f}, {0.8f, 0.8f, 0.8f}, 1, seed()));
     // Trees outside the window (unlit: it is daylight beyond the glass).
-    Material view = mat(MaterialKind::Foliage, {0.25f, 0.4f, 0.3f}, {0.75f, 0.85f, 0.6f}, 0.6f, seed());
+    Material view = make_material(MaterialKind::Foliage, {0.25f, 0.4f, 0.3f}, {0.75f, 0.85f, 0.6f}, 0.6f, seed());
     view.lit = false;
     const auto glass = b.add_material(view);
-    const auto fins = b.add_material(mat(MaterialKind::Wallpaper, {0.93f, 0.93f, 0.92f}, {0.7f, 0.7f, 0.7f}, 0.06f, seed()));
+    const auto fins = b.add_material(make_material(MaterialKind::Wallpaper, {0.93f, 0.93f, 0.92f}, {0.7f, 0.7f, 0.7f}, 0.06f, seed()));
     wall_box(b, w, u, u + 1.2f, 0, 0.03f, 0.95f, 2.15f, frame);
     wall_box(b, w, u + 0.06f, u + 1.14f, 0, 0.035f, 1.01f, 2.09f, glass);
     wall_box(b, w, u + 0.58f, u + 0.62f, 0, 0.05f, 1.01f, 2.09f, frame);
@@ -240,8 +229,8 @@ class RoomBuilder {
     const int n = rng_.range(1, 2);
     for (int k = 0; k < n; ++k) {
       MeshBuilder b = begin();
-      const auto frame = b.add_material(mat(MaterialKind::Wood, {0.3f, 0.2f, 0.12f}, {0.15f, 0.1f, 0.05f}, 0.05f, seed()));
-      const auto art = b.add_material(mat(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, float(rng_.uniform(0.3, 0.6)), seed()));
+      const auto frame = b.add_material(make_material(MaterialKind::Wood, {0.3f, 0.2f, 0.12f}, {0.15f, 0.1f, 0.05f}, 0.05f, seed()));
+      const auto art = b.add_material(make_material(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, float(rng_.uniform(0.3, 0.6)), seed()));
       const float pw = float(rng_.uniform(0.5, 1.1)), ph = float(rng_.uniform(0.4, 0.85));
       const float span = (w.length - 1.0f) / n;
       const float u = 0.5f + span * k + float(rng_.uniform(0, std::max(0.0f, span - pw)));
@@ -256,18 +245,18 @@ class RoomBuilder {
     {
       MeshBuilder b = begin();
       const V3f c1 = jitter({0.6f, 0.25f, 0.2f}, 0.8f);
-      const auto rug = b.add_material(mat(MaterialKind::Fabric, c1, jitter({0.85f, 0.8f, 0.6f}, 0.3f), 0.25f, seed()));
+      const auto rug = b.add_material(make_material(MaterialKind::Fabric, c1, jitter({0.85f, 0.8f, 0.6f}, 0.3f), 0.25f, seed()));
       b.box({cx - 1.0f, cy - 0.7f, 0}, {cx + 1.0f, cy + 0.7f, 0.012f}, rug);
     }
     MeshBuilder b = begin();
-    const auto wood = b.add_material(mat(MaterialKind::Wood, jitter({0.5f, 0.35f, 0.22f}, 0.3f), {0.25f, 0.15f, 0.08f}, 0.12f, seed()));
-    const auto mags = b.add_material(mat(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, 0.12f, seed()));
+    const auto wood = b.add_material(make_material(MaterialKind::Wood, jitter({0.5f, 0.35f, 0.22f}, 0.3f), {0.25f, 0.15f, 0.08f}, 0.12f, seed()));
+    const auto mags = b.add_material(make_material(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, 0.12f, seed()));
     b.box({cx - 0.5f, cy - 0.3f, 0.4f}, {cx + 0.5f, cy + 0.3f, 0.44f}, wood);
     for (float dx : {-0.45f, 0.41f})
       for (float dy : {-0.25f, 0.21f}) b.box({cx + dx, cy + dy, 0.012f}, {cx + dx + 0.04f, cy + dy + 0.04f, 0.4f}, wood);
     b.box({cx - 0.35f, cy - 0.2f, 0.44f}, {cx - 0.05f, cy + 0.02f, 0.47f}, mags);
     b.prism({cx + 0.2f, cy + 0.05f, 0.44f}, 0.045f, 0.045f, 0.1f, 10, mags);
-    const auto lamp = b.add_material(mat(MaterialKind::Paint, {0.9f, 0.85f, 0.7f}, {0.6f, 0.55f, 0.4f}, 1, seed()));
+    const auto lamp = b.add_material(make_material(MaterialKind::Paint, {0.9f, 0.85f, 0.7f}, {0.6f, 0.55f, 0.4f}, 1, seed()));
     const float Z = float(o_.height);
     b.prism({cx, cy, Z - 0.55f}, 0.3f, 0.12f, 0.25f, 12, lamp);
     b.box({cx - 0.01f, cy - 0.01f, Z - 0.3f}, {cx + 0.01f, cy + 0.01f, Z}, lamp);

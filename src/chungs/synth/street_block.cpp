@@ -12,17 +12,6 @@ namespace {
 
 using V3f = Eigen::Vector3f;
 
-Material make(MaterialKind k, V3f a, V3f b, float scale, uint32_t seed, float param = 0) {
-  Material m;
-  m.kind = k;
-  m.a = a;
-  m.b = b;
-  m.scale = scale;
-  m.seed = seed;
-  m.param = param;
-  return m;
-}
-
 class BlockBuilder {
  public:
   BlockBuilder(const StreetOptions& o, int bx, int by)
@@ -37,16 +26,16 @@ class BlockBuilder {
   Mesh build() {
     // Surfaces that continue across blocks share world-level seeds, so their texture is seamless.
     const uint32_t ws = uint32_t(o_.seed * 7919u);
-    asphalt_ = b_.add_material(make(MaterialKind::Asphalt, {0.27f, 0.27f, 0.29f}, {0, 0, 0}, 2 * hw_, ws + 1, P_));
-    kerb_ = b_.add_material(make(MaterialKind::Concrete, {0.6f, 0.6f, 0.58f}, {0, 0, 0}, 1.0f, ws + 2));
-    paving_ = b_.add_material(make(MaterialKind::Paving, {0.62f, 0.6f, 0.56f}, {0.38f, 0.37f, 0.35f}, 0.5f, ws + 3));
-    grass_ = b_.add_material(make(MaterialKind::Grass, {0.18f, 0.32f, 0.1f}, {0.42f, 0.55f, 0.2f}, 1, ws + 4));
-    bark_ = b_.add_material(make(MaterialKind::Bark, {0.3f, 0.22f, 0.15f}, {0.12f, 0.09f, 0.06f}, 1, ws + 5));
-    leaves_[0] = b_.add_material(make(MaterialKind::Foliage, {0.1f, 0.22f, 0.06f}, {0.35f, 0.55f, 0.15f}, 0.9f, ws + 6));
-    leaves_[1] = b_.add_material(make(MaterialKind::Foliage, {0.16f, 0.2f, 0.05f}, {0.55f, 0.6f, 0.2f}, 0.7f, ws + 7));
-    metal_ = b_.add_material(make(MaterialKind::Paint, {0.25f, 0.27f, 0.28f}, {0.4f, 0.4f, 0.4f}, 1, ws + 8));
-    glass_ = b_.add_material(make(MaterialKind::Glass, {0.08f, 0.1f, 0.13f}, {0.6f, 0.65f, 0.72f}, 1, ws + 9));
-    tyre_ = b_.add_material(make(MaterialKind::Paint, {0.07f, 0.07f, 0.07f}, {0.15f, 0.15f, 0.15f}, 1, ws + 10));
+    asphalt_ = b_.add_material(make_material(MaterialKind::Asphalt, {0.27f, 0.27f, 0.29f}, {0, 0, 0}, 2 * hw_, ws + 1, P_));
+    kerb_ = b_.add_material(make_material(MaterialKind::Concrete, {0.6f, 0.6f, 0.58f}, {0, 0, 0}, 1.0f, ws + 2));
+    paving_ = b_.add_material(make_material(MaterialKind::Paving, {0.62f, 0.6f, 0.56f}, {0.38f, 0.37f, 0.35f}, 0.5f, ws + 3));
+    grass_ = b_.add_material(make_material(MaterialKind::Grass, {0.18f, 0.32f, 0.1f}, {0.42f, 0.55f, 0.2f}, 1, ws + 4));
+    bark_ = b_.add_material(make_material(MaterialKind::Bark, {0.3f, 0.22f, 0.15f}, {0.12f, 0.09f, 0.06f}, 1, ws + 5));
+    leaves_[0] = b_.add_material(make_material(MaterialKind::Foliage, {0.1f, 0.22f, 0.06f}, {0.35f, 0.55f, 0.15f}, 0.9f, ws + 6));
+    leaves_[1] = b_.add_material(make_material(MaterialKind::Foliage, {0.16f, 0.2f, 0.05f}, {0.55f, 0.6f, 0.2f}, 0.7f, ws + 7));
+    metal_ = b_.add_material(make_material(MaterialKind::Paint, {0.25f, 0.27f, 0.28f}, {0.4f, 0.4f, 0.4f}, 1, ws + 8));
+    glass_ = b_.add_material(make_material(MaterialKind::Glass, {0.08f, 0.1f, 0.13f}, {0.6f, 0.65f, 0.72f}, 1, ws + 9));
+    tyre_ = b_.add_material(make_material(MaterialKind::Paint, {0.07f, 0.07f, 0.07f}, {0.15f, 0.15f, 0.15f}, 1, ws + 10));
     ground();
     if (park_) park();
     else for (int side = 0; side < 4; ++side) buildings(side);
@@ -123,14 +112,14 @@ class BlockBuilder {
       const float H = float(rng_.uniform(3.0, 3.5)), height = storeys * H + 0.5f;
       const V3f wall = walls[rng_.range(0, 7)];
       const uint32_t fseed = seed();
-      const Material fac = make(MaterialKind::Facade, wall, {0.2f, 0.22f, 0.25f}, H, fseed, float(rng_.uniform(2.4, 3.8)));
+      const Material fac = make_material(MaterialKind::Facade, wall, {0.2f, 0.22f, 0.25f}, H, fseed, float(rng_.uniform(2.4, 3.8)));
       const auto fm = b_.add_material(fac);
       frame_box(f, u, u + w, sb, sb + depth, 0.15f, height, fm);
-      const auto ledge = b_.add_material(make(MaterialKind::Concrete, fac.a * 0.8f, {0, 0, 0}, 0.8f, seed()));
+      const auto ledge = b_.add_material(make_material(MaterialKind::Concrete, fac.a * 0.8f, {0, 0, 0}, 0.8f, seed()));
       frame_box(f, u, u + w, sb - 0.25f, sb + depth, height, height + 0.35f, ledge);
       if (rng_.chance(0.3)) {
         const V3f c = walls[rng_.range(0, 7)] * 0.8f;
-        const auto awning = b_.add_material(make(MaterialKind::Fabric, c, {0.9f, 0.88f, 0.8f}, 0.5f, seed()));
+        const auto awning = b_.add_material(make_material(MaterialKind::Fabric, c, {0.9f, 0.88f, 0.8f}, 0.5f, seed()));
         frame_box(f, u + 1, u + w - 1, sb - 1.3f, sb, 2.7f, 2.85f, awning);
       }
       u += w;
@@ -149,7 +138,7 @@ class BlockBuilder {
     }
     const float mid = 0.5f * P_ + float(rng_.uniform(-5, 5));
     b_.box({i0 - 2, mid - 1.2f, 0.15f}, {i1 + 2, mid + 1.2f, 0.17f}, paving_);
-    const auto wood = b_.add_material(make(MaterialKind::Wood, {0.55f, 0.4f, 0.25f}, {0.3f, 0.2f, 0.1f}, 0.12f, seed()));
+    const auto wood = b_.add_material(make_material(MaterialKind::Wood, {0.55f, 0.4f, 0.25f}, {0.3f, 0.2f, 0.1f}, 0.12f, seed()));
     for (int k = 0; k < 3; ++k) {
       const float x = float(rng_.uniform(i0, i1));
       b_.box({x, mid + 1.4f, 0.15f}, {x + 1.8f, mid + 1.9f, 0.6f}, wood);
@@ -183,14 +172,14 @@ class BlockBuilder {
       if (!rng_.chance(0.5)) continue;
       const float u = float(rng_.uniform(u0, u1));
       const V3f c = V3f(0.2f, 0.4f, 0.25f) * float(rng_.uniform(0.7, 1.3));
-      const auto bin = b_.add_material(make(MaterialKind::Paint, c, c * 0.5f, 1, seed()));
+      const auto bin = b_.add_material(make_material(MaterialKind::Paint, c, c * 0.5f, 1, seed()));
       b_.oriented_box(f.at(u, 0.6f, 0.15f), 0.55f, 0.55f, 0.95f, float(rng_.uniform(0, 0.3)), bin);
     }
     if (rng_.chance(0.35)) {  // a sign with a poster: strong texture at eye height
       const float u = float(rng_.uniform(u0, u1));
       const V3f p = f.at(u, 0.5f, 0.15f);
       b_.prism(p, 0.05f, 0.05f, 2.2f, 5, metal_);
-      const auto art = b_.add_material(make(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, 0.5f, seed()));
+      const auto art = b_.add_material(make_material(MaterialKind::Poster, {0, 0, 0}, {0, 0, 0}, 0.5f, seed()));
       frame_box(f, u - 0.6f, u + 0.6f, 0.44f, 0.5f, 2.2f, 3.0f, art);
     }
   }
@@ -199,7 +188,7 @@ class BlockBuilder {
     static const V3f paints[] = {{0.7f, 0.05f, 0.05f}, {0.1f, 0.2f, 0.5f}, {0.85f, 0.85f, 0.85f}, {0.22f, 0.22f, 0.25f},
                                  {0.5f, 0.52f, 0.55f}, {0.2f, 0.4f, 0.25f}, {0.8f, 0.6f, 0.1f}};
     const V3f c = paints[rng_.range(0, 6)];
-    const auto body = b_.add_material(make(MaterialKind::Paint, c, c * 0.6f, 1, seed()));
+    const auto body = b_.add_material(make_material(MaterialKind::Paint, c, c * 0.6f, 1, seed()));
     const float len = float(rng_.uniform(3.9, 4.6));
     const Eigen::Vector3f ax(std::cos(yaw), std::sin(yaw), 0), ay(-std::sin(yaw), std::cos(yaw), 0);
     b_.oriented_box(centre + V3f(0, 0, 0.3f), len, 1.75f, 0.75f, yaw, body);
