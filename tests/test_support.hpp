@@ -6,6 +6,10 @@
 #include <random>
 #include <string>
 
+#ifdef CHUNGS_WITH_CUDA
+#include "chungs/cuda/devices.hpp"
+#endif
+
 namespace chungs::test {
 
 // ../shared/data beside the checkout; tests that need it skip with a message when it is absent.
@@ -20,6 +24,15 @@ inline std::filesystem::path shared_data(const std::string& sub = "") {
       GTEST_SKIP() << "real data not found at " << ::chungs::test::shared_data(sub)           \
                    << " (../shared/data is absent in a plain clone)";                         \
   } while (0)
+
+#ifdef CHUNGS_WITH_CUDA
+// GPU tests skip (with the driver's reason) where no CUDA device is present, as in CI.
+#define CHUNGS_REQUIRE_GPU()                                                                   \
+  do {                                                                                         \
+    std::string why_;                                                                          \
+    if (::chungs::cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
+  } while (0)
+#endif
 
 // A fresh empty folder under the system temp dir, removed when the object dies.
 class TempDir {

@@ -3,6 +3,8 @@
 #ifdef CHUNGS_WITH_CUDA
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -18,12 +20,6 @@
 
 namespace chungs {
 namespace {
-
-#define REQUIRE_GPU()                                                                  \
-  do {                                                                                 \
-    std::string why_;                                                                  \
-    if (cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
-  } while (0)
 
 // Smooth shading plus pixel noise of a random amplitude: the LoG response then covers the whole
 // range, with some pixels clamped to 1 and many in between.
@@ -54,7 +50,7 @@ double max_abs_diff(const ImageF& a, const ImageF& b) {
 }
 
 TEST(CudaLogProbability, MatchesCpuTwinOnOddSizes) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(11);
   const int sizes[][3] = {{37, 23, 3}, {101, 55, 1}, {64, 33, 4}, {5, 3, 3}, {3, 9, 2}, {2, 7, 3}, {129, 67, 3}};
   for (const auto& s : sizes) {
@@ -76,7 +72,7 @@ TEST(CudaLogProbability, MapIsNotTrivialOnTheTestImages) {
 }
 
 TEST(CudaLogProbability, AcceptanceMapMatchesCpuTwin) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> U(0, 1);
   SamplerConfig c;
@@ -104,7 +100,7 @@ TEST(CudaLogProbability, AcceptanceMapMatchesCpuTwin) {
 }
 
 TEST(CudaLogProbability, BackendsGiveTheSameAcceptanceMap) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(3);
   RenderCamera<float> cam;
   cam.width = 61, cam.height = 45, cam.fx = cam.fy = 50, cam.cx = 30, cam.cy = 22;
@@ -120,7 +116,7 @@ TEST(CudaLogProbability, BackendsGiveTheSameAcceptanceMap) {
 }
 
 TEST(CudaLogProbability, KittiSizedFrameMatchesAndIsTimed) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(7);
   const int w = 1241, h = 376;
   const ImageF img = random_image(w, h, 3, rng), render = random_image(w, h, 3, rng);

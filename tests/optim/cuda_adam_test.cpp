@@ -2,6 +2,8 @@
 #ifdef CHUNGS_WITH_CUDA
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include <algorithm>
 #include <random>
 #include <string>
@@ -13,12 +15,6 @@
 
 namespace chungs {
 namespace {
-
-#define REQUIRE_GPU()                                                                  \
-  do {                                                                                 \
-    std::string why_;                                                                  \
-    if (cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
-  } while (0)
 
 void fill(std::vector<float>& v, std::mt19937& rng, float scale, bool positive = false) {
   std::normal_distribution<float> N(0, 1);
@@ -83,7 +79,7 @@ double max_rel(const std::vector<float>& a, const std::vector<float>& b) {
 }
 
 TEST(CudaAdam, MatchesCpuTwinOnSparseVisibleSubset) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(7);
   const size_t capacity = 3000, n = 2000;
   GaussianBlock cpu = random_block(capacity, rng);
@@ -124,7 +120,7 @@ TEST(CudaAdam, MatchesCpuTwinOnSparseVisibleSubset) {
 }
 
 TEST(CudaAdam, IndexOutOfRangeThrowsAndLeavesOthersValid) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(8);
   GaussianBlock blk = random_block(10, rng);
   DeviceBlock gpu(blk);

@@ -2,6 +2,8 @@
 #ifdef CHUNGS_WITH_CUDA
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include <cmath>
 #include <random>
 #include <string>
@@ -11,12 +13,6 @@
 
 namespace chungs {
 namespace {
-
-#define REQUIRE_GPU()                                                                  \
-  do {                                                                                 \
-    std::string why_;                                                                  \
-    if (cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
-  } while (0)
 
 double rel_norm(const std::vector<float>& a, const std::vector<float>& b) {
   double num = 0, den = 0;
@@ -40,7 +36,7 @@ Image<float> random_image(int w, int h, int c, std::mt19937& rng, float noise) {
 }
 
 TEST(CudaMappingLoss, MatchesCpuTwinWithAndWithoutDepth) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(5);
   cuda::CudaMappingLoss gpu;
   for (int trial = 0; trial < 3; ++trial) {

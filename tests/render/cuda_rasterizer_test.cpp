@@ -3,6 +3,8 @@
 #ifdef CHUNGS_WITH_CUDA
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include <algorithm>
 #include <cstdio>
 #include <random>

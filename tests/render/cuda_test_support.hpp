@@ -3,6 +3,8 @@
 #ifdef CHUNGS_WITH_CUDA
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include <cmath>
 #include <string>
 #include <vector>
@@ -10,12 +12,6 @@
 #include "chungs/cuda/devices.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
 #include "chungs/render/gaussian_view.hpp"
-
-#define CHUNGS_REQUIRE_GPU()                                                                   \
-  do {                                                                                         \
-    std::string why_;                                                                          \
-    if (chungs::cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
-  } while (0)
 
 namespace chungs::test {
 

@@ -4,6 +4,8 @@
 #include <cuda_runtime.h>
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include <algorithm>
 #include <random>
 #include <string>
@@ -13,12 +15,6 @@
 
 namespace chungs {
 namespace {
-
-#define REQUIRE_GPU()                                                                  \
-  do {                                                                                 \
-    std::string why_;                                                                  \
-    if (cuda::list_devices(&why_).empty()) GTEST_SKIP() << "no CUDA device: " << why_; \
-  } while (0)
 
 GaussianBlock random_block(size_t n, std::mt19937& rng) {
   std::normal_distribution<float> N(0, 1);
@@ -54,7 +50,7 @@ void expect_same(const GaussianBlock& a, const GaussianBlock& b) {
 }
 
 TEST(CudaGaussianPool, MatchesCpuPoolOverLoadsAndEvictions) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(3);
   const size_t capacity = 20000;
   cuda::CudaGaussianPool gpu(capacity, 2);
@@ -93,7 +89,7 @@ TEST(CudaGaussianPool, MatchesCpuPoolOverLoadsAndEvictions) {
 }
 
 TEST(CudaGaussianPool, DeviceArraysHoldScatteredSlots) {
-  REQUIRE_GPU();
+  CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(4);
   cuda::CudaGaussianPool pool(100);
   const GaussianBlock blk = random_block(10, rng);

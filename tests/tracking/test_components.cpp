@@ -99,8 +99,11 @@ TEST(Vocabulary, SavesLoadsAndScoresNoisyCopiesHighest) {
   for (int i = 0; i < noisy.rows; ++i) noisy.at<uint8_t>(i, int(rng() % 32)) ^= uint8_t(1u << (rng() % 8));
   BowVector q = v.transform(noisy);
   double own = Vocabulary::score(q, v.transform(docs[2]));
-  for (int d = 0; d < 6; ++d)
-    if (d != 2) EXPECT_GT(own, 2 * Vocabulary::score(q, v.transform(docs[d]))) << d;
+  for (int d = 0; d < 6; ++d) {
+    if (d != 2) {
+      EXPECT_GT(own, 2 * Vocabulary::score(q, v.transform(docs[d]))) << d;
+    }
+  }
   EXPECT_NEAR(Vocabulary::score(q, q), 1.0, 1e-5);
   std::ofstream(dir / "bad.bin") << "not a vocabulary";
   EXPECT_THROW(Vocabulary::load(dir / "bad.bin"), Error);
