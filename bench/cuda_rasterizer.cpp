@@ -75,7 +75,7 @@ void write_ply(const std::string& path, const GaussianParams& p) {
   if (!out) fail("write failed: ", path);
 }
 
-double median(std::vector<double> v) {
+[[maybe_unused]] double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
@@ -84,7 +84,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   std::string json_path, ply_dir, only;
-  int reps = 30, warmup = 5;
+  [[maybe_unused]] int reps = 30, warmup = 5;  // used only in CUDA builds
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
