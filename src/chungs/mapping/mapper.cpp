@@ -51,11 +51,15 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   if (resume && fs::exists(folder / "run_state.json")) {
     resumed_state_ = read_json_file(folder / "run_state.json");
     iterations_ = resumed_state_.value("iterations", uint64_t(0));
+    if (resumed_state_.contains("keyframe_chunks"))
+      keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
     if (resumed_state_.contains("rng")) {
       std::istringstream s(resumed_state_["rng"].get<std::string>());
       s >> rng_;
     }
   }
+  // A map saved before the index existed: a loop correction then visits every chunk.
+  if (!keyframes_.empty() && !resumed_state_.contains("keyframe_chunks")) keyframe_chunks_.set_incomplete();
   if (store_->open_report().repaired())
     log::info("map ", folder.string(), ": repaired after an interrupted run (",
               store_->open_report().entries_adopted, " chunk files adopted, ",
@@ -140,7 +144,10 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
                                     id, uint32_t(iterations_), rng_, &stats);
     for (auto& b : batches) {
       const PinResult res = residency_->add(b.id, b.block);
-      if (!res.ok) stats.kept -= b.block.size();
+      if (!res.ok)
+        stats.kept -= b.block.size();
+      else
+        keyframe_chunks_.add(id, b.id);
     }
   }
   KeyframeRecord rec;
@@ -157,10 +164,15 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
 
 StepStats Mapper::step() {
   if (keyframes_.empty()) fail("mapper: an optimisation step needs at least one keyframe");
+  return step_keyframe(selector_.pick(rng_));
+}
+
+StepStats Mapper::step_keyframe(uint32_t keyframe) {
   StepStats st;
-  st.keyframe = selector_.pick(rng_);
+  st.keyframe = keyframe;
   const auto it =
       std::find_if(keyframes_.begin(), keyframes_.end(), [&](const auto& k) { return k.id == st.keyframe; });
+  if (it == keyframes_.end()) fail("mapper: no keyframe ", keyframe, " to train on");
   const KeyframeRecord& kf = *it;
   const auto images = keyframe_store_->get(kf.id);
   const ImageF target = to_rgb_float(images->color);
@@ -220,6 +232,7 @@ void Mapper::checkpoint(const nlohmann::json& run_state) {
   write_keyframe_records(folder_ / "keyframes.txt", keyframes_, config_.store.durable);
   nlohmann::json j = run_state;
   j["iterations"] = iterations_;
+  j["keyframe_chunks"] = keyframe_chunks_.to_json();
   std::ostringstream s;
   s << rng_;
   j["rng"] = s.str();

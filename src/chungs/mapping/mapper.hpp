@@ -16,6 +16,7 @@
 
 #include "chungs/config/config.hpp"
 #include "chungs/mapping/keyframe_selector.hpp"
+#include "chungs/mapping/loop_corrector.hpp"
 #include "chungs/mapping/map_state.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/sampler.hpp"
@@ -50,6 +51,17 @@ class Mapper {
   // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
 
+  // Loop closure or bundle adjustment: keyframes take the new camera-to-world poses (mapper keyframe
+  // id -> pose) and the Gaussians they created move with them, between chunks where needed (see
+  // loop_corrector.hpp). The Gaussians of the `junction` keyframes get the sampler's initial
+  // opacity and fresh Adam state, then `refine_iterations` steps train on the junction keyframes in
+  // turn (on the selector's picks when the junction is empty). Call checkpoint() afterwards: until
+  // then the folder's keyframe list still holds the old poses.
+  PoseCorrectionStats correct_poses(const std::vector<std::pair<uint32_t, SE3>>& new_poses,
+                                    const std::vector<uint32_t>& junction, int refine_iterations);
+  // false: corrections visit one chunk at a time even when the chunks would fit (tests that path).
+  void set_loop_batch_allowed(bool allowed) { loop_batch_allowed_ = allowed; }
+
   // Writes every modified chunk, the manifest, the keyframe list and `run_state`.
   void checkpoint(const nlohmann::json& run_state);
   const nlohmann::json& resumed_state() const { return resumed_state_; }
@@ -72,6 +84,7 @@ class Mapper {
  private:
   // Visible chunks of a view, nearest first, trimmed so that they fit the budget.
   std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose);
+  StepStats step_keyframe(uint32_t keyframe);  // one optimisation step on the given keyframe
   std::filesystem::path folder_;
   Config config_;
   std::unique_ptr<ChunkStore> store_;
@@ -86,6 +99,8 @@ class Mapper {
   uint64_t iterations_ = 0, pruned_total_ = 0;
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
+  KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
+  bool loop_batch_allowed_ = true;
 };
 
 // Float RGB target of an 8-bit image (gray replicated).

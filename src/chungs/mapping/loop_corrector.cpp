@@ -1,0 +1,263 @@
+#include "chungs/mapping/loop_corrector.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <map>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
+#include "chungs/common/progress.hpp"
+
+namespace chungs {
+
+nlohmann::json PoseCorrectionStats::to_json() const {
+  return {{"keyframes", keyframes},
+          {"gaussians_moved", gaussians_moved},
+          {"chunks_touched", chunks_touched},
+          {"chunks_created", chunks_created},
+          {"gaussians_changed_chunk", gaussians_changed_chunk},
+          {"junction_gaussians", junction_gaussians},
+          {"batch", batch},
+          {"apply_ms", apply_ms},
+          {"refine_ms", refine_ms}};
+}
+
+void KeyframeChunkIndex::add(uint32_t keyframe, ChunkId chunk) {
+  auto& v = chunks_[keyframe];
+  const auto it = std::lower_bound(v.begin(), v.end(), chunk);
+  if (it == v.end() || *it != chunk) v.insert(it, chunk);
+}
+
+std::vector<ChunkId> KeyframeChunkIndex::chunks_of(std::span<const uint32_t> keyframes) const {
+  std::vector<ChunkId> out;
+  for (uint32_t k : keyframes) {
+    const auto it = chunks_.find(k);
+    if (it != chunks_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+nlohmann::json KeyframeChunkIndex::to_json() const {
+  nlohmann::json j = nlohmann::json::object();
+  std::map<uint32_t, const std::vector<ChunkId>*> sorted;
+  for (const auto& [k, v] : chunks_) sorted.emplace(k, &v);
+  for (const auto& [k, v] : sorted) {
+    nlohmann::json a = nlohmann::json::array();
+    char buf[24];
+    for (ChunkId c : *v) {
+      std::snprintf(buf, sizeof buf, "%llx", (unsigned long long)c);
+      a.push_back(buf);
+    }
+    j[std::to_string(k)] = std::move(a);
+  }
+  return j;
+}
+
+KeyframeChunkIndex KeyframeChunkIndex::from_json(const nlohmann::json& j) {
+  if (!j.is_object()) fail("keyframe chunk index: expected an object, got ", j.type_name());
+  KeyframeChunkIndex idx;
+  for (const auto& [key, list] : j.items()) {
+    size_t used = 0;
+    unsigned long k = 0;
+    try {
+      k = std::stoul(key, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != key.size() || k > UINT32_MAX) fail("keyframe chunk index: '", key, "' is not a keyframe id");
+    if (!list.is_array()) fail("keyframe chunk index: keyframe ", key, ": expected a list of chunk ids");
+    for (const auto& e : list) {
+      const std::string s = e.is_string() ? e.get<std::string>() : std::string();
+      size_t n = 0;
+      unsigned long long c = 0;
+      try {
+        c = std::stoull(s, &n, 16);
+      } catch (const std::exception&) {
+        n = 0;
+      }
+      if (s.empty() || n != s.size()) fail("keyframe chunk index: keyframe ", key, ": bad chunk id ", e.dump());
+      chunk_coord(ChunkId(c));  // rejects ids no coordinate produces
+      idx.add(uint32_t(k), ChunkId(c));
+    }
+  }
+  return idx;
+}
+
+void transform_gaussian(const SE3& delta, float* mean, float* rotation) {
+  const Eigen::Vector3d p = delta * Eigen::Vector3d(mean[0], mean[1], mean[2]);
+  for (int a = 0; a < 3; ++a) mean[a] = float(p[a]);
+  // Left-multiplying by a unit quaternion keeps the stored (unnormalised) norm.
+  const Eigen::Quaterniond q(rotation[0], rotation[1], rotation[2], rotation[3]);
+  const Eigen::Quaterniond r = delta.q * q;
+  rotation[0] = float(r.w());
+  rotation[1] = float(r.x());
+  rotation[2] = float(r.y());
+  rotation[3] = float(r.z());
+}
+
+namespace {
+
+class Corrector {
+ public:
+  Corrector(Residency& r, double s, const PoseCorrection& c, KeyframeChunkIndex& idx)
+      : res_(r), size_(s), corr_(c), index_(idx) {}
+
+  PoseCorrectionStats run(std::span<const ChunkId> candidates) {
+    const auto t0 = std::chrono::steady_clock::now();
+    uint64_t total = 0;
+    for (ChunkId c : candidates)
+      if (res_.count(c) > 0 && std::find(todo_.begin(), todo_.end(), c) == todo_.end()) {
+        todo_.push_back(c);
+        total += res_.count(c);
+      }
+    std::sort(todo_.begin(), todo_.end());
+    pending_set_.insert(todo_.begin(), todo_.end());
+    const size_t old_budget = res_.budget();
+    stats_.batch = corr_.allow_batch && res_.pinned_gaussians() + total <= res_.pool().capacity();
+    if (stats_.batch) {
+      if (res_.pinned_gaussians() + total > old_budget && !res_.set_budget(res_.pool().capacity()))
+        stats_.batch = false;
+      if (stats_.batch) {
+        const PinResult pr = res_.pin(todo_);
+        if (!pr.ok) {
+          stats_.batch = false;
+          res_.set_budget(old_budget);
+        }
+      }
+    }
+    Progress progress("loop correction", (long long)todo_.size());
+    try {
+      for (size_t i = 0; i < todo_.size(); ++i) {
+        const ChunkId c = todo_[i];
+        if (!stats_.batch) {
+          if (i + 1 < todo_.size()) res_.prefetch(std::span<const ChunkId>(&todo_[i + 1], 1));
+          const PinResult pr = res_.pin(std::span<const ChunkId>(&c, 1));
+          if (!pr.ok) fail("loop correction: ", pr.message);
+        }
+        visit(c, i);
+        if (!stats_.batch) res_.unpin(std::span<const ChunkId>(&c, 1));
+        progress.step();
+      }
+    } catch (...) {
+      if (stats_.batch) {
+        res_.unpin(todo_);
+        res_.set_budget(old_budget);
+      }
+      throw;
+    }
+    progress.finish();
+    if (stats_.batch) res_.unpin(todo_);
+    // Every chunk has been visited: the Gaussians that waited for theirs can go in now.
+    for (auto& [dest, block] : waiting_) {
+      const PinResult pr = add_to(dest, block);
+      if (!pr.ok)
+        fail("loop correction: ", block.size(), " Gaussians moved into ", chunk_name(dest),
+             " do not fit beside its ", res_.count(dest), " under the budget of ", res_.budget(), ": ", pr.message);
+    }
+    if (stats_.batch && res_.budget() != old_budget) res_.set_budget(old_budget);
+    stats_.chunks_touched = touched_.size();
+    stats_.apply_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return stats_;
+  }
+
+ private:
+  PinResult add_to(ChunkId dest, const GaussianBlock& block) {
+    const bool known = res_.contains(dest);
+    const PinResult pr = res_.add(dest, block);
+    if (pr.ok) {
+      if (!known) ++stats_.chunks_created;
+      touched_.insert(dest);
+      for (uint32_t k : block.created_by_keyframe) index_.add(k, dest);
+    }
+    return pr;
+  }
+
+  void visit(ChunkId c, size_t position) {
+    const std::vector<uint32_t> slots = res_.slots(c);  // a copy: removal below changes the list
+    GaussianBlock block;
+    res_.pool().gather(slots, block);
+    GaussianBlock stay;
+    std::vector<uint32_t> stay_slots, leave_slots;
+    std::unordered_map<ChunkId, GaussianBlock> leaving;
+    for (size_t i = 0; i < block.size(); ++i) {
+      const uint32_t kf = block.created_by_keyframe[i];
+      const auto d = corr_.delta.find(kf);
+      const bool junction = corr_.junction.count(kf) > 0;
+      if (d == corr_.delta.end() && !junction) continue;
+      GaussianParams& p = block.params;
+      if (d != corr_.delta.end()) {
+        transform_gaussian(d->second, &p.mean[3 * i], &p.rotation[4 * i]);
+        ++stats_.gaussians_moved;
+      }
+      if (junction) {
+        p.opacity[i] = corr_.reset_opacity_logit;
+        for (GaussianParams* m : {&block.adam_m, &block.adam_v}) {
+          std::fill_n(&m->mean[3 * i], 3, 0.f);
+          std::fill_n(&m->log_scale[3 * i], 3, 0.f);
+          std::fill_n(&m->rotation[4 * i], 4, 0.f);
+          m->opacity[i] = 0.f;
+          std::fill_n(&m->sh[size_t(kShFloats) * i], kShFloats, 0.f);
+        }
+        block.adam_steps[i] = 0;
+        block.lr_position_factor[i] = 1.f;
+        ++stats_.junction_gaussians;
+      }
+      const Eigen::Vector3d m(p.mean[3 * i], p.mean[3 * i + 1], p.mean[3 * i + 2]);
+      if (!m.allFinite())
+        fail("loop correction: a Gaussian of keyframe ", kf, " in ", chunk_name(c), " has a non-finite position");
+      const ChunkId dest = chunk_id_of(m, size_);
+      if (dest == c) {
+        stay.append(block, i);
+        stay_slots.push_back(slots[i]);
+      } else {
+        leaving[dest].append(block, i);
+        leave_slots.push_back(slots[i]);
+      }
+    }
+    touched_.insert(c);
+    if (stay_slots.empty() && leave_slots.empty()) return;
+    if (!stay_slots.empty()) res_.pool().scatter(stay, stay_slots);
+    if (!leave_slots.empty()) res_.remove_slots(c, leave_slots);
+    res_.mark_dirty(c);
+    for (auto& [dest, moved] : leaving) {
+      stats_.gaussians_changed_chunk += moved.size();
+      // A destination still to be visited must not see them (they would move twice).
+      const bool later = pending_set_.count(dest) > 0 && visited_before(dest, position) == false;
+      if (!later && add_to(dest, moved).ok) continue;
+      GaussianBlock& w = waiting_[dest];
+      for (size_t i = 0; i < moved.size(); ++i) w.append(moved, i);
+    }
+  }
+
+  // Whether chunk `dest` of the to-do list comes at or before position `current`.
+  bool visited_before(ChunkId dest, size_t current) const {
+    const auto it = std::lower_bound(todo_.begin(), todo_.end(), dest);
+    return it != todo_.end() && *it == dest && size_t(it - todo_.begin()) <= current;
+  }
+
+  Residency& res_;
+  double size_;
+  const PoseCorrection& corr_;
+  KeyframeChunkIndex& index_;
+  std::vector<ChunkId> todo_;  // sorted: visiting order
+  std::unordered_set<ChunkId> pending_set_, touched_;
+  std::map<ChunkId, GaussianBlock> waiting_;
+  PoseCorrectionStats stats_;
+};
+
+}  // namespace
+
+PoseCorrectionStats apply_pose_correction(Residency& residency, double chunk_size, const PoseCorrection& correction,
+                                          std::span<const ChunkId> candidates, KeyframeChunkIndex& index) {
+  if (!(chunk_size > 0)) fail("loop correction: chunk size must be positive, got ", chunk_size);
+  for (const auto& [k, d] : correction.delta)
+    if (!d.t.allFinite() || !d.q.coeffs().allFinite())
+      fail("loop correction: the pose change of keyframe ", k, " is not finite");
+  Corrector c(residency, chunk_size, correction, index);
+  return c.run(candidates);
+}
+
+}  // namespace chungs

@@ -1,0 +1,71 @@
+// Loop closure in the chunked map: when keyframe poses jump (a loop closed, or local bundle
+// adjustment moved them), the Gaussians each keyframe created move rigidly with it,
+// mean' = D * mean and q' = D.q * q with D = T_new * T_old^-1; scales are unchanged and so are the
+// SH coefficients (view-dependent colour is not rotated: the degree >= 1 bands keep their world
+// orientation, which the refinement that follows corrects where it matters).
+//
+// Only the chunks that hold Gaussians of the moved keyframes are visited (KeyframeChunkIndex),
+// each exactly once. A Gaussian that leaves its chunk is appended to its new chunk right away when
+// that chunk will not be visited (or already was); when the destination is still to be visited it
+// waits in host memory until the visiting is over, so no Gaussian is transformed twice. Batch mode
+// pins all visited chunks at once under a temporarily raised budget (up to the pool's capacity);
+// when they do not fit, chunks are visited one at a time under the normal budget.
+#pragma once
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include "chungs/geometry/se3.hpp"
+#include "chungs/residency/residency.hpp"
+
+namespace chungs {
+
+struct PoseCorrectionStats {
+  size_t keyframes = 0, gaussians_moved = 0, chunks_touched = 0, chunks_created = 0, gaussians_changed_chunk = 0,
+         junction_gaussians = 0;
+  bool batch = false;
+  double apply_ms = 0, refine_ms = 0;
+  nlohmann::json to_json() const;
+};
+
+// Which chunks may hold Gaussians created by each keyframe. A superset: pruning is not tracked.
+// An index that was not saved with the map (older folders) is incomplete: every chunk is a
+// candidate then.
+class KeyframeChunkIndex {
+ public:
+  void add(uint32_t keyframe, ChunkId chunk);
+  // Chunks listed for any of the keyframes, ascending and unique.
+  std::vector<ChunkId> chunks_of(std::span<const uint32_t> keyframes) const;
+  bool complete() const { return complete_; }
+  void set_incomplete() { complete_ = false; }
+  // {"<keyframe>": [chunk ids as hex strings], ...}
+  nlohmann::json to_json() const;
+  // Throws Error naming the entry on malformed input.
+  static KeyframeChunkIndex from_json(const nlohmann::json& j);
+
+ private:
+  std::unordered_map<uint32_t, std::vector<ChunkId>> chunks_;  // each list sorted, unique
+  bool complete_ = true;
+};
+
+struct PoseCorrection {
+  std::unordered_map<uint32_t, SE3> delta;  // keyframe id -> T_new * T_old^-1
+  std::unordered_set<uint32_t> junction;    // keyframes whose Gaussians are reset for refinement
+  float reset_opacity_logit = 0;            // opacity logit given to junction Gaussians
+  bool allow_batch = true;                  // false: always one chunk at a time
+};
+
+// Applies the correction to the Gaussians in `candidates` (chunks of the map; unknown ones are
+// skipped) through the residency, so the pool (host or device) and the chunk files stay in step.
+// Junction Gaussians get the reset opacity and zero Adam moments and steps. The index learns the
+// new chunks of moved Gaussians. Fills every field of the stats but keyframes and refine_ms.
+PoseCorrectionStats apply_pose_correction(Residency& residency, double chunk_size, const PoseCorrection& correction,
+                                          std::span<const ChunkId> candidates, KeyframeChunkIndex& index);
+
+// The rigid change of one Gaussian (exposed for tests): mean and rotation (w, x, y, z) in place.
+void transform_gaussian(const SE3& delta, float* mean, float* rotation);
+
+}  // namespace chungs
