@@ -313,6 +313,8 @@ void Residency::evict_all_unpinned() {
 }
 
 void Residency::flush() {
+  ScopedTimer t(store_.counters().checkpoint_ns);  // the caller is blocked for all of it
+  store_.counters().checkpoints++;
   for (auto& [id, e] : resident_) {
     if (!e.dirty) continue;
     auto block = std::make_shared<GaussianBlock>();

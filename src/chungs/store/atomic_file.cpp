@@ -19,6 +19,11 @@ namespace {
 std::string why() { return std::strerror(errno); }
 constexpr const char* kTmpTag = ".tmp-";
 std::atomic<uint64_t> tmp_counter{0};
+std::atomic<FileEventHook> event_hook{nullptr};
+
+void notify(const fs::path& file, FileEvent e) {
+  if (FileEventHook h = event_hook.load()) h(file, e);
+}
 
 void write_all(int fd, std::span<const ConstBuffer> parts, const fs::path& file) {
   std::vector<iovec> iov;
@@ -112,7 +117,17 @@ void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> pa
     throw;
   }
   if (durable) sync_directory(file.parent_path());
+  notify(file, durable ? FileEvent::Synced : FileEvent::Written);
 }
+
+void sync_file(const fs::path& file) {
+  FileDescriptor fd(::open(file.c_str(), O_RDONLY | O_CLOEXEC));
+  if (!fd) fail(file.string(), ": cannot open to flush it: ", why());
+  if (::fdatasync(fd.get()) != 0) fail(file.string(), ": flush failed: ", why());
+  notify(file, FileEvent::Synced);
+}
+
+void set_file_event_hook(FileEventHook hook) { event_hook.store(hook); }
 
 void remove_file(const fs::path& file, bool durable) {
   if (::unlink(file.c_str()) != 0) {

@@ -49,9 +49,18 @@ std::vector<uint8_t> read_whole_file(const std::filesystem::path& file);
 // flushes are skipped: still atomic against a killed process, not against power loss.
 void write_file_atomically(const std::filesystem::path& file, std::span<const ConstBuffer> parts,
                            bool durable);
+// Flushes a file's data (fdatasync) so that it survives power loss; its folder entry needs
+// sync_directory as well.
+void sync_file(const std::filesystem::path& file);
 // Removes `file` if present, then flushes its folder when durable.
 void remove_file(const std::filesystem::path& file, bool durable);
 void sync_directory(const std::filesystem::path& dir);
+
+// Test hook, told of every file made visible without a flush (Written) and of every file
+// flushed (Synced), so a test can model power loss by discarding what was never flushed.
+enum class FileEvent { Written, Synced };
+using FileEventHook = void (*)(const std::filesystem::path& file, FileEvent event);
+void set_file_event_hook(FileEventHook hook);  // nullptr turns it off
 
 // Temporaries are named "<target>.tmp-<pid>-<counter>".
 bool is_temporary_file(const std::filesystem::path& file);

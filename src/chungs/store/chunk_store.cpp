@@ -11,27 +11,11 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/store/chunk_file_name.hpp"
 
 namespace chungs {
 
 namespace fs = std::filesystem;
-
-namespace {
-constexpr const char* kChunkExt = ".chunk";
-
-// "0123456789abcdef.chunk" -> id; nullopt for anything else (temporaries, foreign files).
-std::optional<ChunkId> id_from_name(const std::string& name) {
-  if (name.size() != 16 + std::strlen(kChunkExt) || name.substr(16) != kChunkExt) return std::nullopt;
-  ChunkId id = 0;
-  for (int i = 0; i < 16; ++i) {
-    const char c = name[i];
-    const int d = c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : -1;
-    if (d < 0) return std::nullopt;
-    id = id << 4 | uint64_t(d);
-  }
-  return id;
-}
-}  // namespace
 
 ChunkStore::ChunkStore(fs::path folder, const ChunkStoreConfig& config)
     : folder_(std::move(folder)), chunk_dir_(folder_ / "chunks"), config_(config),
@@ -64,7 +48,7 @@ ChunkStore::ChunkStore(fs::path folder, const ChunkStoreConfig& config)
     manifest_.sh_degree = sh_degree_;
   }
   reconcile(have_manifest);
-  if (!have_manifest || report_.repaired()) {
+  if (!have_manifest || report_.repaired() || !retired_.empty()) {
     dirty_ = true;
     commit();
   }
@@ -78,44 +62,22 @@ ChunkStore::~ChunkStore() {
   }
 }
 
-void ChunkStore::reconcile(bool have_manifest) {
-  std::map<ChunkId, ManifestEntry> found;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(chunk_dir_, ec)) {
-    const auto id = id_from_name(e.path().filename().string());
-    if (!id || !e.is_regular_file()) continue;
-    ChunkFileInfo info;
-    if (config_.verify_on_open) {
-      GaussianBlock scratch;
-      info = read_chunk_file(e.path(), scratch);
-    } else {
-      info = read_chunk_header(e.path());
-    }
-    if (info.id != *id)
-      fail(e.path().string(), ": header names ", chunk_name(info.id), " but the file name names ", chunk_name(*id));
-    found[*id] = {info.count, info.file_bytes, info.payload_checksum};
-  }
-  if (ec) fail(chunk_dir_.string(), ": cannot list chunk files: ", ec.message());
-  for (const auto& [id, entry] : manifest_.chunks)
-    if (!found.count(id)) ++report_.entries_dropped;
-  for (const auto& [id, entry] : found) {
+fs::path ChunkStore::chunk_path(ChunkId id) const {
+  uint64_t generation = 0;
+  {
+    std::lock_guard lock(mutex_);
     auto it = manifest_.chunks.find(id);
-    if (it == manifest_.chunks.end())
-      ++report_.entries_adopted;
-    else if (!(it->second == entry))
-      ++report_.entries_updated;
+    if (it != manifest_.chunks.end()) generation = it->second.generation;
   }
-  manifest_.chunks = std::move(found);
-  if (have_manifest && report_.repaired())
-    log::warn(folder_.string(), ": manifest was behind the chunk files (interrupted session): adopted ",
-              report_.entries_adopted, ", updated ", report_.entries_updated, ", dropped ",
-              report_.entries_dropped, " entries");
+  return chunk_file(id, generation);
 }
 
-fs::path ChunkStore::chunk_path(ChunkId id) const {
-  char name[40];
-  std::snprintf(name, sizeof name, "%016" PRIx64 "%s", id, kChunkExt);
-  return chunk_dir_ / name;
+fs::path ChunkStore::chunk_file(ChunkId id, uint64_t generation) const {
+  return chunk_dir_ / chunk_file_name(id, generation, false);
+}
+
+fs::path ChunkStore::tombstone_file(ChunkId id, uint64_t generation) const {
+  return chunk_dir_ / chunk_file_name(id, generation, true);
 }
 
 bool ChunkStore::contains(ChunkId id) const {
@@ -181,25 +143,84 @@ void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
     return;
   }
   chunk_coord(id);  // rejects ids that no coordinate produces
-  const ChunkWriteOptions opt{config_.compress, config_.zstd_level, config_.shuffle, config_.durable};
-  const fs::path file = chunk_path(id);
-  ChunkFileInfo info;
+  const ChunkWriteOptions opt{config_.compress, config_.zstd_level, config_.shuffle, false};
+  uint64_t generation;
   {
+    std::lock_guard lock(mutex_);
+    generation = next_generation_++;
+    writing_.insert(generation);
+  }
+  ChunkFileInfo info;
+  try {
     ScopedTimer t(counters_.save_ns);
-    info = write_chunk_file(file, id, block, opt);
+    info = write_chunk_file(chunk_file(id, generation), id, block, opt);
+  } catch (...) {
+    std::lock_guard lock(mutex_);
+    writing_.erase(generation);
+    throw;
   }
   counters_.saves++;
   counters_.bytes_written += info.file_bytes;
   std::lock_guard lock(mutex_);
-  manifest_.chunks[id] = {info.count, info.file_bytes, info.payload_checksum};
+  writing_.erase(generation);
+  auto [it, fresh] = manifest_.chunks.try_emplace(id);
+  if (!fresh) retire({id, it->second.generation, false});
+  it->second = {info.count, info.file_bytes, info.payload_checksum, generation};
+  if (config_.durable) unsynced_.insert({id, generation});
   dirty_ = true;
 }
 
 void ChunkStore::remove(ChunkId id) {
-  remove_file(chunk_path(id), config_.durable);
+  uint64_t generation;
+  {
+    std::lock_guard lock(mutex_);
+    if (!manifest_.chunks.count(id)) return;
+    generation = next_generation_++;
+    writing_.insert(generation);
+  }
+  // The tombstone keeps a killed process from bringing back the chunk's committed file.
+  try {
+    write_file_atomically(tombstone_file(id, generation), {}, false);
+  } catch (...) {
+    std::lock_guard lock(mutex_);
+    writing_.erase(generation);
+    throw;
+  }
   counters_.removes++;
   std::lock_guard lock(mutex_);
-  if (manifest_.chunks.erase(id)) dirty_ = true;
+  writing_.erase(generation);
+  auto it = manifest_.chunks.find(id);
+  if (it != manifest_.chunks.end()) {
+    retire({id, it->second.generation, false});
+    manifest_.chunks.erase(it);
+  }
+  retire({id, generation, true});
+  dirty_ = true;
+}
+
+bool ChunkStore::is_committed(ChunkId id, uint64_t generation) const {
+  auto it = committed_.find(id);
+  return it != committed_.end() && it->second == generation;
+}
+
+void ChunkStore::retire(const Retired& r) {
+  if (!r.tombstone) unsynced_.erase({r.id, r.generation});
+  if (!r.tombstone && !committing_ && !is_committed(r.id, r.generation))
+    delete_file(r);
+  else
+    retired_.push_back(r);
+}
+
+bool ChunkStore::deletable_after(const Retired& r, const Manifest& durable) const {
+  auto it = durable.chunks.find(r.id);
+  if (it == durable.chunks.end()) return true;
+  return r.tombstone ? it->second.generation > r.generation : it->second.generation != r.generation;
+}
+
+void ChunkStore::delete_file(const Retired& r) const {
+  // No flush: a deletion lost to power loss leaves a file of a generation below the manifest's
+  // next_generation that the manifest does not name, which opening treats as an orphan.
+  remove_file(r.tombstone ? tombstone_file(r.id, r.generation) : chunk_file(r.id, r.generation), false);
 }
 
 void ChunkStore::set_config(const std::string& key, const std::string& value) {
@@ -225,20 +246,54 @@ std::optional<std::string> ChunkStore::config_value(const std::string& key) cons
 void ChunkStore::commit() {
   std::lock_guard commit_lock(commit_mutex_);
   Manifest snapshot;
+  std::vector<std::pair<ChunkId, uint64_t>> to_sync;
   {
     std::lock_guard lock(mutex_);
     if (!dirty_) return;
     snapshot = manifest_;
+    snapshot.next_generation = writing_.empty() ? next_generation_ : *writing_.begin();
+    for (const auto& [id, e] : snapshot.chunks)
+      if (unsynced_.erase({id, e.generation})) to_sync.emplace_back(id, e.generation);
     dirty_ = false;
+    committing_ = true;
   }
   try {
+    ScopedTimer t(counters_.barrier_ns);
+    if (config_.durable) {
+      // Content first, then the names, then the manifest that names them: power loss at any
+      // point leaves the previous manifest with all its files, or the new one with all of its.
+      for (const auto& [id, g] : to_sync) sync_file(chunk_file(id, g));
+      if (!to_sync.empty()) sync_directory(chunk_dir_);
+      counters_.synced_files += to_sync.size();
+    }
     snapshot.write(manifest_path(), config_.durable);
   } catch (...) {
     std::lock_guard lock(mutex_);
     dirty_ = true;
+    committing_ = false;
+    for (const auto& f : to_sync)
+      if (is_current_locked(f.first, f.second)) unsynced_.insert(f);
     throw;
   }
+  counters_.barriers++;
+  std::vector<Retired> doomed;
+  {
+    std::lock_guard lock(mutex_);
+    committing_ = false;
+    committed_.clear();
+    for (const auto& [id, e] : snapshot.chunks) committed_[id] = e.generation;
+    std::erase_if(retired_, [&](const Retired& r) {
+      if (!deletable_after(r, snapshot)) return false;
+      doomed.push_back(r);
+      return true;
+    });
+  }
+  for (const Retired& r : doomed) delete_file(r);
+}
+
+bool ChunkStore::is_current_locked(ChunkId id, uint64_t generation) const {
+  auto it = manifest_.chunks.find(id);
+  return it != manifest_.chunks.end() && it->second.generation == generation;
 }
 
 }  // namespace chungs
-

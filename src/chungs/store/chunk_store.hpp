@@ -1,15 +1,28 @@
-// ChunkStore: a map folder on disk holding one file per chunk (chunks/<id>.chunk) and a manifest.
-// Chunk files are the truth for chunk content; the manifest indexes them (counts, sizes,
-// checksums) plus configuration. Saving a chunk replaces its file crash-safely at once; commit()
-// rewrites the manifest. Opening reconciles the two, so after a crash at any moment the folder
-// reopens with every chunk at its old or new content and a manifest that matches the files.
+// ChunkStore: a map folder on disk holding chunk files (chunks/<id>-<generation>.chunk) and a
+// manifest that names, per chunk, the generation holding it (with counts, sizes, checksums) plus
+// configuration.
+//
+// Durability without a flush per save. Every save writes a NEW file (next generation; temporary +
+// rename, no flush) and never touches the file the manifest names. commit() is the durability
+// barrier: it flushes the files written since the last barrier, then the chunk folder, then
+// writes the manifest durably; only then are superseded generations deleted. A removal of a
+// committed chunk leaves a tombstone file (<id>-<generation>.removed) until the next commit.
+// Opening takes, per chunk, the newest generation newer than the manifest's that reads back
+// whole (payload checksum verified), else the manifest's; tombstones win the same way; anything
+// else is an orphan, deleted after the repaired manifest is durable. Hence:
+//  - killed process (SIGKILL) at any moment: every chunk at its old or new content;
+//  - power loss (durable = true): the map reopens to at least the last commit, every chunk valid
+//    (a chunk saved later is adopted only if its file survived intact, else the committed one).
+// Files of the version 1 layout (chunks/<id>.chunk, generation 0) are read and superseded.
 // A folder is locked (flock) while open: a second ChunkStore on it, in any process, is refused.
 // Thread-safe: loads and saves of different chunks may run concurrently (the I/O thread and the
 // optimiser); the caller must not save and load the same chunk at the same time.
 #pragma once
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -28,7 +41,7 @@ struct ChunkStoreConfig {
   bool compress = false;     // zstd on chunk files (see bench/README.md for the trade-off)
   int zstd_level = 1;
   bool shuffle = true;         // byte-shuffle before zstd
-  bool durable = true;         // flush files and folders (power-loss safe); off: kill-safe only
+  bool durable = true;         // commit() flushes (power-loss safe); off: kill-safe only
   bool verify_on_open = false; // check every chunk's payload checksum on open (reads the whole map)
 };
 
@@ -38,6 +51,8 @@ struct StoreOpenReport {
   size_t entries_adopted = 0;      // chunk files newer than the manifest's last commit
   size_t entries_updated = 0;      // manifest entries whose file changed after the last commit
   size_t entries_dropped = 0;      // manifest entries whose file was removed after the last commit
+  size_t files_rejected = 0;       // newer generations that did not read back whole (power loss)
+  size_t orphans = 0;              // superseded generations and tombstones left by a crash
   bool repaired() const { return entries_adopted + entries_updated + entries_dropped > 0; }
 };
 
@@ -51,7 +66,10 @@ class ChunkStore {
   ChunkStore& operator=(const ChunkStore&) = delete;
 
   const std::filesystem::path& folder() const { return folder_; }
+  // The file holding the chunk now; for a chunk not in the map, its generation-0 name.
   std::filesystem::path chunk_path(ChunkId id) const;
+  std::filesystem::path chunk_file(ChunkId id, uint64_t generation) const;
+  std::filesystem::path tombstone_file(ChunkId id, uint64_t generation) const;
   std::filesystem::path manifest_path() const { return folder_ / "manifest.txt"; }
   double chunk_size() const { return chunk_size_; }
   int sh_degree() const { return sh_degree_; }
@@ -67,18 +85,32 @@ class ChunkStore {
   Manifest manifest() const;  // a copy of the in-memory manifest
 
   GaussianBlock load(ChunkId id) const;  // throws naming the chunk when absent or corrupt
-  // Replaces the chunk's file; an empty block removes the chunk.
+  // Writes the chunk's next generation (kill-safe at once, power-safe after commit()); an empty
+  // block removes the chunk.
   void save(ChunkId id, const GaussianBlock& block);
   void remove(ChunkId id);  // no-op when absent
 
   void set_config(const std::string& key, const std::string& value);
   std::optional<std::string> config_value(const std::string& key) const;
-  void commit();  // writes the manifest if anything changed since the last commit
+  // The durability barrier (see above) when anything changed since the last commit.
+  void commit();
 
   IoCounters& counters() const { return counters_; }
 
  private:
+  struct Retired {
+    ChunkId id;
+    uint64_t generation;
+    bool tombstone;
+  };
   void reconcile(bool have_manifest);
+  bool is_committed(ChunkId id, uint64_t generation) const;
+  bool is_current_locked(ChunkId id, uint64_t generation) const;
+  // Takes a file out of use: deleted now when no manifest on disk may name it, else after the
+  // next commit. Needs mutex_.
+  void retire(const Retired& r);
+  bool deletable_after(const Retired& r, const Manifest& durable) const;
+  void delete_file(const Retired& r) const;
 
   std::filesystem::path folder_, chunk_dir_;
   ChunkStoreConfig config_;
@@ -86,10 +118,16 @@ class ChunkStore {
   int sh_degree_;
   StoreOpenReport report_;
   FileDescriptor lock_;
-  mutable std::mutex mutex_;   // guards manifest_ and dirty_
+  mutable std::mutex mutex_;   // guards everything below but counters_
   std::mutex commit_mutex_;    // one manifest write at a time
   Manifest manifest_;
   bool dirty_ = false;
+  bool committing_ = false;                    // a commit() is between snapshot and manifest
+  uint64_t next_generation_ = 1;
+  std::set<uint64_t> writing_;                 // generations being written (not yet in manifest_)
+  std::map<ChunkId, uint64_t> committed_;      // generations the manifest on disk names
+  std::set<std::pair<ChunkId, uint64_t>> unsynced_;  // chunk files written since the last barrier
+  std::vector<Retired> retired_;               // waiting for a commit before deletion
   mutable IoCounters counters_;
 };
 

@@ -21,11 +21,21 @@ struct IoStats {
   uint64_t waits = 0;               // sync loads + waits for an in-flight read or a full queue
   double wait_ms = 0;
   uint64_t evictions_clean = 0, evictions_dirty = 0;
+  // Durability: saves are not flushed one by one; each commit() flushes the files written since
+  // the previous one, then the folder, then writes the manifest (one barrier per checkpoint).
+  uint64_t barriers = 0, synced_files = 0;
+  double barrier_ms = 0;     // flushing files and folder, manifest write included
+  // Checkpoints (Residency::flush): the caller blocks while dirty chunks are gathered, queued
+  // writes finish and the barrier runs.
+  uint64_t checkpoints = 0;
+  double checkpoint_ms = 0;
 
   double mean_load_ms() const { return loads ? load_ms / double(loads) : 0; }
   double mean_save_ms() const { return saves ? save_ms / double(saves) : 0; }
   // Fraction of chunks entering the pool for which the caller waited on the disk.
   double wait_fraction() const { return pool_loads ? double(sync_loads) / double(pool_loads) : 0; }
+  // Time the optimiser thread was blocked by chunk I/O: loads it waited for plus checkpoints.
+  double optimiser_wait_ms() const { return wait_ms + checkpoint_ms; }
   std::string summary() const;  // one line for logs
 };
 
@@ -35,6 +45,7 @@ class IoCounters {
   std::atomic<uint64_t> load_ns{0}, save_ns{0}, wait_ns{0};
   std::atomic<uint64_t> pool_loads{0}, prefetch_hits{0}, write_behind_hits{0}, sync_loads{0}, waits{0};
   std::atomic<uint64_t> evictions_clean{0}, evictions_dirty{0};
+  std::atomic<uint64_t> barriers{0}, synced_files{0}, barrier_ns{0}, checkpoints{0}, checkpoint_ns{0};
 
   IoStats snapshot() const;
   void reset();

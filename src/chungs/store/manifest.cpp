@@ -46,7 +46,7 @@ std::string Manifest::serialize() const {
   char num[40];
   std::snprintf(num, sizeof num, "%.17g", chunk_size);
   os << kMagic << ' ' << kManifestVersion << '\n' << "chunk_size " << num << '\n'
-     << "sh_degree " << sh_degree << '\n';
+     << "sh_degree " << sh_degree << '\n' << "next_generation " << next_generation << '\n';
   for (const auto& [k, v] : config) {
     if (k.empty() || k.find_first_of(" \t\r\n") != std::string::npos)
       fail("manifest: config key '", k, "' must be non-empty and free of blanks");
@@ -55,7 +55,8 @@ std::string Manifest::serialize() const {
     os << "config " << k << ' ' << v << '\n';
   }
   for (const auto& [id, e] : chunks)
-    os << "chunk " << hex64(id) << ' ' << e.count << ' ' << e.file_bytes << ' ' << hex64(e.checksum) << '\n';
+    os << "chunk " << hex64(id) << ' ' << e.count << ' ' << e.file_bytes << ' ' << hex64(e.checksum) << ' '
+       << e.generation << '\n';
   std::string body = os.str();
   const size_t entries = config.size() + chunks.size();
   return body + "end " + std::to_string(entries) + ' ' + hex64(xxh64(body.data(), body.size())) + '\n';
@@ -83,6 +84,7 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
   std::string line;
   int n = 0;
   bool have_size = false, have_degree = false;
+  int version = 0;
   while (std::getline(lines, line)) {
     ++n;
     std::istringstream ls(line);
@@ -90,16 +92,19 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
     ls >> key;
     auto bad = [&](const std::string& msg) { fail(where, ":", n, ": ", msg); };
     if (n == 1) {
-      int version = 0;
       if (key != kMagic || !(ls >> version)) bad("not a diskchungs manifest");
-      if (version != kManifestVersion)
-        bad(cat("manifest version ", version, " is not supported (this build reads ", kManifestVersion, ")"));
+      if (version < 1 || version > kManifestVersion)
+        bad(cat("manifest version ", version, " is not supported (this build reads versions 1 to ", kManifestVersion, ")"));
     } else if (key == "chunk_size") {
       if (!(ls >> m.chunk_size) || !(m.chunk_size > 0) || !std::isfinite(m.chunk_size)) bad("bad chunk_size");
       have_size = true;
     } else if (key == "sh_degree") {
       if (!(ls >> m.sh_degree) || m.sh_degree < 0 || m.sh_degree > 3) bad("bad sh_degree");
       have_degree = true;
+    } else if (key == "next_generation" && version >= 2) {
+      std::string g;
+      if (!(ls >> g) || (ls >> extra)) bad("bad next_generation");
+      m.next_generation = parse_u64(g, 10, file, n, "next_generation");
     } else if (key == "config") {
       std::string k;
       ls >> k;
@@ -108,11 +113,13 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
       if (!v.empty() && v[0] == ' ') v.erase(0, 1);
       if (k.empty() || !m.config.emplace(k, v).second) bad("missing or repeated config key '" + k + "'");
     } else if (key == "chunk") {
-      std::string id_s, count_s2, bytes_s, sum2;
-      if (!(ls >> id_s >> count_s2 >> bytes_s >> sum2) || (ls >> extra)) bad("chunk line needs 4 fields");
+      std::string id_s, count_s2, bytes_s, sum2, gen_s;
+      const bool fields = (ls >> id_s >> count_s2 >> bytes_s >> sum2) && (version < 2 || (ls >> gen_s));
+      if (!fields || (ls >> extra)) bad(version < 2 ? "chunk line needs 4 fields" : "chunk line needs 5 fields");
       const ChunkId id = parse_u64(id_s, 16, file, n, "chunk id");
       ManifestEntry e{parse_u64(count_s2, 10, file, n, "count"), parse_u64(bytes_s, 10, file, n, "file size"),
-                      parse_u64(sum2, 16, file, n, "checksum")};
+                      parse_u64(sum2, 16, file, n, "checksum"),
+                      version < 2 ? 0 : parse_u64(gen_s, 10, file, n, "generation")};
       try {
         chunk_coord(id);
       } catch (const Error& err) {

@@ -12,12 +12,14 @@
 
 namespace chungs {
 
-constexpr int kManifestVersion = 1;
+// Version 2 adds each chunk's file generation; version 1 manifests read as generation 0.
+constexpr int kManifestVersion = 2;
 
 struct ManifestEntry {
   uint64_t count = 0;       // Gaussians in the chunk
   uint64_t file_bytes = 0;  // size of its file
   uint64_t checksum = 0;    // the file's payload XXH64
+  uint64_t generation = 0;  // which of the chunk's files holds it (see ChunkStore)
 
   bool operator==(const ManifestEntry&) const = default;
 };
@@ -25,6 +27,9 @@ struct ManifestEntry {
 struct Manifest {
   double chunk_size = 10.0;
   int sh_degree = 3;
+  // Every chunk file of a lower generation is either named here or obsolete, so after a crash
+  // only files from this generation on can hold content newer than this manifest (0: unknown).
+  uint64_t next_generation = 0;
   std::map<std::string, std::string> config;  // keys without blanks, values without line breaks
   std::map<ChunkId, ManifestEntry> chunks;
 
