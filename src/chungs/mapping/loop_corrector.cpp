@@ -186,7 +186,6 @@ class Corrector {
       const uint32_t kf = block.created_by_keyframe[i];
       const auto d = corr_.delta.find(kf);
       const bool junction = corr_.junction.count(kf) > 0;
-      if (d == corr_.delta.end() && !junction) continue;
       GaussianParams& p = block.params;
       if (d != corr_.delta.end()) {
         transform_gaussian(d->second, &p.mean[3 * i], &p.rotation[4 * i]);
@@ -206,10 +205,12 @@ class Corrector {
         ++stats_.junction_gaussians;
       }
       const Eigen::Vector3d m(p.mean[3 * i], p.mean[3 * i + 1], p.mean[3 * i + 2]);
-      if (!m.allFinite())
-        fail("loop correction: a Gaussian of keyframe ", kf, " in ", chunk_name(c), " has a non-finite position");
-      const ChunkId dest = chunk_id_of(m, size_);
+      // A diverged Gaussian (non-finite mean) has no chunk of its own: it stays where it is.
+      // Every Gaussian of a visited chunk is re-filed, also one that the optimiser carried out
+      // of its chunk earlier: afterwards each lies in the chunk of its position.
+      const ChunkId dest = chunk_of(m, c);
       if (dest == c) {
+        if (d == corr_.delta.end() && !junction) continue;
         stay.append(block, i);
         stay_slots.push_back(slots[i]);
       } else {
@@ -230,6 +231,15 @@ class Corrector {
       GaussianBlock& w = waiting_[dest];
       for (size_t i = 0; i < moved.size(); ++i) w.append(moved, i);
     }
+  }
+
+  // The chunk of a position; `current` for a position that has none (not finite, or beyond the
+  // range of chunk coordinates).
+  ChunkId chunk_of(const Eigen::Vector3d& p, ChunkId current) const {
+    if (!p.allFinite()) return current;
+    const Eigen::Vector3d q = p / size_;
+    if (q.cwiseAbs().maxCoeff() >= double(kChunkCoordMax)) return current;
+    return chunk_id_of(p, size_);
   }
 
   // Whether chunk `dest` of the to-do list comes at or before position `current`.

@@ -5,7 +5,8 @@
 // orientation, which the refinement that follows corrects where it matters).
 //
 // Only the chunks that hold Gaussians of the moved keyframes are visited (KeyframeChunkIndex),
-// each exactly once. A Gaussian that leaves its chunk is appended to its new chunk right away when
+// each exactly once; every Gaussian of a visited chunk is re-filed by its position (the optimiser
+// may have carried unmoved ones out of their chunk before). A Gaussian that leaves its chunk is appended to its new chunk right away when
 // that chunk will not be visited (or already was); when the destination is still to be visited it
 // waits in host memory until the visiting is over, so no Gaussian is transformed twice. Batch mode
 // pins all visited chunks at once under a temporarily raised budget (up to the pool's capacity);
