@@ -18,6 +18,7 @@
 #include "chungs/common/log.hpp"
 #include "chungs/residency/residency.hpp"
 #include "chungs/store/chunk_file.hpp"
+#include "chungs/store/chunk_file_name.hpp"
 
 using namespace chungs;
 namespace fs = std::filesystem;
@@ -114,6 +115,47 @@ void BM_ChunkLoad(benchmark::State& st) {
   st.SetBytesProcessed(int64_t(st.iterations() * kChunkGaussians * kChunkBytesPerGaussian));
 }
 
+// A checkpoint: `chunks` chunks of `gaussians` each are saved, then the map is made durable.
+// mode 0, the former way: every save flushed (fdatasync of the file, fsync of the folder) and the
+// manifest written durably; mode 1, ChunkStore: saves unflushed, one barrier in commit(). Time
+// per chunk, barrier included.
+void BM_Checkpoint(benchmark::State& st) {
+  const size_t n = size_t(st.range(0));
+  const int chunks = int(st.range(1));
+  const bool store_mode = st.range(2);
+  std::vector<GaussianBlock> blocks;
+  for (int k = 0; k < chunks; ++k) blocks.push_back(make_block(n, true, uint64_t(k + 7)));
+  const fs::path dir = bench_dir() / ("ckpt_" + std::to_string(n) + "_" + std::to_string(chunks) + "_" +
+                                      std::to_string(store_mode));
+  log::set_level(log::Level::Warn);
+  std::unique_ptr<ChunkStore> store;
+  if (store_mode) store = std::make_unique<ChunkStore>(dir);
+  fs::create_directories(dir / "chunks");
+  double barrier_ms = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (auto _ : st) {
+    if (store_mode) {
+      for (int k = 0; k < chunks; ++k) store->save(chunk_id({k, 0, 0}), blocks[size_t(k)]);
+      const double before = store->counters().snapshot().barrier_ms;
+      store->commit();
+      barrier_ms += store->counters().snapshot().barrier_ms - before;
+    } else {
+      Manifest m;
+      for (int k = 0; k < chunks; ++k) {
+        const ChunkId id = chunk_id({k, 0, 0});
+        const auto info = write_chunk_file(dir / "chunks" / chunk_file_name(id, 0, false), id, blocks[size_t(k)],
+                                           {false, 1, true, true});
+        m.chunks[id] = {info.count, info.file_bytes, info.payload_checksum, 0};
+      }
+      m.write(dir / "manifest.txt", true);
+    }
+  }
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  st.counters["ms_per_chunk"] = ms / (double(chunks) * double(st.iterations()));
+  st.counters["barrier_ms"] = barrier_ms / double(st.iterations());
+  st.SetBytesProcessed(int64_t(st.iterations() * chunks * n * kChunkBytesPerGaussian));
+}
+
 // A camera drives along a corridor of 160 chunks of 2 k Gaussians; each step pins the 7 chunks
 // around it (14 k Gaussians) under a budget of 20 k, "optimises" for 4 ms (the time the GPU
 // would take; I/O can overlap it), marks them modified and moves half a chunk on. Counters:
@@ -186,6 +228,11 @@ BENCHMARK(BM_ChunkLoad)
     ->ArgNames({"zstd", "cold", "trained"})
     ->Args({0, 0, 1})->Args({0, 1, 1})->Args({1, 0, 1})->Args({1, 1, 1})->Args({1, 1, 0})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(BM_Checkpoint)
+    ->ArgNames({"gaussians", "chunks", "store"})
+    ->Args({2000, 1, 0})->Args({2000, 1, 1})->Args({2000, 16, 0})->Args({2000, 16, 1})
+    ->Args({10000, 16, 0})->Args({10000, 16, 1})
+    ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_ResidencyStream)
     ->ArgNames({"async", "prefetch"})
     ->Args({0, 0})->Args({1, 0})->Args({1, 1})

@@ -52,6 +52,9 @@ void write_file_atomically(const std::filesystem::path& file, std::span<const Co
 // Flushes a file's data (fdatasync) so that it survives power loss; its folder entry needs
 // sync_directory as well.
 void sync_file(const std::filesystem::path& file);
+// sync_file for many files at once: starts the writeback of all of them before waiting on any, so
+// the disk sees one batch instead of one round trip per file.
+void sync_files(std::span<const std::filesystem::path> files);
 // Removes `file` if present, then flushes its folder when durable.
 void remove_file(const std::filesystem::path& file, bool durable);
 void sync_directory(const std::filesystem::path& dir);

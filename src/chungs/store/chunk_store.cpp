@@ -262,7 +262,9 @@ void ChunkStore::commit() {
     if (config_.durable) {
       // Content first, then the names, then the manifest that names them: power loss at any
       // point leaves the previous manifest with all its files, or the new one with all of its.
-      for (const auto& [id, g] : to_sync) sync_file(chunk_file(id, g));
+      std::vector<fs::path> files;
+      for (const auto& [id, g] : to_sync) files.push_back(chunk_file(id, g));
+      sync_files(files);
       if (!to_sync.empty()) sync_directory(chunk_dir_);
       counters_.synced_files += to_sync.size();
     }
