@@ -2,13 +2,13 @@
 
 #include <zstd.h>
 
-#include <array>
 #include <cstring>
 #include <memory>
 
 #include "chungs/common/error.hpp"
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/checksum.hpp"
+#include "chungs/store/chunk_codec.hpp"
 
 namespace chungs {
 
@@ -29,33 +29,19 @@ struct Header {
 static_assert(sizeof(Header) == 72, "chunk header must have no padding");
 constexpr size_t kChecksummedHeaderBytes = offsetof(Header, header_checksum);
 
-// The payload arrays in file order. Every element is 4 bytes, which the byte shuffle relies on.
-struct Array {
-  void* data;
-  size_t elements;
-};
-constexpr int kArrays = 19;
+using Arrays = std::vector<PayloadArray>;
+static_assert(kChunkFlagsHalf == (kChunkFlagHalfMoments | kChunkFlagHalfShRest));
 
-std::array<Array, kArrays> arrays_of(const GaussianBlock& cb) {
-  auto& b = const_cast<GaussianBlock&>(cb);  // the writer only reads through these pointers
-  std::array<Array, kArrays> a;
-  int k = 0;
-  for (GaussianParams* p : {&b.params, &b.adam_m, &b.adam_v})
-    for (std::vector<float>* v : {&p->mean, &p->log_scale, &p->rotation, &p->opacity, &p->sh})
-      a[k++] = {v->data(), v->size()};
-  for (std::vector<uint32_t>* v : {&b.adam_steps, &b.created_by_keyframe, &b.created_at_step})
-    a[k++] = {v->data(), v->size()};
-  a[k++] = {b.lr_position_factor.data(), b.lr_position_factor.size()};
-  return a;
-}
-
-void shuffle4(const uint8_t* in, uint8_t* out, size_t n) {
+// Byte shuffle over elements of w bytes: all first bytes, then all second bytes, ...
+void shuffle(const uint8_t* in, uint8_t* out, size_t bytes, int w) {
+  const size_t n = bytes / size_t(w);
   for (size_t i = 0; i < n; ++i)
-    for (int k = 0; k < 4; ++k) out[size_t(k) * n + i] = in[4 * i + k];
+    for (int k = 0; k < w; ++k) out[size_t(k) * n + i] = in[size_t(w) * i + size_t(k)];
 }
-void unshuffle4(const uint8_t* in, uint8_t* out, size_t n) {
-  for (int k = 0; k < 4; ++k)
-    for (size_t i = 0; i < n; ++i) out[4 * i + k] = in[size_t(k) * n + i];
+void unshuffle(const uint8_t* in, uint8_t* out, size_t bytes, int w) {
+  const size_t n = bytes / size_t(w);
+  for (int k = 0; k < w; ++k)
+    for (size_t i = 0; i < n; ++i) out[size_t(w) * i + size_t(k)] = in[size_t(k) * n + i];
 }
 
 struct CCtxFree {
@@ -76,7 +62,7 @@ ZSTD_DCtx* decompressor() {
   return d.get();
 }
 
-std::vector<uint8_t> compress(const std::array<Array, kArrays>& arrays, uint64_t raw_bytes,
+std::vector<uint8_t> compress(const Arrays& arrays, uint64_t raw_bytes,
                               const ChunkWriteOptions& opt, const fs::path& file) {
   ZSTD_CCtx* c = compressor();
   ZSTD_CCtx_reset(c, ZSTD_reset_session_and_parameters);
@@ -84,16 +70,16 @@ std::vector<uint8_t> compress(const std::array<Array, kArrays>& arrays, uint64_t
   ZSTD_CCtx_setPledgedSrcSize(c, raw_bytes);
   std::vector<uint8_t> out(ZSTD_compressBound(raw_bytes)), scratch;
   ZSTD_outBuffer ob{out.data(), out.size(), 0};
-  for (int a = 0; a <= kArrays; ++a) {
-    const bool last = a == kArrays;
+  for (size_t a = 0; a <= arrays.size(); ++a) {
+    const bool last = a == arrays.size();
     ZSTD_inBuffer ib{nullptr, 0, 0};
     if (!last) {
-      const size_t bytes = arrays[a].elements * 4;
+      const size_t bytes = arrays[a].bytes;
       ib.src = arrays[a].data;
       ib.size = bytes;
       if (opt.shuffle) {
         scratch.resize(bytes);
-        shuffle4(static_cast<const uint8_t*>(arrays[a].data), scratch.data(), arrays[a].elements);
+        shuffle(arrays[a].data, scratch.data(), bytes, arrays[a].element_bytes);
         ib.src = scratch.data();
       }
     }
@@ -107,15 +93,15 @@ std::vector<uint8_t> compress(const std::array<Array, kArrays>& arrays, uint64_t
   return out;
 }
 
-void decompress(const std::vector<uint8_t>& in, const std::array<Array, kArrays>& arrays, bool shuffled,
+void decompress(const std::vector<uint8_t>& in, const Arrays& arrays, bool shuffled,
                 const fs::path& file) {
   ZSTD_DCtx* d = decompressor();
   ZSTD_DCtx_reset(d, ZSTD_reset_session_and_parameters);
   ZSTD_inBuffer ib{in.data(), in.size(), 0};
   std::vector<uint8_t> scratch;
   size_t ret = 1;
-  for (const Array& a : arrays) {
-    const size_t bytes = a.elements * 4;
+  for (const PayloadArray& a : arrays) {
+    const size_t bytes = a.bytes;
     if (shuffled) scratch.resize(bytes);
     ZSTD_outBuffer ob{shuffled ? scratch.data() : a.data, bytes, 0};
     while (ob.pos < ob.size) {
@@ -125,7 +111,7 @@ void decompress(const std::vector<uint8_t>& in, const std::array<Array, kArrays>
       if (ib.pos == in_before && ob.pos == out_before)
         fail(file.string(), ": compressed payload ends before all arrays were read");
     }
-    if (shuffled) unshuffle4(scratch.data(), static_cast<uint8_t*>(a.data), a.elements);
+    if (shuffled) unshuffle(scratch.data(), a.data, bytes, a.element_bytes);
   }
   if (ret != 0) {  // the frame's end mark may still be unread after the last byte came out
     ZSTD_outBuffer none{nullptr, 0, 0};
@@ -142,16 +128,18 @@ Header read_and_check_header(const FileDescriptor& fd, const fs::path& file, uin
   if (size < sizeof h) fail(file.string(), ": not a chunk file (", size, " bytes, shorter than a header)");
   read_exact(fd, &h, sizeof h, file);
   if (std::memcmp(h.magic, kMagic, sizeof kMagic) != 0) fail(file.string(), ": not a chunk file (bad magic)");
-  if (h.version != kChunkFormatVersion)
-    fail(file.string(), ": chunk format version ", h.version, " is not supported (this build reads version ",
+  if (h.version < 1 || h.version > kChunkFormatVersion)
+    fail(file.string(), ": chunk format version ", h.version, " is not supported (this build reads versions 1 to ",
          kChunkFormatVersion, ")");
   if (h.header_size != sizeof h) fail(file.string(), ": header size ", h.header_size, " should be ", sizeof h);
   if (xxh64(&h, kChecksummedHeaderBytes) != h.header_checksum)
     fail(file.string(), ": header checksum mismatch: the file is corrupt");
   if (h.count > kMaxCount) fail(file.string(), ": implausible Gaussian count ", h.count);
   if (h.sh_degree > uint32_t(kMaxShDegree)) fail(file.string(), ": SH degree ", h.sh_degree, " out of range");
-  if (h.flags & ~(kChunkFlagZstd | kChunkFlagShuffled)) fail(file.string(), ": unknown flag bits in ", h.flags);
-  if (h.raw_bytes != h.count * kChunkBytesPerGaussian)
+  const uint32_t known = kChunkFlagZstd | kChunkFlagShuffled | (h.version >= 2 ? kChunkFlagsHalf : 0);
+  if (h.flags & ~known)
+    fail(file.string(), ": unknown flag bits in ", h.flags, " for chunk format version ", h.version);
+  if (h.raw_bytes != chunk_payload_bytes(h.count, h.flags))
     fail(file.string(), ": payload of ", h.raw_bytes, " bytes does not fit ", h.count, " Gaussians");
   if (!(h.flags & kChunkFlagZstd) && h.payload_bytes != h.raw_bytes)
     fail(file.string(), ": uncompressed payload of ", h.payload_bytes, " bytes should be ", h.raw_bytes);
@@ -170,7 +158,6 @@ ChunkFileInfo info_of(const Header& h, uint64_t size) {
 ChunkFileInfo write_chunk_file(const fs::path& file, ChunkId id, const GaussianBlock& block,
                           const ChunkWriteOptions& opt) {
   block.validate(file.c_str());
-  const auto arrays = arrays_of(block);
   Header h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);
   h.version = kChunkFormatVersion;
@@ -178,20 +165,23 @@ ChunkFileInfo write_chunk_file(const fs::path& file, ChunkId id, const GaussianB
   h.chunk_id = id;
   h.count = block.size();
   h.sh_degree = uint32_t(block.sh_degree);
-  h.raw_bytes = h.count * kChunkBytesPerGaussian;
+  h.flags = (opt.half_moments ? kChunkFlagHalfMoments : 0) | (opt.half_sh_rest ? kChunkFlagHalfShRest : 0);
+  h.raw_bytes = chunk_payload_bytes(h.count, h.flags);
+  const ChunkEncoder encoder(block, h.flags);
+  const Arrays& arrays = encoder.arrays();
   std::vector<uint8_t> packed;
   std::vector<ConstBuffer> parts{{&h, sizeof h}};
   Xxh64 sum;
   if (opt.compress) {
-    h.flags = kChunkFlagZstd | (opt.shuffle ? kChunkFlagShuffled : 0);
+    h.flags |= kChunkFlagZstd | (opt.shuffle ? kChunkFlagShuffled : 0);
     packed = compress(arrays, h.raw_bytes, opt, file);
     sum.update(packed.data(), packed.size());
     parts.push_back({packed.data(), packed.size()});
     h.payload_bytes = packed.size();
   } else {
-    for (const Array& a : arrays) {
-      sum.update(a.data, a.elements * 4);
-      parts.push_back({a.data, a.elements * 4});
+    for (const PayloadArray& a : arrays) {
+      sum.update(a.data, a.bytes);
+      parts.push_back({a.data, a.bytes});
     }
     h.payload_bytes = h.raw_bytes;
   }
@@ -215,7 +205,8 @@ ChunkFileInfo read_chunk_file(const fs::path& file, GaussianBlock& out) {
   GaussianBlock b;
   b.sh_degree = int(h.sh_degree);
   b.resize(h.count);
-  const auto arrays = arrays_of(b);
+  ChunkDecoder decoder(b, h.flags & kChunkFlagsHalf);
+  const Arrays& arrays = decoder.arrays();
   Xxh64 sum;
   if (h.flags & kChunkFlagZstd) {
     std::vector<uint8_t> packed(h.payload_bytes);
@@ -225,13 +216,14 @@ ChunkFileInfo read_chunk_file(const fs::path& file, GaussianBlock& out) {
       fail(file.string(), ": payload checksum mismatch: the file is corrupt");
     decompress(packed, arrays, h.flags & kChunkFlagShuffled, file);
   } else {
-    for (const Array& a : arrays) {
-      read_exact(fd, a.data, a.elements * 4, file);
-      sum.update(a.data, a.elements * 4);
+    for (const PayloadArray& a : arrays) {
+      read_exact(fd, a.data, a.bytes, file);
+      sum.update(a.data, a.bytes);
     }
     if (sum.digest() != h.payload_checksum)
       fail(file.string(), ": payload checksum mismatch: the file is corrupt");
   }
+  decoder.finish();
   out = std::move(b);
   return info_of(h, size);
 }

@@ -3,9 +3,10 @@
 // Layout, little-endian: a 72-byte header
 //   magic "CHGSCHNK" | version u32 | header size u32 | chunk id u64 | count u64 | SH degree u32 |
 //   flags u32 | payload bytes u64 | raw payload bytes u64 | payload XXH64 u64 | header XXH64 u64
-// then the payload: the GaussianBlock arrays in a fixed order (chunk_file_arrays), each as raw
-// 4-byte elements, optionally byte-shuffled (all first bytes, then all second bytes, ...) and
-// zstd-compressed as one stream. The payload checksum covers the stored (possibly compressed)
+// then the payload: the GaussianBlock arrays in a fixed order (chunk_codec.hpp), each as raw
+// 4-byte elements or, with the half flags (version 2), Adam moments and/or SH rest coefficients
+// as a scale plus binary16 values; optionally byte-shuffled (all first bytes of the array's
+// elements, then all second bytes, ...) and zstd-compressed as one stream. The payload checksum covers the stored (possibly compressed)
 // bytes, so corruption is caught before decompression; the header has its own checksum.
 #pragma once
 #include <cstdint>
@@ -16,10 +17,13 @@
 
 namespace chungs {
 
-constexpr uint32_t kChunkFormatVersion = 1;
+// Version 2 adds the half-precision flags (chunk_codec.hpp); version 1 files read unchanged.
+constexpr uint32_t kChunkFormatVersion = 2;
 constexpr uint32_t kChunkFlagZstd = 1u << 0;
 constexpr uint32_t kChunkFlagShuffled = 1u << 1;
-// 3 x 59 floats (parameters and both Adam moments) + 4 bookkeeping words per Gaussian.
+constexpr uint32_t kChunkFlagsHalf = (1u << 2) | (1u << 3);  // kChunkFlagHalfMoments | kChunkFlagHalfShRest
+// At full precision: 3 x 59 floats (parameters and both Adam moments) + 4 bookkeeping words per
+// Gaussian.
 constexpr uint64_t kChunkBytesPerGaussian = 3 * kParamFloats * 4 + 4 * 4;
 
 struct ChunkWriteOptions {
@@ -27,6 +31,8 @@ struct ChunkWriteOptions {
   int zstd_level = 1;
   bool shuffle = true;    // byte-shuffle before zstd: float exponents compress, mantissas barely
   bool durable = true;    // flush file and folder (survives power loss, not just a killed process)
+  bool half_moments = false;  // Adam moments as binary16 (see chunk_codec.hpp)
+  bool half_sh_rest = false;  // SH coefficients beyond DC as binary16
 };
 
 struct ChunkFileInfo {

@@ -143,7 +143,8 @@ void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
     return;
   }
   chunk_coord(id);  // rejects ids that no coordinate produces
-  const ChunkWriteOptions opt{config_.compress, config_.zstd_level, config_.shuffle, false};
+  const ChunkWriteOptions opt{config_.compress,     config_.zstd_level,   config_.shuffle, false,
+                              config_.half_moments, config_.half_sh_rest};
   uint64_t generation;
   {
     std::lock_guard lock(mutex_);

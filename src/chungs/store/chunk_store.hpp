@@ -43,6 +43,10 @@ struct ChunkStoreConfig {
   bool shuffle = true;         // byte-shuffle before zstd
   bool durable = true;         // commit() flushes (power-loss safe); off: kill-safe only
   bool verify_on_open = false; // check every chunk's payload checksum on open (reads the whole map)
+  // Smaller chunk files (chunk_codec.hpp); memory keeps float32. Each save uses the current
+  // setting, files of either kind read back.
+  bool half_moments = false;   // Adam moments as binary16: 724 -> 488 bytes per Gaussian
+  bool half_sh_rest = false;   // SH beyond DC as binary16 too: -> 398 bytes per Gaussian
 };
 
 // What opening had to repair. A clean close leaves all zeros.

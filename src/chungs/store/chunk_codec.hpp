@@ -1,0 +1,60 @@
+// How a GaussianBlock's arrays are laid out in a chunk file's payload, and their optional
+// half-precision encodings:
+//  - half moments: each Adam moment array as a float32 power-of-two scale followed by binary16
+//    values of x / scale (the scale maps the array's largest magnitude just under 2^15, so values
+//    down to 2^-29 of it keep 11 significant bits). The second moment is stored as
+//    sign(v) sqrt(|v|): Adam divides by sqrt(v), so this halves the dynamic range that has to
+//    fit and gives sqrt(v) the relative precision the step needs; a non-zero value never
+//    decodes to zero (that would blow the step up).
+//  - half SH rest: the colour's higher SH coefficients (all but the 3 DC values per Gaussian)
+//    the same way, with the DC values kept as float32.
+// Parameters other than SH rest and the bookkeeping words stay float32/uint32 bit-exact.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "chungs/gaussians/gaussian_block.hpp"
+
+namespace chungs {
+
+constexpr uint32_t kChunkFlagHalfMoments = 1u << 2;
+constexpr uint32_t kChunkFlagHalfShRest = 1u << 3;
+
+// One stored array: its bytes and the element size the byte shuffle groups by (4 or 2).
+struct PayloadArray {
+  uint8_t* data;
+  size_t bytes;
+  int element_bytes;
+};
+
+// Payload bytes of `count` Gaussians under the given flags (before compression).
+uint64_t chunk_payload_bytes(uint64_t count, uint32_t flags);
+
+// The arrays to write, in file order; converted ones live in this object.
+class ChunkEncoder {
+ public:
+  ChunkEncoder(const GaussianBlock& block, uint32_t flags);
+  const std::vector<PayloadArray>& arrays() const { return arrays_; }
+
+ private:
+  std::vector<std::vector<uint8_t>> owned_;
+  std::vector<PayloadArray> arrays_;
+};
+
+// The arrays to read into, in file order (the block is already sized); finish() converts the
+// encoded ones into the block once all bytes are in.
+class ChunkDecoder {
+ public:
+  ChunkDecoder(GaussianBlock& block, uint32_t flags);
+  const std::vector<PayloadArray>& arrays() const { return arrays_; }
+  void finish();
+
+ private:
+  std::vector<std::vector<uint8_t>> owned_;
+  std::vector<PayloadArray> arrays_;
+  std::vector<std::pair<size_t, int>> steps_;  // (owned buffer, field in file order) to decode
+  GaussianBlock& block_;
+  uint32_t flags_;
+};
+
+}  // namespace chungs
