@@ -7,6 +7,7 @@
 #include "chungs/mapping/frame_source.hpp"
 #include "chungs/mapping/render_poses.hpp"
 #include "command.hpp"
+#include "dataset_spec.hpp"
 
 namespace chungs::app {
 namespace {
@@ -36,7 +37,7 @@ int run_render(const RenderArgs& a) {
     log::info("rendering ", traj.size(), " poses of ", a.poses_file, " at ", cam.width, "x", cam.height);
     s = render_trajectory(renderer, traj, cam, out, a.stride);
   } else {
-    const auto dataset = open_dataset(a.dataset);
+    const auto dataset = open_dataset_spec(a.dataset);
     // By default the resolution the map was made at, so scores match the mapper's evaluation.
     double f = a.resolution;
     if (f == 0)

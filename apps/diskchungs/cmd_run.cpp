@@ -4,6 +4,7 @@
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/run_pipeline.hpp"
 #include "command.hpp"
+#include "dataset_spec.hpp"
 
 namespace chungs::app {
 namespace {
@@ -82,7 +83,7 @@ const Command cmd{
         if (!a->device.empty()) c.mapper.device = a->device;
         c.validate();
         a->o.evaluate = !a->no_eval;
-        const nlohmann::json r = run_mapping(a->o);
+        const nlohmann::json r = run_mapping(a->o, *open_dataset_spec(a->o.dataset));
         if (a->json) {
           std::printf("%s\n", r.dump(2).c_str());
         } else if (r.contains("held_out")) {

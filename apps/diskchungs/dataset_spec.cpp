@@ -1,0 +1,83 @@
+#include "dataset_spec.hpp"
+
+#include <cerrno>
+#include <cstdlib>
+#include <set>
+
+#include "chungs/common/error.hpp"
+#include "chungs/synth/street_dataset.hpp"
+
+namespace chungs {
+
+namespace {
+
+constexpr const char* kStreet = "synth-street";
+
+double number(const std::string& spec, const std::string& key, const std::string& value) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(value.c_str(), &end);
+  if (value.empty() || *end != '\0' || errno == ERANGE)
+    fail("dataset '", spec, "': value '", value, "' of ", key, " is not a number");
+  return v;
+}
+
+uint64_t whole(const std::string& spec, const std::string& key, const std::string& value, uint64_t max) {
+  char* end = nullptr;
+  errno = 0;
+  const unsigned long long v = std::strtoull(value.c_str(), &end, 10);
+  if (value.empty() || value[0] == '-' || *end != '\0' || errno == ERANGE || v > max)
+    fail("dataset '", spec, "': value '", value, "' of ", key, " is not a whole number from 0 to ", max);
+  return v;
+}
+
+std::unique_ptr<Dataset> open_street(const std::string& spec, const std::string& args) {
+  synth::StreetDatasetOptions o;
+  bool have_width = false, have_height = false;
+  std::set<std::string> seen;
+  size_t at = 0;
+  while (at < args.size()) {
+    size_t comma = args.find(',', at);
+    if (comma == std::string::npos) comma = args.size();
+    const std::string item = args.substr(at, comma - at);
+    at = comma + 1;
+    const size_t eq = item.find('=');
+    if (eq == std::string::npos || eq == 0)
+      fail("dataset '", spec, "': '", item, "' is not key=value (keys: length, width, height, seed, frames, depth)");
+    const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
+    if (!seen.insert(key).second) fail("dataset '", spec, "': key '", key, "' is given twice");
+    if (key == "length") {
+      o.street.length_m = number(spec, key, value);
+      if (!(o.street.length_m > 0) || o.street.length_m > 1e6)
+        fail("dataset '", spec, "': length ", value, " m must be in (0, 1000000]");
+    } else if (key == "width") {
+      o.width = int(whole(spec, key, value, 16384));
+      have_width = true;
+    } else if (key == "height") {
+      o.height = int(whole(spec, key, value, 16384));
+      have_height = true;
+    } else if (key == "seed") {
+      o.street.seed = whole(spec, key, value, UINT64_MAX);
+    } else if (key == "frames") {
+      o.max_frames = whole(spec, key, value, uint64_t(1) << 32);
+    } else if (key == "depth") {
+      if (value != "0" && value != "1") fail("dataset '", spec, "': value '", value, "' of depth must be 0 or 1");
+      o.depth = value == "1";
+    } else {
+      fail("dataset '", spec, "': unknown key '", key, "' (keys: length, width, height, seed, frames, depth)");
+    }
+  }
+  if (have_width != have_height) fail("dataset '", spec, "': give both width and height, or neither");
+  return std::make_unique<synth::StreetDataset>(o);
+}
+
+}  // namespace
+
+std::unique_ptr<Dataset> open_dataset_spec(const std::string& spec) {
+  const std::string prefix = std::string(kStreet) + ":";
+  if (spec == kStreet) return open_street(spec, "");
+  if (spec.rfind(prefix, 0) == 0) return open_street(spec, spec.substr(prefix.size()));
+  return open_dataset(spec);
+}
+
+}  // namespace chungs
