@@ -1,4 +1,4 @@
-// `diskchungs run`: map a dataset on given poses into a chunked Gaussian map folder.
+// `diskchungs run`: map a dataset, on given poses or tracked ones, into a chunked Gaussian map folder.
 #include <cstdio>
 
 #include "chungs/common/log.hpp"
@@ -16,7 +16,7 @@ struct RunArgs {
   double chunk_size = 0, resolution = 0, speed = 0, fill_depth = -1;
   int iterations = -1, final_iterations = -1;
   std::string pacing, depth, device;
-  bool json = false, no_eval = false;
+  bool json = false, no_eval = false, no_ba = false, no_loop = false;
 };
 
 // Outdoor (KITTI) and indoor defaults differ in two numbers (PAPER.md: depth weight, position lr).
@@ -36,11 +36,11 @@ void apply_preset(Config& c, const std::string& preset, const std::string& datas
 }
 
 const Command cmd{
-    "run", "map a dataset on given poses into a chunked Gaussian map", [](CLI::App& app) {
+    "run", "map a dataset (given or tracked poses) into a chunked Gaussian map", [](CLI::App& app) {
       auto a = std::make_shared<RunArgs>();
       app.add_option("--dataset", a->o.dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch)")
           ->required();
-      app.add_option("--poses", a->o.poses, "gt (ground truth) or a TUM/KITTI trajectory file")
+      app.add_option("--poses", a->o.poses, "gt (ground truth), a TUM/KITTI trajectory file, or track (the visual tracker)")
           ->capture_default_str();
       app.add_option("--out", a->o.out, "map folder (created)")->required();
       app.add_flag("--resume", a->o.resume, "continue the run in --out from its last checkpoint");
@@ -59,6 +59,8 @@ const Command cmd{
                      "metres for sampled pixels without depth (sky); 0: skip them");
       app.add_option("--device", a->device,
                      "auto | cuda | cpu: where the optimisation runs (auto: cuda when a GPU is usable)");
+      app.add_flag("--no-ba", a->no_ba, "--poses track: no local bundle adjustment");
+      app.add_flag("--no-loop", a->no_loop, "--poses track: no loop closure");
       app.add_option("--max-frames", a->o.max_frames, "use only the first n frames");
       app.add_flag("--no-eval", a->no_eval, "skip the held-out evaluation");
       app.add_flag("--json", a->json, "print the report as JSON");
@@ -83,10 +85,18 @@ const Command cmd{
         if (!a->device.empty()) c.mapper.device = a->device;
         c.validate();
         a->o.evaluate = !a->no_eval;
+        a->o.tracker.local_ba = !a->no_ba;
+        a->o.tracker.loop_closure = !a->no_loop;
         const nlohmann::json r = run_mapping(a->o, *open_dataset_spec(a->o.dataset));
         if (a->json) {
           std::printf("%s\n", r.dump(2).c_str());
-        } else if (r.contains("held_out")) {
+          return 0;
+        }
+        if (r.contains("tracking") && r["tracking"].contains("ate"))
+          std::printf("tracking: ATE rmse %.4f m over a %.1f m path, %zu loop closures, %zu lost frames\n",
+                      r["tracking"]["ate"]["rmse"].get<double>(), r["tracking"]["gt_path_length_m"].get<double>(),
+                      r["tracking"]["loop_closures"].get<size_t>(), r["tracking"]["lost_frames"].get<size_t>());
+        if (r.contains("held_out")) {
           std::printf(
               "held-out PSNR %.3f dB  SSIM %.4f  (%zu frames); keyframes PSNR %.3f dB; %.1f s, %.3f FPS on "
               "%s; report %s\n",

@@ -100,6 +100,10 @@ void fields(V& v, MapperConfig& c) {
   v("seed", c.seed, "random seed (sampling, keyframe picks)");
   v("eval_keyframe_stride", c.eval_keyframe_stride, "score every n-th keyframe at the end (paper protocol); 0: off");
   v("max_saved_renders", c.max_saved_renders, "held-out renders written as PNG at most");
+  v("loop_refine_iterations", c.loop_refine_iterations, "steps on the junction keyframes after a loop closure");
+  v("pose_update_min_translation", c.pose_update_min_translation,
+    "m: tracker keyframe moves below this (and below the rotation) are not applied to the map");
+  v("pose_update_min_rotation_deg", c.pose_update_min_rotation_deg, "degrees, see pose_update_min_translation");
 }
 template <class V>
 void fields(V& v, SamplerConfig& c) {

@@ -22,6 +22,9 @@ void MapperConfig::validate() const {
   if (checkpoint_every < 1) fail("mapper: checkpoint_every must be >= 1, got ", checkpoint_every);
   if (device != "auto" && device != "cuda" && device != "cpu")
     fail("mapper: device must be auto, cuda or cpu, got '", device, "'");
+  if (loop_refine_iterations < 0) fail("mapper: loop_refine_iterations must be >= 0, got ", loop_refine_iterations);
+  if (!(pose_update_min_translation >= 0) || !(pose_update_min_rotation_deg >= 0))
+    fail("mapper: pose update thresholds must be >= 0");
   if (eval_keyframe_stride < 0) fail("mapper: eval_keyframe_stride must be >= 0");
 }
 

@@ -8,9 +8,12 @@
 #include "chungs/common/progress.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/mapping/evaluation.hpp"
+#include "chungs/mapping/frame_feed.hpp"
 #include "chungs/mapping/frame_source.hpp"
 #include "chungs/mapping/optim_backend.hpp"
+#include "chungs/mapping/pose_updates.hpp"
 #include "chungs/mapping/timeline.hpp"
+#include "chungs/mapping/tracker_feed.hpp"
 #include "chungs/store/atomic_file.hpp"
 
 namespace chungs {
@@ -84,8 +87,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     fail("dataset ", o.dataset,
          ": depth source 'none' places Gaussians only at a tracker's sparse points, "
          "and mapping on given poses has none; use an RGB-D or stereo dataset");
-  const auto poses = frame_poses(*dataset, o.poses);
+  const bool tracked = o.poses == "track";
+  if (tracked && o.resume)
+    fail(o.out.string(), ": --resume continues runs on given poses only; for a tracked run write the "
+         "trajectory with `diskchungs track` and map it with --poses FILE");
   const size_t n = o.max_frames ? std::min(o.max_frames, dataset->size()) : dataset->size();
+  // Given poses are read before the map folder is touched, so a bad file changes nothing.
+  std::vector<std::optional<SE3>> given;
+  if (!tracked) given = frame_poses(*dataset, o.poses);
 
   Mapper mapper(o.out, cfg, o.resume);
   const nlohmann::json& prev = mapper.resumed_state();
@@ -126,37 +135,37 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   };
   auto arrival = [&](size_t i) { return (dataset->timestamp(i) - stamp0) / mc.speed; };
 
+  std::unique_ptr<FrameFeed> feed =
+      tracked ? make_tracker_feed(*dataset, n, mc, o.tracker)
+              : make_given_pose_feed(given, start, n, mc,
+                                     mapper.keyframes().empty() ? std::nullopt
+                                                                : std::optional(mapper.keyframes().back().pose));
+  PoseUpdateApplier updates(mapper, mc);
   Progress progress("mapping", (long long)(n - std::min(start, n)));
-  size_t since_keyframe = 0, keyframes_since_checkpoint = 0;
-  std::optional<SE3> last_kf =
-      mapper.keyframes().empty() ? std::nullopt : std::optional(mapper.keyframes().back().pose);
+  size_t keyframes_since_checkpoint = 0;
   uint64_t sampled = 0;
-  for (size_t i = start; i < n; ++i) {
+  while (auto item = feed->next()) {
     progress.step();
-    if (is_held_out(i, mc.holdout_every) || !poses[i]) continue;
-    const SE3& pose = *poses[i];
-    ++since_keyframe;
-    bool key = !last_kf || since_keyframe >= size_t(mc.keyframe_every);
-    if (last_kf && mc.keyframe_translation > 0 && (pose.t - last_kf->t).norm() >= mc.keyframe_translation)
-      key = true;
-    if (last_kf && mc.keyframe_rotation_deg > 0 &&
-        (last_kf->inverse() * pose).angle() * 180.0 / M_PI >= mc.keyframe_rotation_deg)
-      key = true;
-    if (!key) continue;
-    if (mc.pacing == "anytime" && !mapper.keyframes().empty())
-      while (seconds() < arrival(i)) mapper.step();
-    const MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo);
-    const SampleStats ss =
-        mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, pose);
-    sampled += ss.kept;
-    log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
-               " without depth) in ", ss.chunks, " chunks");
-    since_keyframe = 0;
-    last_kf = pose;
-    if (mc.pacing == "fixed")
-      for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
+    const size_t i = item->frame;
+    if (item->keyframe && item->pose) {
+      if (mc.pacing == "anytime" && !mapper.keyframes().empty())
+        while (seconds() < arrival(i)) mapper.step();
+      const MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo);
+      const SampleStats ss =
+          mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose);
+      updates.added(item->keyframe_id, mapper.keyframes().back().id);
+      sampled += ss.kept;
+      log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
+                 " without depth) in ", ss.chunks, " chunks");
+      if (mc.pacing == "fixed")
+        for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
+    }
+    const PoseUpdateApplier::Applied applied = updates.apply(item->updates);
+    const bool added = item->keyframe && item->pose;
+    if (!added && !applied.keyframes_moved) continue;
     record(i);
-    if (++keyframes_since_checkpoint >= size_t(mc.checkpoint_every)) {
+    if (added) ++keyframes_since_checkpoint;
+    if (keyframes_since_checkpoint >= size_t(mc.checkpoint_every) || applied.loop) {
       mapper.checkpoint(state(i + 1, false));
       keyframes_since_checkpoint = 0;
     }
@@ -173,6 +182,13 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   }
   record(n ? n - 1 : 0);
   mapper.checkpoint(state(n, true));
+  const std::vector<std::optional<SE3>> poses = feed->final_poses();
+  {
+    Trajectory traj;  // the poses the map was made on (after every correction), TUM format
+    for (size_t i = 0; i < std::min(n, poses.size()); ++i)
+      if (poses[i]) traj.push_back(dataset->timestamp(i), *poses[i]);
+    write_tum_trajectory(o.out / "trajectory.txt", traj);
+  }
   const double map_seconds = seconds();
 
   nlohmann::json report;
@@ -193,6 +209,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                         {"sampler_density", cfg.sampler.density},
                         {"seed", mc.seed}};
   report["device"] = mapper.device();
+  if (tracked) report["tracking"] = feed->report();
+  report["pose_updates"] = updates.report();
   report["keyframes"] = mapper.keyframes().size();
   report["iterations"] = mapper.iterations();
   report["time"] = {{"mapping_s", map_seconds},

@@ -7,16 +7,18 @@
 
 #include "chungs/config/config.hpp"
 #include "chungs/datasets/dataset.hpp"
+#include "chungs/tracking/options.hpp"
 
 namespace chungs {
 
 struct RunOptions {
   std::string dataset;        // kind:path
-  std::string poses = "gt";   // gt or a trajectory file (TUM or KITTI)
+  std::string poses = "gt";   // gt, a trajectory file (TUM or KITTI), or track (the visual tracker)
   std::filesystem::path out;  // map folder
   bool resume = false;        // continue the run in `out` from its last checkpoint
   Config config;
   size_t max_frames = 0;      // use only the first n frames (0: all)
+  tracking::TrackerOptions tracker;  // poses = track
   bool evaluate = true;       // render and score held-out frames (and keyframes) at the end
 };
 

@@ -1,0 +1,116 @@
+#include "chungs/mapping/tracker_feed.hpp"
+
+#include <thread>
+
+#include "chungs/common/blocking_queue.hpp"
+#include "chungs/common/error.hpp"
+#include "chungs/eval/report.hpp"
+#include "chungs/eval/trajectory_metrics.hpp"
+#include "chungs/mapping/run_pipeline.hpp"
+#include "chungs/tracking/visual_tracker.hpp"
+
+namespace chungs {
+
+namespace {
+
+using tracking::MapOperation;
+
+PoseUpdate to_update(const MapOperation& op) {
+  PoseUpdate u;
+  if (op.kind == MapOperation::Kind::LoopClosure) {
+    u.loop = true;
+    u.query = op.loop.query;
+    u.match = op.loop.match;
+    u.poses = op.loop.new_poses;
+    u.junction = op.loop.junction;
+  } else {
+    u.poses = op.poses;
+  }
+  return u;
+}
+
+class TrackerFeed : public FrameFeed {
+ public:
+  TrackerFeed(const Dataset& dataset, size_t n, const MapperConfig& config, const tracking::TrackerOptions& options)
+      : dataset_(dataset), n_(n), holdout_every_(config.holdout_every), tracker_(options) {
+    thread_ = std::thread([this] { run(); });
+  }
+  ~TrackerFeed() override {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+
+  std::optional<FeedItem> next() override { return queue_.pop(); }
+
+  std::vector<std::optional<SE3>> final_poses() override {
+    if (thread_.joinable()) thread_.join();
+    std::vector<std::optional<SE3>> out(n_);
+    const Trajectory est = tracker_.trajectory();
+    // The tracker keeps one pose per tracked frame, by stamp; frames are matched by exact stamp.
+    const auto pairs = associate_stamps(stamps_, est.stamps, 1e-6);
+    for (auto [i, k] : pairs) out[i] = est.poses[k];
+    return out;
+  }
+
+  nlohmann::json report() const override {
+    const auto& t = tracker_.timings();
+    const double ms = t.frames ? (t.features_ms + t.tracking_ms + t.keyframe_ms) / double(t.frames) : 0;
+    nlohmann::json j = {{"tracker", tracker_.describe()}, {"frames", t.frames},
+                        {"keyframes", t.keyframes},       {"lost_frames", lost_},
+                        {"loop_closures", loops_},        {"tracking_ms_per_frame", ms}};
+    if (gt_.size() >= 3) {
+      const AteResult ate = compute_ate(gt_, tracker_.trajectory(), {Alignment::SE3, 0.02});
+      j["ate"] = to_json(ate);
+      j["gt_path_length_m"] = gt_.path_length();
+    }
+    return j;
+  }
+
+ private:
+  void run() {
+    try {
+      for (size_t i = 0; i < n_ && !stop_; ++i) {
+        const Frame frame = dataset_.frame(i);
+        const tracking::TrackResult r = tracker_.track(frame);
+        stamps_.push_back(frame.timestamp);
+        if (frame.gt_pose) gt_.push_back(frame.timestamp, *frame.gt_pose);
+        FeedItem item;
+        item.frame = i;
+        item.pose = r.pose;
+        lost_ += r.state == tracking::TrackState::Lost;
+        item.keyframe = r.keyframe && !is_held_out(i, holdout_every_);
+        item.keyframe_id = r.keyframe ? r.keyframe_id : -1;
+        for (const MapOperation& op : tracker_.take_map_operations()) {
+          if (op.kind == MapOperation::Kind::NewKeyframe) continue;  // the frame's own result says it
+          loops_ += op.kind == MapOperation::Kind::LoopClosure;
+          item.updates.push_back(to_update(op));
+        }
+        queue_.push(std::move(item));
+      }
+      queue_.close();
+    } catch (...) {
+      queue_.fail(std::current_exception());
+    }
+  }
+
+  const Dataset& dataset_;
+  size_t n_;
+  int holdout_every_;
+  tracking::VisualTracker tracker_;
+  BlockingQueue<FeedItem> queue_;
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  // Written by the tracking thread; read after it has ended (final_poses, report).
+  std::vector<double> stamps_;
+  Trajectory gt_;
+  size_t lost_ = 0, loops_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameFeed> make_tracker_feed(const Dataset& dataset, size_t n, const MapperConfig& config,
+                                             const tracking::TrackerOptions& options) {
+  return std::make_unique<TrackerFeed>(dataset, n, config, options);
+}
+
+}  // namespace chungs

@@ -1,0 +1,18 @@
+// The visual tracker as the mapper's frame feed (`diskchungs run --poses track`). The tracker runs on
+// its own thread over every frame (held-out frames too: they are tracked, never trained on) and
+// never waits for the mapper; each frame's result and the map operations it produced (keyframes,
+// poses changed by bundle adjustment, loop closures) reach the mapper through a queue, in order.
+#pragma once
+#include <memory>
+
+#include "chungs/datasets/dataset.hpp"
+#include "chungs/mapping/frame_feed.hpp"
+#include "chungs/tracking/options.hpp"
+
+namespace chungs {
+
+// Tracks frames [0, n) of the dataset, which must outlive the feed.
+std::unique_ptr<FrameFeed> make_tracker_feed(const Dataset& dataset, size_t n, const MapperConfig& config,
+                                             const tracking::TrackerOptions& options);
+
+}  // namespace chungs
