@@ -9,10 +9,9 @@
 
 namespace chungs::tracking {
 
-std::vector<long> VisualTracker::local_keyframes(const Current& c) const {
-  // Keyframes that observe the points the frame already matched, the more shared the closer.
+std::vector<long> VisualTracker::keyframes_seeing(const std::vector<long>& points) const {
   std::unordered_map<long, int> votes;
-  for (long m : c.matches) {
+  for (long m : points) {
     if (m < 0) continue;
     if (const MapPoint* p = map_.point(m))
       for (auto& [k, i] : p->obs) ++votes[k];
@@ -20,14 +19,19 @@ std::vector<long> VisualTracker::local_keyframes(const Current& c) const {
   std::vector<std::pair<long, int>> ranked(votes.begin(), votes.end());
   std::sort(ranked.begin(), ranked.end(), [](auto& a, auto& b) { return a.second != b.second ? a.second > b.second : a.first > b.first; });
   std::vector<long> out;
+  for (auto& [k, n] : ranked)
+    if (!map_.kf(k).bad && int(out.size()) < opt_.local_keyframes) out.push_back(k);
+  return out;
+}
+
+std::vector<long> VisualTracker::local_keyframes(const Current& c) const {
+  // Keyframes that observe the points the frame already matched, the more shared the closer.
+  std::vector<long> out;
   std::unordered_set<long> seen;
   auto add = [&](long k) {
     if (k >= 0 && !map_.kf(k).bad && seen.insert(k).second) out.push_back(k);
   };
-  for (auto& [k, n] : ranked) {
-    if (int(out.size()) >= opt_.local_keyframes) break;
-    add(k);
-  }
+  for (long k : keyframes_seeing(c.matches)) add(k);
   // Neighbours of the best ones bring points the frame may now see for the first time.
   const size_t first = out.size();
   for (size_t i = 0; i < std::min<size_t>(first, 3) && int(out.size()) < 2 * opt_.local_keyframes; ++i)

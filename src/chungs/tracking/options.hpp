@@ -15,6 +15,7 @@ struct TrackerOptions {
   double rgbd_close_depth = 4.0;        // metres, the same for RGB-D
   int min_init_points = 50;             // features with depth needed to start the map
   int min_inliers = 20;                 // below this, tracking falls back to PnP, then relocalisation
+  double motion_check_ratio = 0.4;     // motion-model inliers below this share of the last frame's: try PnP too
   float keyframe_ratio = 0.75f;         // new keyframe when tracked < ratio * reference keyframe's points
   int local_keyframes = 12;             // covisible keyframes whose points form the local map
   bool local_ba = true;

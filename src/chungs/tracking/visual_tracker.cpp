@@ -1,6 +1,7 @@
 #include "chungs/tracking/visual_tracker.hpp"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
@@ -104,13 +105,29 @@ TrackResult VisualTracker::track(const Frame& frame) {
 
   bool ok = false, recovered = false;
   if (!lost_) {
-    ok = track_motion(c);
-    if (!ok) {
-      log::debug("tracking: frame ", c.index, " motion model failed, trying PnP against the local map");
-      c.T_cw = last_T_cw_;
-      auto kfs = local_keyframes(c);
+    const int motion = track_motion(c);
+    ok = motion >= opt_.min_inliers;
+    // A sudden turn moves the image further than the motion model's search window: the few matches it then
+    // finds are wrong ones that agree by chance. Far fewer inliers than the last frame had means the
+    // prediction is doubtful, so PnP on descriptor matches (no prior) gets a chance and the better one wins.
+    if (!ok || motion < opt_.motion_check_ratio * last_inliers_) {
+      log::debug("tracking: frame ", c.index, " motion model gave ", motion, " inliers (last frame ", last_inliers_,
+                 "), trying PnP against the local map");
+      Current alt;
+      alt.index = c.index;
+      alt.f = c.f;
+      alt.T_cw = last_T_cw_;
+      alt.matches.assign(c.f.size(), -1);
+      auto kfs = keyframes_seeing(last_points_);
       if (kfs.empty()) kfs.push_back(ref_kf_);
-      ok = track_pnp(c, kfs);
+      if (track_pnp(alt, kfs)) {
+        const int n = int(std::count_if(alt.matches.begin(), alt.matches.end(), [](long m) { return m >= 0; }));
+        if (!ok || n > motion) {
+          c.T_cw = alt.T_cw;
+          c.matches = std::move(alt.matches);
+          ok = true;
+        }
+      }
     }
   } else {
     // Relocalisation: every keyframe is a candidate, the newest first.
@@ -120,13 +137,16 @@ TrackResult VisualTracker::track(const Frame& frame) {
     ok = track_pnp(c, kfs);
     recovered = ok;
   }
+  const int pose_inliers = ok ? int(std::count_if(c.matches.begin(), c.matches.end(), [](long m) { return m >= 0; })) : 0;
   int inliers = ok ? track_local_map(c) : 0;
+  log::debug("tracking: frame ", c.index, ": ", pose_inliers, " inliers from the first pose, ", inliers, " after the local map");
   ok = ok && inliers >= opt_.min_inliers;
   timings_.tracking_ms += ms_since(t1);
 
   if (!ok) {
     if (!lost_) log::warn("tracking: lost at frame ", c.index, " (", inliers, " inliers)");
     lost_ = true;
+    last_inliers_ = 0;
     velocity_.reset();
     ++timings_.lost_frames;
     res.state = TrackState::Lost;
@@ -137,6 +157,7 @@ TrackResult VisualTracker::track(const Frame& frame) {
   }
   if (lost_) log::info("tracking: relocalised at frame ", c.index, " with ", inliers, " inliers");
   lost_ = false;
+  last_inliers_ = inliers;
   velocity_ = c.T_cw * last_T_cw_.inverse();
   last_T_cw_ = c.T_cw;
   last_points_.clear();
@@ -191,7 +212,7 @@ int VisualTracker::optimize(Current& c) {
   return n;
 }
 
-bool VisualTracker::track_motion(Current& c) {
+int VisualTracker::track_motion(Current& c) {
   c.T_cw = velocity_ ? *velocity_ * last_T_cw_ : last_T_cw_;
   FeatureGrid grid(c.f.kps, width_, height_);
   ProjectionSearch s;
@@ -205,7 +226,7 @@ bool VisualTracker::track_motion(Current& c) {
     s.radius = 40;
     search_by_projection(map_, last_points_, c.T_cw, k_, width_, height_, c.f, grid, c.matches, s);
   }
-  return optimize(c) >= opt_.min_inliers;
+  return optimize(c);
 }
 
 }  // namespace chungs::tracking

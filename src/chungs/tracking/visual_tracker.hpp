@@ -41,10 +41,11 @@ class VisualTracker : public Tracker {
   void extract(const Frame& frame, Current& c);
   bool initialize(Current& c);
   int optimize(Current& c);  // pose-only on current matches; drops outliers; returns inliers
-  bool track_motion(Current& c);
+  int track_motion(Current& c);  // inliers of the motion-model pose
   bool track_pnp(Current& c, const std::vector<long>& keyframes);
   int track_local_map(Current& c);
   std::vector<long> local_keyframes(const Current& c) const;
+  std::vector<long> keyframes_seeing(const std::vector<long>& points) const;  // most shared first
   bool need_keyframe(const Current& c, int inliers) const;
   long create_keyframe(Current& c);
   void cull_points(long kf);
@@ -72,6 +73,7 @@ class VisualTracker : public Tracker {
   long ref_kf_ = -1;
   size_t last_kf_frame_ = 0;
   bool lost_ = false;
+  int last_inliers_ = 0;  // local-map inliers of the last tracked frame
   std::vector<long> recent_points_;
   TrackerTimings timings_;
 };
