@@ -8,6 +8,7 @@
 
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/loop_corrector.hpp"
+#include "chungs/render/sh.hpp"
 #include "test_support.hpp"
 
 namespace chungs {
@@ -21,6 +22,20 @@ SE3 random_delta(std::mt19937_64& rng, double max_angle, double max_shift) {
   axis.normalize();
   return SE3(Eigen::Quaterniond(Eigen::AngleAxisd(max_angle * u(rng), axis)),
              Eigen::Vector3d(max_shift * u(rng), max_shift * u(rng), max_shift * u(rng)));
+}
+
+// Colour channel c of SH coefficients (sh[3k + c], degree 3) seen along unit direction d, float64.
+double colour(const float* sh, const Eigen::Vector3d& d, int c) {
+  double b[kShCoeffs];
+  sh::basis<double>(3, d.x(), d.y(), d.z(), b);
+  double v = 0;
+  for (int k = 0; k < kShCoeffs; ++k) v += b[k] * double(sh[3 * k + c]);
+  return v;
+}
+
+Eigen::Vector3d random_direction(std::mt19937_64& rng) {
+  std::normal_distribution<double> n;
+  return Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
 }
 
 // n Gaussians in a 6 x 5 x 2 m box; created_at_step tags each one uniquely.
@@ -149,7 +164,15 @@ PoseCorrectionStats check_correction(size_t budget, bool allow_batch, uint64_t s
     const double qe[4] = {q.w(), q.x(), q.y(), q.z()};
     for (int a = 0; a < 4; ++a) EXPECT_NEAR(g.params.rotation[a], qe[a], 2e-5) << "rotation of Gaussian " << i;
     for (int a = 0; a < 3; ++a) EXPECT_EQ(g.params.log_scale[a], all.params.log_scale[3 * i + a]);
-    for (int k = 0; k < kShFloats; ++k) EXPECT_EQ(g.params.sh[k], all.params.sh[kShFloats * i + k]);
+    const float* sh0 = &all.params.sh[kShFloats * i];
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(g.params.sh[k], sh0[k]);  // DC
+    if (d != pc.delta.end()) {
+      // The colour the Gaussian showed along d it now shows along R d.
+      const Eigen::Vector3d dir = random_direction(rng), rotated = d->second.rotation() * dir;
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(colour(g.params.sh.data(), rotated, c), colour(sh0, dir, c), 1e-5);
+    } else {
+      for (int k = 3; k < kShFloats; ++k) EXPECT_EQ(g.params.sh[k], sh0[k]);
+    }
     if (pc.junction.count(kf)) {
       ++junction;
       EXPECT_EQ(g.params.opacity[0], -2.5f);
@@ -198,6 +221,28 @@ TEST(LoopCorrector, TransformMatchesFloat64Reference) {
     EXPECT_NEAR(r.norm(), q.norm(), 1e-5);
     const Eigen::Matrix3d re = d.rotation() * q.normalized().toRotationMatrix();
     EXPECT_LT((r.normalized().toRotationMatrix() - re).cwiseAbs().maxCoeff(), 1e-5);
+  }
+}
+
+TEST(LoopCorrector, ShRotationKeepsTheColourSeenFromTheMovedCamera) {
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (int t = 0; t < 50; ++t) {
+    const Eigen::Matrix3d R = random_delta(rng, 3.0, 0).rotation();
+    float sh[kShFloats];
+    for (float& v : sh) v = u(rng);
+    float out[kShFloats];
+    std::copy(sh, sh + kShFloats, out);
+    rotate_sh(sh_rotation(R), 3, out);
+    for (int j = 0; j < 10; ++j) {
+      const Eigen::Vector3d d = random_direction(rng);
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(colour(out, R * d, c), colour(sh, d, c), 1e-5);
+    }
+    // Degree 1 rotates only band 1.
+    std::copy(sh, sh + kShFloats, out);
+    rotate_sh(sh_rotation(R), 1, out);
+    for (int k = 4 * 3; k < kShFloats; ++k) EXPECT_EQ(out[k], sh[k]);
+    EXPECT_GT(std::abs(out[3] - sh[3]) + std::abs(out[6] - sh[6]) + std::abs(out[9] - sh[9]), 1e-4);
   }
 }
 

@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <Eigen/Dense>
 #include <map>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
+#include "chungs/render/sh.hpp"
 
 namespace chungs {
 
@@ -96,6 +98,63 @@ void transform_gaussian(const SE3& delta, float* mean, float* rotation) {
   rotation[1] = float(r.x());
   rotation[2] = float(r.y());
   rotation[3] = float(r.z());
+}
+
+namespace {
+
+// Directions spread evenly over the sphere (a Fibonacci lattice): more than the 7 functions of the
+// largest band, so the least-squares fit below is exact and well conditioned.
+constexpr int kShSamples = 32;
+const std::array<Eigen::Vector3d, kShSamples>& sample_directions() {
+  static const std::array<Eigen::Vector3d, kShSamples> dirs = [] {
+    std::array<Eigen::Vector3d, kShSamples> d;
+    const double golden = M_PI * (3 - std::sqrt(5.0));
+    for (int i = 0; i < kShSamples; ++i) {
+      const double z = 1 - (2 * i + 1) / double(kShSamples), r = std::sqrt(1 - z * z);
+      d[i] = Eigen::Vector3d(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    }
+    return d;
+  }();
+  return dirs;
+}
+
+template <int N>
+Eigen::Matrix<double, N, N> band_rotation(const Eigen::Matrix3d& R, int first) {
+  // A holds the band's basis at the sample directions, C at the directions rotated back; a band is
+  // closed under rotation, so C = A M has an exact solution.
+  Eigen::Matrix<double, kShSamples, N> A, C;
+  double b[kShCoeffs];
+  for (int j = 0; j < kShSamples; ++j) {
+    const Eigen::Vector3d& d = sample_directions()[j];
+    sh::basis<double>(kMaxShDegree, d.x(), d.y(), d.z(), b);
+    for (int k = 0; k < N; ++k) A(j, k) = b[first + k];
+    const Eigen::Vector3d e = R.transpose() * d;
+    sh::basis<double>(kMaxShDegree, e.x(), e.y(), e.z(), b);
+    for (int k = 0; k < N; ++k) C(j, k) = b[first + k];
+  }
+  return A.colPivHouseholderQr().solve(C);
+}
+
+template <int N>
+void rotate_band(const Eigen::Matrix<double, N, N>& M, int first, float* sh) {
+  for (int c = 0; c < 3; ++c) {
+    Eigen::Matrix<double, N, 1> f;
+    for (int k = 0; k < N; ++k) f[k] = sh[3 * (first + k) + c];
+    const Eigen::Matrix<double, N, 1> g = M * f;
+    for (int k = 0; k < N; ++k) sh[3 * (first + k) + c] = float(g[k]);
+  }
+}
+
+}  // namespace
+
+ShRotation sh_rotation(const Eigen::Matrix3d& R) {
+  return {band_rotation<3>(R, 1), band_rotation<5>(R, 4), band_rotation<7>(R, 9)};
+}
+
+void rotate_sh(const ShRotation& m, int degree, float* sh) {
+  if (degree >= 1) rotate_band<3>(m.band1, 1, sh);
+  if (degree >= 2) rotate_band<5>(m.band2, 4, sh);
+  if (degree >= 3) rotate_band<7>(m.band3, 9, sh);
 }
 
 namespace {
@@ -189,6 +248,7 @@ class Corrector {
       GaussianParams& p = block.params;
       if (d != corr_.delta.end()) {
         transform_gaussian(d->second, &p.mean[3 * i], &p.rotation[4 * i]);
+        if (block.sh_degree > 0) rotate_sh(sh_of(kf, d->second), block.sh_degree, &p.sh[size_t(kShFloats) * i]);
         ++stats_.gaussians_moved;
       }
       if (junction) {
@@ -233,6 +293,12 @@ class Corrector {
     }
   }
 
+  const ShRotation& sh_of(uint32_t kf, const SE3& delta) {
+    auto it = sh_.find(kf);
+    if (it == sh_.end()) it = sh_.emplace(kf, sh_rotation(delta.rotation())).first;
+    return it->second;
+  }
+
   // The chunk of a position; `current` for a position that has none (not finite, or beyond the
   // range of chunk coordinates).
   ChunkId chunk_of(const Eigen::Vector3d& p, ChunkId current) const {
@@ -255,6 +321,7 @@ class Corrector {
   std::vector<ChunkId> todo_;  // sorted: visiting order
   std::unordered_set<ChunkId> pending_set_, touched_;
   std::map<ChunkId, GaussianBlock> waiting_;
+  std::unordered_map<uint32_t, ShRotation> sh_;  // per moved keyframe, computed on first use
   PoseCorrectionStats stats_;
 };
 

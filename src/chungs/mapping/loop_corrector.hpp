@@ -1,8 +1,8 @@
 // Loop closure in the chunked map: when keyframe poses jump (a loop closed, or local bundle
 // adjustment moved them), the Gaussians each keyframe created move rigidly with it,
-// mean' = D * mean and q' = D.q * q with D = T_new * T_old^-1; scales are unchanged and so are the
-// SH coefficients (view-dependent colour is not rotated: the degree >= 1 bands keep their world
-// orientation, which the refinement that follows corrects where it matters).
+// mean' = D * mean and q' = D.q * q with D = T_new * T_old^-1; scales are unchanged; the
+// view-dependent SH bands (degree 1..3) are rotated with D, so that the moved Gaussian shows the
+// colour it showed before to a camera that moved with it (the DC term does not change).
 //
 // Only the chunks that hold Gaussians of the moved keyframes are visited (KeyframeChunkIndex),
 // each exactly once; every Gaussian of a visited chunk is re-filed by its position (the optimiser
@@ -68,5 +68,16 @@ PoseCorrectionStats apply_pose_correction(Residency& residency, double chunk_siz
 
 // The rigid change of one Gaussian (exposed for tests): mean and rotation (w, x, y, z) in place.
 void transform_gaussian(const SE3& delta, float* mean, float* rotation);
+
+// Rotation of the SH bands 1..3 by a rotation R: for each band l a (2l+1)^2 matrix M_l with
+// sum_k (M_l f)_k b_k(d) = sum_k f_k b_k(R^T d) for every direction d (the basis of render/sh.hpp).
+struct ShRotation {
+  Eigen::Matrix<double, 3, 3> band1;
+  Eigen::Matrix<double, 5, 5> band2;
+  Eigen::Matrix<double, 7, 7> band3;
+};
+ShRotation sh_rotation(const Eigen::Matrix3d& R);
+// Rotates the coefficients of degrees 1..degree of one Gaussian (kShFloats floats, sh[3k + c]).
+void rotate_sh(const ShRotation& m, int degree, float* sh);
 
 }  // namespace chungs
