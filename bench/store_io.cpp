@@ -86,20 +86,23 @@ void drop_from_page_cache(const fs::path& f) {
 
 void BM_ChunkSave(benchmark::State& st) {
   const bool compress = st.range(0), durable = st.range(1), trained = st.range(2);
+  const int half = int(st.range(3));  // 1: Adam moments as binary16, 2: and SH rest
   const GaussianBlock b = make_block(kChunkGaussians, trained, 1);
   const fs::path f = bench_dir() / "save.chunk";
-  const ChunkWriteOptions opt{compress, 1, true, durable};
+  const ChunkWriteOptions opt{compress, 1, true, durable, half >= 1, half >= 2};
   uint64_t bytes = 0;
   for (auto _ : st) bytes = write_chunk_file(f, kId, b, opt).file_bytes;
   st.counters["file_MB"] = double(bytes) / 1e6;
+  st.counters["bytes_per_gaussian"] = double(bytes) / double(kChunkGaussians);
   st.SetBytesProcessed(int64_t(st.iterations() * kChunkGaussians * kChunkBytesPerGaussian));
 }
 
 void BM_ChunkLoad(benchmark::State& st) {
   const bool compress = st.range(0), cold = st.range(1), trained = st.range(2);
+  const int half = int(st.range(3));
   const GaussianBlock b = make_block(kChunkGaussians, trained, 2);
   const fs::path f = bench_dir() / "load.chunk";
-  const uint64_t bytes = write_chunk_file(f, kId, b, {compress, 1, true, true}).file_bytes;
+  const uint64_t bytes = write_chunk_file(f, kId, b, {compress, 1, true, true, half >= 1, half >= 2}).file_bytes;
   GaussianBlock out;
   for (auto _ : st) {
     if (cold) {
@@ -216,17 +219,21 @@ void BM_ResidencyStream(benchmark::State& st) {
   st.counters["load_ms_avg"] = stats.mean_load_ms();
   st.counters["save_ms_avg"] = stats.mean_save_ms();
   st.counters["dirty_evictions"] = double(stats.evictions_dirty);
+  st.counters["checkpoint_ms"] = stats.checkpoint_ms;
+  st.counters["barrier_ms"] = stats.barrier_ms;
 }
 
 }  // namespace
 
 BENCHMARK(BM_ChunkSave)
-    ->ArgNames({"zstd", "durable", "trained"})
-    ->Args({0, 1, 1})->Args({0, 0, 1})->Args({1, 1, 1})->Args({1, 0, 1})->Args({1, 1, 0})
+    ->ArgNames({"zstd", "durable", "trained", "half"})
+    ->Args({0, 1, 1, 0})->Args({0, 0, 1, 0})->Args({1, 1, 1, 0})->Args({1, 0, 1, 0})->Args({1, 1, 0, 0})
+    ->Args({0, 0, 1, 1})->Args({0, 0, 1, 2})->Args({1, 0, 1, 2})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_ChunkLoad)
-    ->ArgNames({"zstd", "cold", "trained"})
-    ->Args({0, 0, 1})->Args({0, 1, 1})->Args({1, 0, 1})->Args({1, 1, 1})->Args({1, 1, 0})
+    ->ArgNames({"zstd", "cold", "trained", "half"})
+    ->Args({0, 0, 1, 0})->Args({0, 1, 1, 0})->Args({1, 0, 1, 0})->Args({1, 1, 1, 0})->Args({1, 1, 0, 0})
+    ->Args({0, 0, 1, 2})->Args({0, 1, 1, 2})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Checkpoint)
     ->ArgNames({"gaussians", "chunks", "store"})

@@ -97,6 +97,36 @@ TEST(HalfFloat, RoundsRandomFloatsToTheNearestHalfTiesToEven) {
   EXPECT_EQ(float_to_half(1e-9f), 0u);  // below half the smallest subnormal
 }
 
+TEST(HalfFloat, ArrayConversionsEqualTheScalarOnes) {
+  std::mt19937 rng(11);
+  std::vector<float> in(100003);  // not a multiple of the vector width
+  for (float& f : in) {
+    const uint32_t bits = rng();
+    std::memcpy(&f, &bits, 4);  // every exponent: subnormals, overflow, infinities, NaN
+  }
+  std::vector<uint16_t> h(in.size());
+  floats_to_halves(in.data(), h.data(), in.size());
+  for (size_t i = 0; i < in.size(); ++i) {
+    if (std::isnan(in[i])) {
+      ASSERT_TRUE((h[i] & 0x7c00) == 0x7c00 && (h[i] & 0x3ff)) << i;
+      continue;
+    }
+    ASSERT_EQ(h[i], float_to_half(in[i])) << in[i];
+  }
+  std::vector<uint16_t> all(0x10000);
+  for (uint32_t k = 0; k < all.size(); ++k) all[k] = uint16_t(k);
+  std::vector<float> back(all.size());
+  halves_to_floats(all.data(), back.data(), all.size());
+  for (uint32_t k = 0; k < all.size(); ++k) {
+    const float want = half_to_float(uint16_t(k));
+    if (std::isnan(want)) {
+      ASSERT_TRUE(std::isnan(back[k])) << k;
+    } else {
+      ASSERT_EQ(std::memcmp(&back[k], &want, 4), 0) << k;
+    }
+  }
+}
+
 TEST(ChunkFileHalf, ShrinksFilesAsAnnouncedAndKeepsParametersExact) {
   test::TempDir dir;
   const GaussianBlock b = trained_block(300, 1);

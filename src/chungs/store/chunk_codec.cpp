@@ -48,60 +48,73 @@ size_t stored_bytes(const Field& f) {
   return f.kind == Kind::Raw || f.kind == Kind::ShDc ? 4 * f.elements : 4 + 2 * f.elements;
 }
 
-// Reads value i of a non-Raw field from the block (SH split by coefficient).
-float value(const Field& f, size_t i) {
-  if (f.kind == Kind::ShDc) return f.f[(i / 3) * kShFloats + i % 3];
-  if (f.kind == Kind::ShRest) return f.f[(i / kShRest) * kShFloats + 3 + i % kShRest];
-  return f.f[i];
-}
-float& slot(const Field& f, size_t i) {
-  if (f.kind == Kind::ShDc) return f.f[(i / 3) * kShFloats + i % 3];
-  if (f.kind == Kind::ShRest) return f.f[(i / kShRest) * kShFloats + 3 + i % kShRest];
-  return f.f[i];
-}
-
 float signed_sqrt(float v) { return std::copysign(std::sqrt(std::fabs(v)), v); }
 
+// The field's values in file order (SH split by coefficient), as a contiguous array.
+void gather(const Field& f, std::vector<float>& out) {
+  out.resize(f.elements);
+  if (f.kind == Kind::ShDc || f.kind == Kind::ShRest) {
+    const int first = f.kind == Kind::ShDc ? 0 : 3, count = f.kind == Kind::ShDc ? 3 : kShRest;
+    const size_t gaussians = f.elements / size_t(count);
+    for (size_t g = 0; g < gaussians; ++g)
+      std::memcpy(&out[g * size_t(count)], f.f + g * kShFloats + first, sizeof(float) * size_t(count));
+  } else if (f.kind == Kind::HalfSqrt) {
+    for (size_t i = 0; i < f.elements; ++i) out[i] = signed_sqrt(f.f[i]);
+  } else {
+    std::memcpy(out.data(), f.f, sizeof(float) * f.elements);
+  }
+}
+
+void scatter(const Field& f, const std::vector<float>& in) {
+  if (f.kind == Kind::ShDc || f.kind == Kind::ShRest) {
+    const int first = f.kind == Kind::ShDc ? 0 : 3, count = f.kind == Kind::ShDc ? 3 : kShRest;
+    const size_t gaussians = f.elements / size_t(count);
+    for (size_t g = 0; g < gaussians; ++g)
+      std::memcpy(f.f + g * kShFloats + first, &in[g * size_t(count)], sizeof(float) * size_t(count));
+  } else if (f.kind == Kind::HalfSqrt) {
+    for (size_t i = 0; i < f.elements; ++i) f.f[i] = in[i] * std::fabs(in[i]);
+  } else {
+    std::memcpy(f.f, in.data(), sizeof(float) * f.elements);
+  }
+}
+
 void encode(const Field& f, uint8_t* out) {
+  std::vector<float> values;
+  gather(f, values);
   if (f.kind == Kind::ShDc) {
-    for (size_t i = 0; i < f.elements; ++i) {
-      const float v = value(f, i);
-      std::memcpy(out + 4 * i, &v, 4);
-    }
+    std::memcpy(out, values.data(), 4 * values.size());
     return;
   }
-  const bool root = f.kind == Kind::HalfSqrt;
   float largest = 0;
-  for (size_t i = 0; i < f.elements; ++i) {
-    const float a = std::fabs(root ? signed_sqrt(value(f, i)) : value(f, i));
-    if (std::isfinite(a)) largest = std::max(largest, a);
-  }
+  for (float v : values)
+    if (std::isfinite(v)) largest = std::max(largest, std::fabs(v));
   int e = 0;
   std::frexp(largest, &e);  // largest < 2^e
   const float scale = largest > 0 ? std::ldexp(1.0f, e - 15) : 1.0f;
-  std::memcpy(out, &scale, 4);
   const float inv = 1.0f / scale;  // exact: a power of two
-  for (size_t i = 0; i < f.elements; ++i) {
-    const float x = root ? signed_sqrt(value(f, i)) : value(f, i);
-    uint16_t h = float_to_half(x * inv);
-    if (root && x != 0 && (h & 0x7fff) == 0) h = uint16_t((h & 0x8000) | 1);
-    std::memcpy(out + 4 + 2 * i, &h, 2);
-  }
+  for (float& v : values) v *= inv;
+  std::vector<uint16_t> halves(values.size());
+  floats_to_halves(values.data(), halves.data(), values.size());
+  if (f.kind == Kind::HalfSqrt)
+    for (size_t i = 0; i < halves.size(); ++i)
+      if ((halves[i] & 0x7fff) == 0 && f.f[i] != 0) halves[i] = uint16_t((halves[i] & 0x8000) | 1);
+  std::memcpy(out, &scale, 4);
+  std::memcpy(out + 4, halves.data(), 2 * halves.size());
 }
 
 void decode(const Field& f, const uint8_t* in) {
+  std::vector<float> values(f.elements);
   if (f.kind == Kind::ShDc) {
-    for (size_t i = 0; i < f.elements; ++i) std::memcpy(&slot(f, i), in + 4 * i, 4);
-    return;
+    std::memcpy(values.data(), in, 4 * f.elements);
+  } else {
+    float scale;
+    std::memcpy(&scale, in, 4);
+    std::vector<uint16_t> halves(f.elements);
+    std::memcpy(halves.data(), in + 4, 2 * f.elements);
+    halves_to_floats(halves.data(), values.data(), f.elements);
+    for (float& v : values) v *= scale;
   }
-  float scale;
-  std::memcpy(&scale, in, 4);
-  for (size_t i = 0; i < f.elements; ++i) {
-    uint16_t h;
-    std::memcpy(&h, in + 4 + 2 * i, 2);
-    const float x = half_to_float(h) * scale;
-    slot(f, i) = f.kind == Kind::HalfSqrt ? x * std::fabs(x) : x;
-  }
+  scatter(f, values);
 }
 
 }  // namespace

@@ -3,6 +3,11 @@
 #include <cmath>
 #include <cstring>
 
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define CHUNGS_HAVE_F16C_PATH 1
+#endif
+
 namespace chungs {
 
 namespace {
@@ -33,6 +38,47 @@ uint16_t float_to_half(float f) {
   const uint32_t rest = a & 0x1fff;
   if (rest > 0x1000 || (rest == 0x1000 && (h & 1))) ++h;  // a carry rolls into the exponent
   return sign | uint16_t(h);
+}
+
+#ifdef CHUNGS_HAVE_F16C_PATH
+namespace {
+bool cpu_has_f16c() {
+  static const bool yes = __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
+  return yes;
+}
+
+__attribute__((target("avx,f16c"))) size_t f16c_to_halves(const float* in, uint16_t* out, size_t n) {
+  size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const __m128i h = _mm256_cvtps_ph(_mm256_loadu_ps(in + i), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), h);
+  }
+  return i;
+}
+
+__attribute__((target("avx,f16c"))) size_t f16c_to_floats(const uint16_t* in, float* out, size_t n) {
+  size_t i = 0;
+  for (; i + 8 <= n; i += 8)
+    _mm256_storeu_ps(out + i, _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(in + i))));
+  return i;
+}
+}  // namespace
+#endif
+
+void floats_to_halves(const float* in, uint16_t* out, size_t n) {
+  size_t i = 0;
+#ifdef CHUNGS_HAVE_F16C_PATH
+  if (cpu_has_f16c()) i = f16c_to_halves(in, out, n);
+#endif
+  for (; i < n; ++i) out[i] = float_to_half(in[i]);
+}
+
+void halves_to_floats(const uint16_t* in, float* out, size_t n) {
+  size_t i = 0;
+#ifdef CHUNGS_HAVE_F16C_PATH
+  if (cpu_has_f16c()) i = f16c_to_floats(in, out, n);
+#endif
+  for (; i < n; ++i) out[i] = half_to_float(in[i]);
 }
 
 float half_to_float(uint16_t h) {
