@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "chungs/store/half_float.hpp"
 
@@ -78,22 +79,36 @@ void scatter(const Field& f, const std::vector<float>& in) {
   }
 }
 
+// Scratch arrays reused across chunks: fresh ones per array cost more in page faults and
+// zeroing than the conversion itself.
+std::vector<float>& scratch_floats() {
+  thread_local std::vector<float> v;
+  return v;
+}
+std::vector<uint16_t>& scratch_halves() {
+  thread_local std::vector<uint16_t> v;
+  return v;
+}
+
 void encode(const Field& f, uint8_t* out) {
-  std::vector<float> values;
+  std::vector<float>& values = scratch_floats();
   gather(f, values);
   if (f.kind == Kind::ShDc) {
     std::memcpy(out, values.data(), 4 * values.size());
     return;
   }
   float largest = 0;
-  for (float v : values)
-    if (std::isfinite(v)) largest = std::max(largest, std::fabs(v));
+  for (float v : values) {
+    const float a = std::fabs(v);
+    if (a > largest && a <= std::numeric_limits<float>::max()) largest = a;
+  }
   int e = 0;
   std::frexp(largest, &e);  // largest < 2^e
   const float scale = largest > 0 ? std::ldexp(1.0f, e - 15) : 1.0f;
   const float inv = 1.0f / scale;  // exact: a power of two
   for (float& v : values) v *= inv;
-  std::vector<uint16_t> halves(values.size());
+  std::vector<uint16_t>& halves = scratch_halves();
+  halves.resize(values.size());
   floats_to_halves(values.data(), halves.data(), values.size());
   if (f.kind == Kind::HalfSqrt)
     for (size_t i = 0; i < halves.size(); ++i)
@@ -103,13 +118,15 @@ void encode(const Field& f, uint8_t* out) {
 }
 
 void decode(const Field& f, const uint8_t* in) {
-  std::vector<float> values(f.elements);
+  std::vector<float>& values = scratch_floats();
+  values.resize(f.elements);
   if (f.kind == Kind::ShDc) {
     std::memcpy(values.data(), in, 4 * f.elements);
   } else {
     float scale;
     std::memcpy(&scale, in, 4);
-    std::vector<uint16_t> halves(f.elements);
+    std::vector<uint16_t>& halves = scratch_halves();
+    halves.resize(f.elements);
     std::memcpy(halves.data(), in + 4, 2 * f.elements);
     halves_to_floats(halves.data(), values.data(), f.elements);
     for (float& v : values) v *= scale;
@@ -136,9 +153,9 @@ ChunkEncoder::ChunkEncoder(const GaussianBlock& cb, uint32_t flags) {
       arrays_.push_back({static_cast<uint8_t*>(f.raw), 4 * f.elements, 4});
       continue;
     }
-    owned_.emplace_back(stored_bytes(f));
-    encode(f, owned_.back().data());
-    arrays_.push_back({owned_.back().data(), owned_.back().size(), f.kind == Kind::ShDc ? 4 : 2});
+    owned_.push_back(std::make_unique_for_overwrite<uint8_t[]>(stored_bytes(f)));
+    encode(f, owned_.back().get());
+    arrays_.push_back({owned_.back().get(), stored_bytes(f), f.kind == Kind::ShDc ? 4 : 2});
   }
 }
 
@@ -150,15 +167,15 @@ ChunkDecoder::ChunkDecoder(GaussianBlock& block, uint32_t flags) : block_(block)
       arrays_.push_back({static_cast<uint8_t*>(f.raw), 4 * f.elements, 4});
       continue;
     }
-    owned_.emplace_back(stored_bytes(f));
+    owned_.push_back(std::make_unique_for_overwrite<uint8_t[]>(stored_bytes(f)));
     steps_.emplace_back(owned_.size() - 1, int(k));
-    arrays_.push_back({owned_.back().data(), owned_.back().size(), f.kind == Kind::ShDc ? 4 : 2});
+    arrays_.push_back({owned_.back().get(), stored_bytes(f), f.kind == Kind::ShDc ? 4 : 2});
   }
 }
 
 void ChunkDecoder::finish() {
   const auto fields = fields_of(block_, flags_);
-  for (const auto& [buffer, field] : steps_) decode(fields[size_t(field)], owned_[buffer].data());
+  for (const auto& [buffer, field] : steps_) decode(fields[size_t(field)], owned_[buffer].get());
 }
 
 }  // namespace chungs

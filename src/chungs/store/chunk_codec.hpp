@@ -11,6 +11,7 @@
 // Parameters other than SH rest and the bookkeeping words stay float32/uint32 bit-exact.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "chungs/gaussians/gaussian_block.hpp"
@@ -37,7 +38,7 @@ class ChunkEncoder {
   const std::vector<PayloadArray>& arrays() const { return arrays_; }
 
  private:
-  std::vector<std::vector<uint8_t>> owned_;
+  std::vector<std::unique_ptr<uint8_t[]>> owned_;  // not zeroed first: every byte is written
   std::vector<PayloadArray> arrays_;
 };
 
@@ -50,7 +51,7 @@ class ChunkDecoder {
   void finish();
 
  private:
-  std::vector<std::vector<uint8_t>> owned_;
+  std::vector<std::unique_ptr<uint8_t[]>> owned_;
   std::vector<PayloadArray> arrays_;
   std::vector<std::pair<size_t, int>> steps_;  // (owned buffer, field in file order) to decode
   GaussianBlock& block_;
