@@ -33,8 +33,8 @@ void fields(V& v, ResidencyConfig& c) {
   v("budget_gaussians", c.budget_gaussians, "Gaussians resident in (GPU) memory at most");
   v("eviction_hysteresis", c.eviction_hysteresis, "fraction of the budget evicted beyond the shortfall");
   v("async_io", c.async_io, "background prefetch and write-behind");
-  v("prefetch_max_gaussians", c.prefetch_max_gaussians, "");
-  v("write_behind_max_gaussians", c.write_behind_max_gaussians, "");
+  v("prefetch_max_gaussians", c.prefetch_max_gaussians, "host read-ahead, Gaussians; 0: a quarter of the budget");
+  v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: a quarter of the budget");
 }
 template <class V>
 void fields(V& v, CullerConfig& c) {

@@ -164,16 +164,30 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
 
 StepStats Mapper::step() {
   if (keyframes_.empty()) fail("mapper: an optimisation step needs at least one keyframe");
-  return step_keyframe(selector_.pick(rng_));
+  // The keyframe after this one is drawn now and its chunks are read in the background while this
+  // step runs, so the next pin finds them in host memory instead of waiting on the disk.
+  const uint32_t keyframe = next_pick_ ? *next_pick_ : selector_.pick(rng_);
+  next_pick_ = selector_.pick(rng_);
+  if (const KeyframeRecord* next = find_keyframe(*next_pick_)) {
+    const std::vector<ChunkId> ahead = visible_chunks(next->camera, next->pose);
+    residency_->prefetch(ahead);
+  }
+  return step_keyframe(keyframe);
+}
+
+const KeyframeRecord* Mapper::find_keyframe(uint32_t id) const {
+  // Ids are handed out in order from 0, so the id is the index unless the list was edited.
+  if (id < keyframes_.size() && keyframes_[id].id == id) return &keyframes_[id];
+  const auto it = std::find_if(keyframes_.begin(), keyframes_.end(), [&](const auto& k) { return k.id == id; });
+  return it == keyframes_.end() ? nullptr : &*it;
 }
 
 StepStats Mapper::step_keyframe(uint32_t keyframe) {
   StepStats st;
   st.keyframe = keyframe;
-  const auto it =
-      std::find_if(keyframes_.begin(), keyframes_.end(), [&](const auto& k) { return k.id == st.keyframe; });
-  if (it == keyframes_.end()) fail("mapper: no keyframe ", keyframe, " to train on");
-  const KeyframeRecord& kf = *it;
+  const KeyframeRecord* found = find_keyframe(keyframe);
+  if (!found) fail("mapper: no keyframe ", keyframe, " to train on");
+  const KeyframeRecord& kf = *found;
   const auto images = keyframe_store_->get(kf.id);
   const ImageF target = to_rgb_float(images->color);
   ImageF inv;

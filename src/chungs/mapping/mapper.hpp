@@ -84,6 +84,7 @@ class Mapper {
  private:
   // Visible chunks of a view, nearest first, trimmed so that they fit the budget.
   std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose);
+  const KeyframeRecord* find_keyframe(uint32_t id) const;  // null when unknown
   StepStats step_keyframe(uint32_t keyframe);  // one optimisation step on the given keyframe
   std::filesystem::path folder_;
   Config config_;
@@ -99,6 +100,7 @@ class Mapper {
   uint64_t iterations_ = 0, pruned_total_ = 0;
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
+  std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
   bool loop_batch_allowed_ = true;
 };

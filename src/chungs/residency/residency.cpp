@@ -16,8 +16,10 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
   if (!(config_.eviction_hysteresis >= 0 && config_.eviction_hysteresis < 1))
     fail("residency: eviction hysteresis must be in [0, 1), got ", config_.eviction_hysteresis);
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
-  io_ = std::make_unique<IoWorker>(store_, config_.async_io, config_.prefetch_max_gaussians,
-                                   config_.write_behind_max_gaussians);
+  const size_t automatic = std::max<size_t>(budget_ / 4, 10'000);
+  io_ = std::make_unique<IoWorker>(store_, config_.async_io,
+                                   config_.prefetch_max_gaussians ? config_.prefetch_max_gaussians : automatic,
+                                   config_.write_behind_max_gaussians ? config_.write_behind_max_gaussians : automatic);
 }
 
 Residency::~Residency() {

@@ -28,8 +28,10 @@ struct ResidencyConfig {
   size_t budget_gaussians = 1'500'000;  // the paper's VRAM budget
   double eviction_hysteresis = 0.05;    // evict this fraction of the budget beyond the shortfall
   bool async_io = true;                 // background prefetch and write-behind
-  size_t prefetch_max_gaussians = 500'000;      // read ahead into host memory at most this many
-  size_t write_behind_max_gaussians = 500'000;  // queued for writing before eviction waits
+  // Host memory for chunks in flight, in Gaussians (~0.7 kB each with Adam state). 0: a quarter of
+  // the budget, at least 10 000: host memory then stays in proportion to the budget, not the map.
+  size_t prefetch_max_gaussians = 0;      // read ahead into host memory at most this many
+  size_t write_behind_max_gaussians = 0;  // queued for writing before eviction waits
 };
 
 struct PinResult {
