@@ -102,7 +102,8 @@ void sync_directory(const fs::path& dir) {
   if (::fsync(fd.get()) != 0) fail(d.string(), ": cannot flush folder: ", why());
 }
 
-void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> parts, bool durable) {
+void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> parts, bool durable,
+                           bool start_writeback) {
   const fs::path tmp = file.string() + kTmpTag + std::to_string(::getpid()) + "-" +
                        std::to_string(tmp_counter.fetch_add(1));
   FileDescriptor fd(::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
@@ -110,6 +111,8 @@ void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> pa
   try {
     write_all(fd.get(), parts, tmp);
     if (durable && ::fdatasync(fd.get()) != 0) fail(tmp.string(), ": flush failed: ", why());
+    // Only a hint, so its failure is not an error.
+    if (!durable && start_writeback) ::sync_file_range(fd.get(), 0, 0, SYNC_FILE_RANGE_WRITE);
     if (::close(fd.release()) != 0) fail(tmp.string(), ": close failed: ", why());
     if (::rename(tmp.c_str(), file.c_str()) != 0)
       fail(file.string(), ": cannot rename ", tmp.filename().string(), " over it: ", why());

@@ -47,8 +47,10 @@ std::vector<uint8_t> read_whole_file(const std::filesystem::path& file);
 
 // Writes the concatenation of `parts` to `file` crash-safely (see above). With durable = false the
 // flushes are skipped: still atomic against a killed process, not against power loss.
+// start_writeback (without durable): ask the kernel to begin writing the data to disk now,
+// without waiting, so that a later flush (sync_files) finds little left to do.
 void write_file_atomically(const std::filesystem::path& file, std::span<const ConstBuffer> parts,
-                           bool durable);
+                           bool durable, bool start_writeback = false);
 // Flushes a file's data (fdatasync) so that it survives power loss; its folder entry needs
 // sync_directory as well.
 void sync_file(const std::filesystem::path& file);

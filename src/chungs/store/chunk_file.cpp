@@ -187,7 +187,7 @@ ChunkFileInfo write_chunk_file(const fs::path& file, ChunkId id, const GaussianB
   }
   h.payload_checksum = sum.digest();
   h.header_checksum = xxh64(&h, kChecksummedHeaderBytes);
-  write_file_atomically(file, parts, opt.durable);
+  write_file_atomically(file, parts, opt.durable, opt.start_writeback);
   return info_of(h, sizeof h + h.payload_bytes);
 }
 

@@ -33,6 +33,7 @@ struct ChunkWriteOptions {
   bool durable = true;    // flush file and folder (survives power loss, not just a killed process)
   bool half_moments = false;  // Adam moments as binary16 (see chunk_codec.hpp)
   bool half_sh_rest = false;  // SH coefficients beyond DC as binary16
+  bool start_writeback = false;  // without durable: start writing to disk now, do not wait
 };
 
 struct ChunkFileInfo {

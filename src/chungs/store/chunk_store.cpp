@@ -143,8 +143,10 @@ void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
     return;
   }
   chunk_coord(id);  // rejects ids that no coordinate produces
+  // The write starts its way to the disk at once (on the I/O thread when written behind), so the
+  // next commit's barrier mostly waits for what is already done.
   const ChunkWriteOptions opt{config_.compress,     config_.zstd_level,   config_.shuffle, false,
-                              config_.half_moments, config_.half_sh_rest};
+                              config_.half_moments, config_.half_sh_rest, config_.durable};
   uint64_t generation;
   {
     std::lock_guard lock(mutex_);
