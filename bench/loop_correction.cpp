@@ -7,10 +7,12 @@
 //   corrected  the drifted run, then one loop-closure event at the last frame moves every keyframe
 //              to its ground-truth pose (Mapper::correct_poses), refines the junction, and goes on.
 // All three make the same number of optimisation steps. Also times the correction in batch and
-// chunk by chunk (the same event replayed with batching off).
+// chunk by chunk (a fourth run with batching off), and replays the event on a copy of the map
+// reopened under a budget of a quarter of the map (chunks loaded from and written to disk).
 //
 //   bench_loop_correction [--frames 132] [--rate 6] [--width 160] [--iters 10] [--final 300] [--refine 200]
-//                         [--drift 0.02] [--yaw-deg-per-m 0.5] [--chunk 1.0] [--out result.json]
+//                         [--drift 0.02] [--yaw-deg-per-m 0.5] [--chunk 1.0] [--seeds 1]
+//                         [--out result.json]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,6 +38,7 @@ struct Args {
   double rate = 6.0;    // frames per second of the 20 s loop
   int width = 160, iters = 10, final_iters = 300, refine = 200;
   double drift = 0.02, yaw_deg_per_m = 0.5, chunk = 1.0;
+  int seeds = 1;  // each variant is mapped with seeds 1..seeds (the GPU's float atomics add noise too)
   std::string out;
 };
 
@@ -101,8 +104,9 @@ std::vector<SE3> drifted(const std::vector<SE3>& gt, double drift, double yaw_de
   return out;
 }
 
-Config room_config(const Args& a) {
+Config room_config(const Args& a, uint64_t seed) {
   Config c;
+  c.mapper.seed = seed;
   c.loss = LossConfig::indoor();
   c.adam.lr_position = AdamConfig::indoor().lr_position;
   c.store.chunk_size = a.chunk;
@@ -119,15 +123,20 @@ struct RunResult {
   uint64_t gaussians = 0;
   size_t chunks = 0;
   PoseCorrectionStats corr;
+  // The same correction replayed on a copy of the map reopened under a small budget (a quarter of
+  // the map): chunk by chunk, with the chunks loaded from and written to disk.
+  PoseCorrectionStats replay;
+  size_t replay_budget = 0, replay_peak = 0;
+  uint64_t replay_loads = 0, replay_saves = 0;
 };
 
 // Maps every non-held-out frame as a keyframe on `poses` with `iters` steps each; with `correct`,
 // the last keyframe closes the loop: all keyframes move to ground truth and the junction (the last
 // keyframe and the first) is refined for `refine` steps; without, the same steps are plain steps.
 RunResult run(const RoomFrames& data, const std::vector<SE3>& poses, const std::vector<SE3>& gt, const Args& a,
-              const fs::path& folder, bool correct, bool batch) {
+              const fs::path& folder, bool correct, bool batch, uint64_t seed) {
   const auto t0 = std::chrono::steady_clock::now();
-  const Config c = room_config(a);
+  const Config c = room_config(a, seed);
   RunResult r;
   {
     Mapper m(folder, c, false);
@@ -146,7 +155,25 @@ RunResult run(const RoomFrames& data, const std::vector<SE3>& poses, const std::
     if (correct) {
       std::vector<std::pair<uint32_t, SE3>> fix;
       for (const auto& k : m.keyframes()) fix.emplace_back(k.id, gt[k.frame]);
-      r.corr = m.correct_poses(fix, {m.keyframes().front().id, m.keyframes().back().id}, a.refine);
+      const std::vector<uint32_t> junction{m.keyframes().front().id, m.keyframes().back().id};
+      if (batch) {
+        m.checkpoint({});
+        const fs::path copy = folder.string() + "_replay";
+        fs::copy(folder, copy, fs::copy_options::recursive);
+        Config small = c;
+        small.residency.budget_gaussians = std::max<size_t>(1000, m.total_gaussians() / 4);
+        {
+          Mapper replay(copy, small, true);
+          const IoStats io0 = replay.io_stats();
+          r.replay = replay.correct_poses(fix, junction, 0);
+          r.replay_budget = replay.budget();
+          r.replay_peak = replay.peak_resident_gaussians();
+          r.replay_loads = replay.io_stats().loads - io0.loads;
+          r.replay_saves = replay.io_stats().saves - io0.saves;
+        }
+        fs::remove_all(copy);
+      }
+      r.corr = m.correct_poses(fix, junction, a.refine);
     } else {
       for (int k = 0; k < a.refine; ++k) m.step();
     }
@@ -181,6 +208,7 @@ int main(int argc, char** argv) {
       else if (k == "--drift") a.drift = std::stod(v);
       else if (k == "--yaw-deg-per-m") a.yaw_deg_per_m = std::stod(v);
       else if (k == "--chunk") a.chunk = std::stod(v);
+      else if (k == "--seeds") a.seeds = std::stoi(v);
       else if (k == "--out") a.out = v;
       else fail("unknown option ", k);
     }
@@ -199,36 +227,55 @@ int main(int argc, char** argv) {
                 100 * (dr.back().t - gt.back().t).norm() / path, end_err.angle() * 180 / M_PI);
     const fs::path tmp = fs::temp_directory_path() / ("chungs_bench_loop_" + std::to_string(::getpid()));
     fs::remove_all(tmp);
-    const RunResult g = run(data, gt, gt, a, tmp / "gt", false, true);
-    const RunResult d = run(data, dr, gt, a, tmp / "drifted", false, true);
-    const RunResult cb = run(data, dr, gt, a, tmp / "corrected", true, true);
-    const RunResult cs = run(data, dr, gt, a, tmp / "corrected_seq", true, false);
-    fs::remove_all(tmp);
-    auto line = [](const char* name, const RunResult& r) {
-      std::printf("%-26s PSNR %6.2f dB  SSIM %.4f  %8llu Gaussians  %4zu chunks  %6.1f s\n", name, r.psnr, r.ssim,
-                  (unsigned long long)r.gaussians, r.chunks, r.seconds);
-    };
-    std::printf("device %s; %d steps per keyframe, %d junction/extra steps, %d final steps\n", g.device.c_str(),
-                a.iters, a.refine, a.final_iters);
-    line("gt poses", g);
-    line("drifted, uncorrected", d);
-    line("drifted, corrected", cb);
-    line("drifted, corrected (seq)", cs);
-    for (const auto* r : {&cb, &cs})
-      std::printf("correction (%s): %zu keyframes, %zu Gaussians moved, %zu changed chunk, %zu chunks touched "
-                  "(%zu new), %zu junction Gaussians; apply %.1f ms, refine %.1f ms\n",
-                  r->corr.batch ? "batch" : "chunk by chunk", r->corr.keyframes, r->corr.gaussians_moved,
-                  r->corr.gaussians_changed_chunk, r->corr.chunks_touched, r->corr.chunks_created,
-                  r->corr.junction_gaussians, r->corr.apply_ms, r->corr.refine_ms);
+    const char* names[4] = {"gt poses", "drifted, uncorrected", "drifted, corrected", "drifted, corrected (seq)"};
+    const char* keys[4] = {"gt", "drifted", "corrected", "corrected_seq"};
+    std::vector<RunResult> res[4];
+    for (int seed = 1; seed <= a.seeds; ++seed) {
+      res[0].push_back(run(data, gt, gt, a, tmp / "gt", false, true, seed));
+      res[1].push_back(run(data, dr, gt, a, tmp / "drifted", false, true, seed));
+      res[2].push_back(run(data, dr, gt, a, tmp / "corrected", true, true, seed));
+      res[3].push_back(run(data, dr, gt, a, tmp / "corrected_seq", true, false, seed));
+      fs::remove_all(tmp);
+    }
+    std::printf("device %s; %d steps per keyframe, %d junction/extra steps, %d final steps, seeds 1..%d\n",
+                res[0][0].device.c_str(), a.iters, a.refine, a.final_iters, a.seeds);
+    nlohmann::json out{{"args", {{"frames", a.frames}, {"rate", a.rate}, {"width", a.width}, {"iters", a.iters},
+                                 {"final", a.final_iters}, {"refine", a.refine}, {"drift", a.drift},
+                                 {"yaw_deg_per_m", a.yaw_deg_per_m}, {"chunk", a.chunk}, {"seeds", a.seeds}}},
+                       {"device", res[0][0].device}};
+    for (int v = 0; v < 4; ++v) {
+      double psnr = 0, ssim = 0;
+      nlohmann::json runs = nlohmann::json::array();
+      for (const RunResult& r : res[v]) {
+        std::printf("%-26s PSNR %6.2f dB  SSIM %.4f  %8llu Gaussians  %4zu chunks  %6.1f s\n", names[v], r.psnr,
+                    r.ssim, (unsigned long long)r.gaussians, r.chunks, r.seconds);
+        psnr += r.psnr / a.seeds;
+        ssim += r.ssim / a.seeds;
+        runs.push_back({{"psnr", r.psnr}, {"ssim", r.ssim}, {"gaussians", r.gaussians}, {"chunks", r.chunks},
+                        {"seconds", r.seconds}, {"correction", r.corr.to_json()}});
+      }
+      std::printf("%-26s mean PSNR %6.2f dB  SSIM %.4f\n", names[v], psnr, ssim);
+      out[keys[v]] = {{"mean_psnr", psnr}, {"mean_ssim", ssim}, {"runs", runs}};
+    }
+    for (int v = 2; v < 4; ++v)
+      for (const RunResult& r : res[v])
+        std::printf("correction (%s): %zu keyframes, %zu Gaussians moved, %zu changed chunk, %zu chunks touched "
+                    "(%zu new), %zu junction Gaussians; apply %.1f ms, refine %.1f ms\n",
+                    r.corr.batch ? "batch" : "chunk by chunk", r.corr.keyframes, r.corr.gaussians_moved,
+                    r.corr.gaussians_changed_chunk, r.corr.chunks_touched, r.corr.chunks_created,
+                    r.corr.junction_gaussians, r.corr.apply_ms, r.corr.refine_ms);
+    nlohmann::json replays = nlohmann::json::array();
+    for (const RunResult& r : res[2]) {
+      std::printf("replayed under a budget of %zu (peak resident %zu): %s, %zu Gaussians moved, %zu changed chunk, "
+                  "%llu chunk loads, %llu saves; apply %.1f ms\n",
+                  r.replay_budget, r.replay_peak, r.replay.batch ? "batch" : "chunk by chunk", r.replay.gaussians_moved,
+                  r.replay.gaussians_changed_chunk, (unsigned long long)r.replay_loads,
+                  (unsigned long long)r.replay_saves, r.replay.apply_ms);
+      replays.push_back({{"budget", r.replay_budget}, {"peak_resident", r.replay_peak}, {"loads", r.replay_loads},
+                         {"saves", r.replay_saves}, {"correction", r.replay.to_json()}});
+    }
+    out["replay_small_budget"] = replays;
     if (!a.out.empty()) {
-      auto j = [](const RunResult& r) {
-        return nlohmann::json{{"psnr", r.psnr}, {"ssim", r.ssim}, {"gaussians", r.gaussians}, {"chunks", r.chunks},
-                              {"seconds", r.seconds}, {"correction", r.corr.to_json()}};
-      };
-      const nlohmann::json out{{"args", {{"frames", a.frames}, {"rate", a.rate}, {"width", a.width},
-                                          {"iters", a.iters}, {"final", a.final_iters}, {"refine", a.refine},
-                                          {"drift", a.drift}, {"yaw_deg_per_m", a.yaw_deg_per_m}, {"chunk", a.chunk}}},
-                               {"device", g.device}, {"gt", j(g)}, {"drifted", j(d)}, {"corrected", j(cb)}, {"corrected_seq", j(cs)}};
       FILE* f = std::fopen(a.out.c_str(), "w");
       if (!f) fail("cannot write ", a.out);
       std::fputs(out.dump(2).c_str(), f);
