@@ -142,6 +142,34 @@ TEST(MapperCorrection, BatchAndChunkByChunkGiveTheSameMapAndResumeUndoes) {
   EXPECT_LT(worst, 1e-5);
 }
 
+// A folder saved before the keyframe->chunk index existed: the correction visits every chunk and
+// still moves every Gaussian of the corrected keyframes.
+TEST(MapperCorrection, MapWithoutSavedIndexVisitsEveryChunk) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const Config c = tiny_config(200'000);
+  map_wall(dir / "m", c, 6);
+  const auto run_state = dir / "m" / "run_state.json";
+  nlohmann::json j = read_json_file(run_state);
+  ASSERT_TRUE(j.contains("keyframe_chunks"));
+  j.erase("keyframe_chunks");
+  write_json_atomically(run_state, j, false);
+  const auto before = stored(dir / "m", c.store.chunk_size, UINT32_MAX);
+  size_t of_moved = 0;
+  for (const auto& [k, v] : before) of_moved += k[0] >= 3;
+  size_t chunks = 0;
+  {
+    Mapper m(dir / "m", c, true);
+    chunks = m.chunk_count();
+    const PoseCorrectionStats s = m.correct_poses(shifted(m, 3, kDelta), {}, 0);
+    EXPECT_EQ(s.gaussians_moved, of_moved);
+    EXPECT_GE(s.chunks_touched, chunks);
+    m.checkpoint({});
+  }
+  const auto after = stored(dir / "m", c.store.chunk_size, 0);  // every chunk was visited: all filed
+  EXPECT_EQ(after.size(), before.size());
+}
+
 TEST(MapperCorrection, JunctionIsResetAndRefined) {
   log::set_level(log::Level::Warn);
   test::TempDir dir;
