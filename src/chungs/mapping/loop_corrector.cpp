@@ -166,14 +166,12 @@ class Corrector {
 
   PoseCorrectionStats run(std::span<const ChunkId> candidates) {
     const auto t0 = std::chrono::steady_clock::now();
-    uint64_t total = 0;
     for (ChunkId c : candidates)
-      if (res_.count(c) > 0 && std::find(todo_.begin(), todo_.end(), c) == todo_.end()) {
-        todo_.push_back(c);
-        total += res_.count(c);
-      }
+      if (res_.count(c) > 0) todo_.push_back(c);
     std::sort(todo_.begin(), todo_.end());
-    pending_set_.insert(todo_.begin(), todo_.end());
+    todo_.erase(std::unique(todo_.begin(), todo_.end()), todo_.end());
+    uint64_t total = 0;
+    for (ChunkId c : todo_) total += res_.count(c);
     const size_t old_budget = res_.budget();
     stats_.batch = corr_.allow_batch && res_.pinned_gaussians() + total <= res_.pool().capacity();
     if (stats_.batch) {
@@ -286,11 +284,18 @@ class Corrector {
     for (auto& [dest, moved] : leaving) {
       stats_.gaussians_changed_chunk += moved.size();
       // A destination still to be visited must not see them (they would move twice).
-      const bool later = pending_set_.count(dest) > 0 && visited_before(dest, position) == false;
-      if (!later && add_to(dest, moved).ok) continue;
+      const bool later = visited_after(dest, position);
+      if (!later && fits(dest, moved.size()) && add_to(dest, moved).ok) continue;
       GaussianBlock& w = waiting_[dest];
       for (size_t i = 0; i < moved.size(); ++i) w.append(moved, i);
     }
+  }
+
+  // Whether `n` more Gaussians fit into `dest` beside the pinned chunks now (asked first, so that a
+  // full residency defers them to the end instead of refusing with a warning).
+  bool fits(ChunkId dest, size_t n) const {
+    const uint64_t need = res_.pinned_gaussians() + (res_.is_pinned(dest) ? 0 : res_.count(dest)) + n;
+    return need <= res_.budget();
   }
 
   const ShRotation& sh_of(uint32_t kf, const SE3& delta) {
@@ -308,10 +313,10 @@ class Corrector {
     return chunk_id_of(p, size_);
   }
 
-  // Whether chunk `dest` of the to-do list comes at or before position `current`.
-  bool visited_before(ChunkId dest, size_t current) const {
+  // Whether chunk `dest` is on the to-do list after position `current` (still to be visited).
+  bool visited_after(ChunkId dest, size_t current) const {
     const auto it = std::lower_bound(todo_.begin(), todo_.end(), dest);
-    return it != todo_.end() && *it == dest && size_t(it - todo_.begin()) <= current;
+    return it != todo_.end() && *it == dest && size_t(it - todo_.begin()) > current;
   }
 
   Residency& res_;
@@ -319,7 +324,7 @@ class Corrector {
   const PoseCorrection& corr_;
   KeyframeChunkIndex& index_;
   std::vector<ChunkId> todo_;  // sorted: visiting order
-  std::unordered_set<ChunkId> pending_set_, touched_;
+  std::unordered_set<ChunkId> touched_;
   std::map<ChunkId, GaussianBlock> waiting_;
   std::unordered_map<uint32_t, ShRotation> sh_;  // per moved keyframe, computed on first use
   PoseCorrectionStats stats_;

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <unordered_set>
+#include <unordered_map>
 
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/mapper.hpp"
@@ -13,10 +13,12 @@ namespace chungs {
 PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, SE3>>& new_poses,
                                           const std::vector<uint32_t>& junction, int refine_iterations) {
   if (refine_iterations < 0) fail("mapper: loop correction: refine_iterations must be >= 0, got ", refine_iterations);
+  std::unordered_map<uint32_t, size_t> position;  // keyframe id -> index in keyframes_
+  for (size_t i = 0; i < keyframes_.size(); ++i) position.emplace(keyframes_[i].id, i);
   auto record_of = [&](uint32_t id, const char* what) -> KeyframeRecord& {
-    const auto it = std::find_if(keyframes_.begin(), keyframes_.end(), [&](const auto& k) { return k.id == id; });
-    if (it == keyframes_.end()) fail("mapper: loop correction: ", what, " keyframe ", id, " is not in the map");
-    return *it;
+    const auto it = position.find(id);
+    if (it == position.end()) fail("mapper: loop correction: ", what, " keyframe ", id, " is not in the map");
+    return keyframes_[it->second];
   };
   PoseCorrection pc;
   pc.allow_batch = loop_batch_allowed_;
