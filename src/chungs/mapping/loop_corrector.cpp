@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <Eigen/Dense>
 #include <map>
+#include <optional>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
@@ -185,7 +186,9 @@ class Corrector {
         }
       }
     }
-    Progress progress("loop correction", (long long)todo_.size());
+    // Only a large event gets a progress bar: bundle-adjustment updates come every few keyframes.
+    std::optional<Progress> progress;
+    if (todo_.size() >= 200) progress.emplace("loop correction", (long long)todo_.size());
     try {
       for (size_t i = 0; i < todo_.size(); ++i) {
         const ChunkId c = todo_[i];
@@ -196,7 +199,7 @@ class Corrector {
         }
         visit(c, i);
         if (!stats_.batch) res_.unpin(std::span<const ChunkId>(&c, 1));
-        progress.step();
+        if (progress) progress->step();
       }
     } catch (...) {
       if (stats_.batch) {
@@ -205,7 +208,7 @@ class Corrector {
       }
       throw;
     }
-    progress.finish();
+    if (progress) progress->finish();
     if (stats_.batch) res_.unpin(todo_);
     // Every chunk has been visited: the Gaussians that waited for theirs can go in now.
     for (auto& [dest, block] : waiting_) {

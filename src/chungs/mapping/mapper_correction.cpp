@@ -73,11 +73,16 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
       step_keyframe(order[size_t(i) % order.size()]);
   }
   stats.refine_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  log::info("loop correction: ", stats.keyframes, " keyframes, ", stats.gaussians_moved, " Gaussians moved (",
+  const std::string msg = cat("loop correction: ", stats.keyframes, " keyframes, ", stats.gaussians_moved, " Gaussians moved (",
             stats.gaussians_changed_chunk, " to another chunk) over ", stats.chunks_touched, " chunks (",
             stats.chunks_created, " new), ", stats.batch ? "batch" : "chunk by chunk", ", ", stats.apply_ms,
             " ms; ", stats.junction_gaussians, " junction Gaussians refined for ", refine_iterations, " steps in ",
             stats.refine_ms, " ms");
+  // A loop closure (with a junction) is news; the small updates of local bundle adjustment are not.
+  if (pc.junction.empty())
+    log::debug(msg);
+  else
+    log::info(msg);
   return stats;
 }
 
