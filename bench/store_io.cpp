@@ -120,19 +120,23 @@ void BM_ChunkLoad(benchmark::State& st) {
 
 // A checkpoint: `chunks` chunks of `gaussians` each are saved, then the map is made durable.
 // mode 0, the former way: every save flushed (fdatasync of the file, fsync of the folder) and the
-// manifest written durably; mode 1, ChunkStore: saves unflushed, one barrier in commit(). Time
-// per chunk, barrier included.
+// manifest written durably; mode 1, ChunkStore: saves unflushed, one barrier in commit(); mode 2:
+// as 1 with half-precision moments and SH rest. Time per chunk, barrier included.
 void BM_Checkpoint(benchmark::State& st) {
   const size_t n = size_t(st.range(0));
   const int chunks = int(st.range(1));
-  const bool store_mode = st.range(2);
+  const bool store_mode = st.range(2) >= 1;
   std::vector<GaussianBlock> blocks;
   for (int k = 0; k < chunks; ++k) blocks.push_back(make_block(n, true, uint64_t(k + 7)));
   const fs::path dir = bench_dir() / ("ckpt_" + std::to_string(n) + "_" + std::to_string(chunks) + "_" +
                                       std::to_string(store_mode));
   log::set_level(log::Level::Warn);
   std::unique_ptr<ChunkStore> store;
-  if (store_mode) store = std::make_unique<ChunkStore>(dir);
+  if (store_mode) {
+    ChunkStoreConfig cfg;
+    cfg.half_moments = cfg.half_sh_rest = st.range(2) == 2;
+    store = std::make_unique<ChunkStore>(dir, cfg);
+  }
   fs::create_directories(dir / "chunks");
   double barrier_ms = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -157,6 +161,44 @@ void BM_Checkpoint(benchmark::State& st) {
   st.counters["ms_per_chunk"] = ms / (double(chunks) * double(st.iterations()));
   st.counters["barrier_ms"] = barrier_ms / double(st.iterations());
   st.SetBytesProcessed(int64_t(st.iterations() * chunks * n * kChunkBytesPerGaussian));
+}
+
+// A mapper checkpoint: 48 resident chunks of 10 k Gaussians (480 k, 348 MB at full precision),
+// all modified, are written by Residency::flush() and committed; `threads` writer threads (1: the
+// I/O thread alone), `half` = half_moments + half_sh_rest. Time of the flush (the caller waits).
+void BM_Flush(benchmark::State& st) {
+  const int threads = int(st.range(0));
+  const bool half = st.range(1);
+  constexpr int kResident = 48;
+  constexpr size_t kPer = 10'000;
+  const fs::path dir = bench_dir() / ("flush_" + std::to_string(threads) + std::to_string(half));
+  log::set_level(log::Level::Warn);
+  fs::remove_all(dir);
+  ChunkStoreConfig sc;
+  sc.half_moments = sc.half_sh_rest = half;
+  ChunkStore store(dir, sc);
+  CpuGaussianPool pool(kResident * kPer);
+  ResidencyConfig rc;
+  rc.budget_gaussians = kResident * kPer;
+  rc.flush_threads = threads;
+  Residency res(store, pool, rc);
+  std::vector<ChunkId> ids;
+  for (int x = 0; x < kResident; ++x) {
+    ids.push_back(chunk_id({x, 0, 0}));
+    if (!res.add(ids.back(), make_block(kPer, true, uint64_t(x))).ok) st.SkipWithError("add failed");
+  }
+  res.flush();
+  store.counters().reset();
+  for (auto _ : st) {
+    st.PauseTiming();
+    res.mark_dirty(ids);
+    st.ResumeTiming();
+    res.flush();
+  }
+  const IoStats s = store.counters().snapshot();
+  st.counters["MB_per_flush"] = double(s.bytes_written) / 1e6 / double(st.iterations());
+  st.counters["barrier_ms"] = s.barrier_ms / double(st.iterations());
+  st.counters["GB_per_s"] = benchmark::Counter(double(s.bytes_written) / 1e9, benchmark::Counter::kIsRate);
 }
 
 // A camera drives along a corridor of 160 chunks of 2 k Gaussians; each step pins the 7 chunks
@@ -238,8 +280,12 @@ BENCHMARK(BM_ChunkLoad)
 BENCHMARK(BM_Checkpoint)
     ->ArgNames({"gaussians", "chunks", "store"})
     ->Args({2000, 1, 0})->Args({2000, 1, 1})->Args({2000, 16, 0})->Args({2000, 16, 1})
-    ->Args({10000, 16, 0})->Args({10000, 16, 1})
+    ->Args({2000, 16, 2})->Args({10000, 16, 0})->Args({10000, 16, 1})->Args({10000, 16, 2})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_Flush)
+    ->ArgNames({"threads", "half"})
+    ->Args({1, 0})->Args({4, 0})->Args({8, 0})->Args({1, 1})->Args({4, 1})->Args({8, 1})
+    ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK(BM_ResidencyStream)
     ->ArgNames({"async", "prefetch"})
     ->Args({0, 0})->Args({1, 0})->Args({1, 1})

@@ -5,6 +5,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/residency/parallel_save.hpp"
 
 namespace chungs {
 
@@ -317,14 +318,27 @@ void Residency::evict_all_unpinned() {
 void Residency::flush() {
   ScopedTimer t(store_.counters().checkpoint_ns);  // the caller is blocked for all of it
   store_.counters().checkpoints++;
-  for (auto& [id, e] : resident_) {
-    if (!e.dirty) continue;
-    auto block = std::make_shared<GaussianBlock>();
-    pool_.gather(e.slots, *block);
-    io_->write_behind(id, std::move(block));
-    e.dirty = false;
+  if (config_.async_io && config_.flush_threads > 1) {
+    // Queued writes first: a resident chunk may have an older version still queued, which must
+    // not land after the one written here.
+    io_->drain();
+    std::vector<ChunkId> dirty;
+    for (const auto& [id, e] : resident_)
+      if (e.dirty) dirty.push_back(id);
+    save_chunks_in_parallel(
+        store_, dirty, [&](size_t k, GaussianBlock& b) { pool_.gather(resident_.at(dirty[k]).slots, b); },
+        config_.flush_threads);
+    for (ChunkId id : dirty) resident_.at(id).dirty = false;
+  } else {
+    for (auto& [id, e] : resident_) {
+      if (!e.dirty) continue;
+      auto block = std::make_shared<GaussianBlock>();
+      pool_.gather(e.slots, *block);
+      io_->write_behind(id, std::move(block));
+      e.dirty = false;
+    }
+    io_->drain();
   }
-  io_->drain();
   store_.commit();
 }
 

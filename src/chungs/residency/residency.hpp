@@ -32,6 +32,7 @@ struct ResidencyConfig {
   // the budget, at least 10 000: host memory then stays in proportion to the budget, not the map.
   size_t prefetch_max_gaussians = 0;      // read ahead into host memory at most this many
   size_t write_behind_max_gaussians = 0;  // queued for writing before eviction waits
+  int flush_threads = 4;  // threads writing the modified resident chunks at flush() (async_io only)
 };
 
 struct PinResult {
@@ -71,8 +72,9 @@ class Residency {
   // Evicts one unpinned resident chunk now (writing it behind when dirty).
   void evict(ChunkId id);
   void evict_all_unpinned();
-  // Queues every dirty chunk for writing (they stay resident, now clean), waits until all are
-  // on disk and commits the manifest. After flush() the folder holds the whole map.
+  // Writes every dirty chunk (they stay resident, now clean; with async_io on flush_threads
+  // threads, after the write-behind queue has drained) and commits the manifest (the durability
+  // barrier). After flush() the folder holds the whole map.
   void flush();
   // Changes the budget (e.g. raised during loop closure); lowering evicts unpinned chunks.
   // Returns false (and changes nothing) when pinned chunks alone exceed the new budget.
