@@ -13,13 +13,14 @@
 //   bench_loop_correction [--frames 132] [--rate 6] [--width 160] [--iters 10] [--final 300] [--refine 200]
 //                         [--drift 0.02] [--yaw-deg-per-m 0.5] [--chunk 1.0] [--seeds 1]
 //                         [--out result.json]
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <string>
-#include <unistd.h>
 
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/evaluation.hpp"
@@ -95,8 +96,9 @@ std::vector<SE3> drifted(const std::vector<SE3>& gt, double drift, double yaw_de
       const double step = (gt[i].t - gt[i - 1].t).norm();
       // Rotating about the current position keeps the error local to the path.
       const SE3 about(Eigen::Quaterniond::Identity(), gt[i].t);
-      const SE3 yaw(Eigen::Quaterniond(Eigen::AngleAxisd(yaw_deg_per_m * step * M_PI / 180, Eigen::Vector3d::UnitZ())),
-                    drift * step * dir);
+      const SE3 yaw(
+          Eigen::Quaterniond(Eigen::AngleAxisd(yaw_deg_per_m * step * M_PI / 180, Eigen::Vector3d::UnitZ())),
+          drift * step * dir);
       err = about * yaw * about.inverse() * err;
     }
     out.push_back(err * gt[i]);
@@ -133,8 +135,8 @@ struct RunResult {
 // Maps every non-held-out frame as a keyframe on `poses` with `iters` steps each; with `correct`,
 // the last keyframe closes the loop: all keyframes move to ground truth and the junction (the last
 // keyframe and the first) is refined for `refine` steps; without, the same steps are plain steps.
-RunResult run(const RoomFrames& data, const std::vector<SE3>& poses, const std::vector<SE3>& gt, const Args& a,
-              const fs::path& folder, bool correct, bool batch, uint64_t seed) {
+RunResult run(const RoomFrames& data, const std::vector<SE3>& poses, const std::vector<SE3>& gt,
+              const Args& a, const fs::path& folder, bool correct, bool batch, uint64_t seed) {
   const auto t0 = std::chrono::steady_clock::now();
   const Config c = room_config(a, seed);
   RunResult r;
@@ -199,18 +201,30 @@ int main(int argc, char** argv) {
       const std::string k = argv[i];
       if (i + 1 >= argc) fail("option ", k, " needs a value");
       const char* v = argv[++i];
-      if (k == "--frames") a.frames = std::stoul(v);
-      else if (k == "--width") a.width = std::stoi(v);
-      else if (k == "--rate") a.rate = std::stod(v);
-      else if (k == "--iters") a.iters = std::stoi(v);
-      else if (k == "--final") a.final_iters = std::stoi(v);
-      else if (k == "--refine") a.refine = std::stoi(v);
-      else if (k == "--drift") a.drift = std::stod(v);
-      else if (k == "--yaw-deg-per-m") a.yaw_deg_per_m = std::stod(v);
-      else if (k == "--chunk") a.chunk = std::stod(v);
-      else if (k == "--seeds") a.seeds = std::stoi(v);
-      else if (k == "--out") a.out = v;
-      else fail("unknown option ", k);
+      if (k == "--frames")
+        a.frames = std::stoul(v);
+      else if (k == "--width")
+        a.width = std::stoi(v);
+      else if (k == "--rate")
+        a.rate = std::stod(v);
+      else if (k == "--iters")
+        a.iters = std::stoi(v);
+      else if (k == "--final")
+        a.final_iters = std::stoi(v);
+      else if (k == "--refine")
+        a.refine = std::stoi(v);
+      else if (k == "--drift")
+        a.drift = std::stod(v);
+      else if (k == "--yaw-deg-per-m")
+        a.yaw_deg_per_m = std::stod(v);
+      else if (k == "--chunk")
+        a.chunk = std::stod(v);
+      else if (k == "--seeds")
+        a.seeds = std::stoi(v);
+      else if (k == "--out")
+        a.out = v;
+      else
+        fail("unknown option ", k);
     }
     log::set_level(log::Level::Warn);
     const RoomFrames data(a);
@@ -222,12 +236,14 @@ int main(int argc, char** argv) {
     }
     const std::vector<SE3> dr = drifted(gt, a.drift, a.yaw_deg_per_m);
     const SE3 end_err = dr.back() * gt.back().inverse();
-    std::printf("room: %zu frames at %dx%d, path %.2f m; drift at the end %.3f m (%.2f %% of the path), %.2f deg\n",
-                data.size(), a.width, a.width * 3 / 4, path, (dr.back().t - gt.back().t).norm(),
-                100 * (dr.back().t - gt.back().t).norm() / path, end_err.angle() * 180 / M_PI);
+    std::printf(
+        "room: %zu frames at %dx%d, path %.2f m; drift at the end %.3f m (%.2f %% of the path), %.2f deg\n",
+        data.size(), a.width, a.width * 3 / 4, path, (dr.back().t - gt.back().t).norm(),
+        100 * (dr.back().t - gt.back().t).norm() / path, end_err.angle() * 180 / M_PI);
     const fs::path tmp = fs::temp_directory_path() / ("chungs_bench_loop_" + std::to_string(::getpid()));
     fs::remove_all(tmp);
-    const char* names[4] = {"gt poses", "drifted, uncorrected", "drifted, corrected", "drifted, corrected (seq)"};
+    const char* names[4] = {"gt poses", "drifted, uncorrected", "drifted, corrected",
+                            "drifted, corrected (seq)"};
     const char* keys[4] = {"gt", "drifted", "corrected", "corrected_seq"};
     std::vector<RunResult> res[4];
     for (int seed = 1; seed <= a.seeds; ++seed) {
@@ -239,40 +255,57 @@ int main(int argc, char** argv) {
     }
     std::printf("device %s; %d steps per keyframe, %d junction/extra steps, %d final steps, seeds 1..%d\n",
                 res[0][0].device.c_str(), a.iters, a.refine, a.final_iters, a.seeds);
-    nlohmann::json out{{"args", {{"frames", a.frames}, {"rate", a.rate}, {"width", a.width}, {"iters", a.iters},
-                                 {"final", a.final_iters}, {"refine", a.refine}, {"drift", a.drift},
-                                 {"yaw_deg_per_m", a.yaw_deg_per_m}, {"chunk", a.chunk}, {"seeds", a.seeds}}},
+    nlohmann::json out{{"args",
+                        {{"frames", a.frames},
+                         {"rate", a.rate},
+                         {"width", a.width},
+                         {"iters", a.iters},
+                         {"final", a.final_iters},
+                         {"refine", a.refine},
+                         {"drift", a.drift},
+                         {"yaw_deg_per_m", a.yaw_deg_per_m},
+                         {"chunk", a.chunk},
+                         {"seeds", a.seeds}}},
                        {"device", res[0][0].device}};
     for (int v = 0; v < 4; ++v) {
       double psnr = 0, ssim = 0;
       nlohmann::json runs = nlohmann::json::array();
       for (const RunResult& r : res[v]) {
-        std::printf("%-26s PSNR %6.2f dB  SSIM %.4f  %8llu Gaussians  %4zu chunks  %6.1f s\n", names[v], r.psnr,
-                    r.ssim, (unsigned long long)r.gaussians, r.chunks, r.seconds);
+        std::printf("%-26s PSNR %6.2f dB  SSIM %.4f  %8llu Gaussians  %4zu chunks  %6.1f s\n", names[v],
+                    r.psnr, r.ssim, (unsigned long long)r.gaussians, r.chunks, r.seconds);
         psnr += r.psnr / a.seeds;
         ssim += r.ssim / a.seeds;
-        runs.push_back({{"psnr", r.psnr}, {"ssim", r.ssim}, {"gaussians", r.gaussians}, {"chunks", r.chunks},
-                        {"seconds", r.seconds}, {"correction", r.corr.to_json()}});
+        runs.push_back({{"psnr", r.psnr},
+                        {"ssim", r.ssim},
+                        {"gaussians", r.gaussians},
+                        {"chunks", r.chunks},
+                        {"seconds", r.seconds},
+                        {"correction", r.corr.to_json()}});
       }
       std::printf("%-26s mean PSNR %6.2f dB  SSIM %.4f\n", names[v], psnr, ssim);
       out[keys[v]] = {{"mean_psnr", psnr}, {"mean_ssim", ssim}, {"runs", runs}};
     }
     for (int v = 2; v < 4; ++v)
       for (const RunResult& r : res[v])
-        std::printf("correction (%s): %zu keyframes, %zu Gaussians moved, %zu changed chunk, %zu chunks touched "
-                    "(%zu new), %zu junction Gaussians; apply %.1f ms, refine %.1f ms\n",
-                    r.corr.batch ? "batch" : "chunk by chunk", r.corr.keyframes, r.corr.gaussians_moved,
-                    r.corr.gaussians_changed_chunk, r.corr.chunks_touched, r.corr.chunks_created,
-                    r.corr.junction_gaussians, r.corr.apply_ms, r.corr.refine_ms);
+        std::printf(
+            "correction (%s): %zu keyframes, %zu Gaussians moved, %zu changed chunk, %zu chunks touched "
+            "(%zu new), %zu junction Gaussians; apply %.1f ms, refine %.1f ms\n",
+            r.corr.batch ? "batch" : "chunk by chunk", r.corr.keyframes, r.corr.gaussians_moved,
+            r.corr.gaussians_changed_chunk, r.corr.chunks_touched, r.corr.chunks_created,
+            r.corr.junction_gaussians, r.corr.apply_ms, r.corr.refine_ms);
     nlohmann::json replays = nlohmann::json::array();
     for (const RunResult& r : res[2]) {
-      std::printf("replayed under a budget of %zu (peak resident %zu): %s, %zu Gaussians moved, %zu changed chunk, "
-                  "%llu chunk loads, %llu saves; apply %.1f ms\n",
-                  r.replay_budget, r.replay_peak, r.replay.batch ? "batch" : "chunk by chunk", r.replay.gaussians_moved,
-                  r.replay.gaussians_changed_chunk, (unsigned long long)r.replay_loads,
-                  (unsigned long long)r.replay_saves, r.replay.apply_ms);
-      replays.push_back({{"budget", r.replay_budget}, {"peak_resident", r.replay_peak}, {"loads", r.replay_loads},
-                         {"saves", r.replay_saves}, {"correction", r.replay.to_json()}});
+      std::printf(
+          "replayed under a budget of %zu (peak resident %zu): %s, %zu Gaussians moved, %zu changed chunk, "
+          "%llu chunk loads, %llu saves; apply %.1f ms\n",
+          r.replay_budget, r.replay_peak, r.replay.batch ? "batch" : "chunk by chunk",
+          r.replay.gaussians_moved, r.replay.gaussians_changed_chunk, (unsigned long long)r.replay_loads,
+          (unsigned long long)r.replay_saves, r.replay.apply_ms);
+      replays.push_back({{"budget", r.replay_budget},
+                         {"peak_resident", r.replay_peak},
+                         {"loads", r.replay_loads},
+                         {"saves", r.replay_saves},
+                         {"correction", r.replay.to_json()}});
     }
     out["replay_small_budget"] = replays;
     if (!a.out.empty()) {

@@ -1,13 +1,14 @@
 // Loop correction on a chunked map held by a Residency: every Gaussian of a moved keyframe moves
 // exactly once (checked against a float64 reference), ends in the chunk of its new position, and
 // none is lost or duplicated, in batch mode and chunk by chunk under a small budget.
+#include "chungs/mapping/loop_corrector.hpp"
+
 #include <gtest/gtest.h>
 
 #include <map>
 #include <random>
 
 #include "chungs/common/log.hpp"
-#include "chungs/mapping/loop_corrector.hpp"
 #include "chungs/render/sh.hpp"
 #include "test_support.hpp"
 
@@ -134,8 +135,7 @@ PoseCorrectionStats check_correction(size_t budget, bool allow_batch, uint64_t s
   pc.allow_batch = allow_batch;
   std::vector<uint32_t> involved = {0, 1, 2, 3, 4, 5, 8};
   const auto candidates = map.index.chunks_of(involved);
-  const PoseCorrectionStats st =
-      apply_pose_correction(*map.residency, kChunk, pc, candidates, map.index);
+  const PoseCorrectionStats st = apply_pose_correction(*map.residency, kChunk, pc, candidates, map.index);
   EXPECT_LE(map.residency->resident_gaussians(), budget);
   map.residency->flush();
   const auto found = read_back(*map.store);
@@ -158,18 +158,21 @@ PoseCorrectionStats check_correction(size_t budget, bool allow_batch, uint64_t s
       q = d->second.q * q;  // Hamilton product in float64
       ++moved;
     }
-    const Eigen::Vector3d orig(all.params.mean[3 * i], all.params.mean[3 * i + 1], all.params.mean[3 * i + 2]);
+    const Eigen::Vector3d orig(all.params.mean[3 * i], all.params.mean[3 * i + 1],
+                               all.params.mean[3 * i + 2]);
     if (chunk_id_of(orig, kChunk) != it->second.chunk) ++changed;
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(g.params.mean[a], p[a], 2e-5) << "mean of Gaussian " << i;
     const double qe[4] = {q.w(), q.x(), q.y(), q.z()};
-    for (int a = 0; a < 4; ++a) EXPECT_NEAR(g.params.rotation[a], qe[a], 2e-5) << "rotation of Gaussian " << i;
+    for (int a = 0; a < 4; ++a)
+      EXPECT_NEAR(g.params.rotation[a], qe[a], 2e-5) << "rotation of Gaussian " << i;
     for (int a = 0; a < 3; ++a) EXPECT_EQ(g.params.log_scale[a], all.params.log_scale[3 * i + a]);
     const float* sh0 = &all.params.sh[kShFloats * i];
     for (int k = 0; k < 3; ++k) EXPECT_EQ(g.params.sh[k], sh0[k]);  // DC
     if (d != pc.delta.end()) {
       // The colour the Gaussian showed along d it now shows along R d.
       const Eigen::Vector3d dir = random_direction(rng), rotated = d->second.rotation() * dir;
-      for (int c = 0; c < 3; ++c) EXPECT_NEAR(colour(g.params.sh.data(), rotated, c), colour(sh0, dir, c), 1e-5);
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(colour(g.params.sh.data(), rotated, c), colour(sh0, dir, c), 1e-5);
     } else {
       for (int k = 3; k < kShFloats; ++k) EXPECT_EQ(g.params.sh[k], sh0[k]);
     }
@@ -275,7 +278,8 @@ TEST(LoopCorrector, GaussianMovedIntoAChunkNotYetVisitedMovesOnce) {
     TestMap map(all, batch ? 10000 : 300);
     PoseCorrection pc;
     pc.allow_batch = batch;
-    for (const Eigen::Vector3d& shift : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(0, 0, 1)}) {
+    for (const Eigen::Vector3d& shift :
+         {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(0, 0, 1)}) {
       pc.delta = {{0u, SE3(Eigen::Quaterniond::Identity(), shift)}};
       const auto cand = map.index.chunks_of(std::vector<uint32_t>{0});
       const auto st = apply_pose_correction(*map.residency, kChunk, pc, cand, map.index);

@@ -58,9 +58,11 @@ std::map<Key, Value> stored(const std::filesystem::path& folder, double chunk_si
       const float* s = &b.params.log_scale[3 * i];
       const float* sh = &b.params.sh[size_t(kShFloats) * i];
       if (b.created_by_keyframe[i] >= check_from) {
-        EXPECT_EQ(chunk_id_of(Eigen::Vector3d(m[0], m[1], m[2]), chunk_size), c) << "Gaussian in the wrong chunk";
+        EXPECT_EQ(chunk_id_of(Eigen::Vector3d(m[0], m[1], m[2]), chunk_size), c)
+            << "Gaussian in the wrong chunk";
       }
-      const Key k{float(b.created_by_keyframe[i]), s[0], s[1], s[2], sh[0], sh[1], sh[2], b.params.opacity[i]};
+      const Key k{
+          float(b.created_by_keyframe[i]), s[0], s[1], s[2], sh[0], sh[1], sh[2], b.params.opacity[i]};
       EXPECT_TRUE(out.emplace(k, Value{double(c), m[0], m[1], m[2], r[0], r[1], r[2], r[3]}).second)
           << "two Gaussians with the same key (or one stored twice)";
     }
@@ -101,7 +103,8 @@ TEST(MapperCorrection, BatchAndChunkByChunkGiveTheSameMapAndResumeUndoes) {
     EXPECT_EQ(m.total_gaussians(), total);
     EXPECT_LE(m.peak_resident_gaussians(), cm.residency.budget_gaussians);
     EXPECT_EQ(m.budget(), cm.residency.budget_gaussians);
-    EXPECT_LT((m.keyframes()[7].pose.t - (kDelta * test::WallSequence(8).gt_pose(7).value()).t).norm(), 1e-12);
+    EXPECT_LT((m.keyframes()[7].pose.t - (kDelta * test::WallSequence(8).gt_pose(7).value()).t).norm(),
+              1e-12);
     m.checkpoint({{"next_frame", 8}});
   }
   std::printf("%zu Gaussians, %zu moved (%zu to another chunk), %zu chunks touched, %zu new\n", before.size(),
@@ -113,7 +116,8 @@ TEST(MapperCorrection, BatchAndChunkByChunkGiveTheSameMapAndResumeUndoes) {
   EXPECT_GT(sa.gaussians_changed_chunk, 100u);
   EXPECT_EQ(sa.gaussians_moved, sb.gaussians_moved);
   EXPECT_EQ(sa.gaussians_changed_chunk, sb.gaussians_changed_chunk);
-  const auto after_a = stored(dir / "a", c.store.chunk_size, 6), after_b = stored(dir / "b", c.store.chunk_size, 6);
+  const auto after_a = stored(dir / "a", c.store.chunk_size, 6),
+             after_b = stored(dir / "b", c.store.chunk_size, 6);
   EXPECT_TRUE(after_a == after_b);  // bit-identical whichever way the chunks were visited
   ASSERT_EQ(after_a.size(), before.size());
   size_t moved = 0;

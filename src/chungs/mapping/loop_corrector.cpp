@@ -1,9 +1,9 @@
 #include "chungs/mapping/loop_corrector.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <Eigen/Dense>
 #include <map>
 #include <optional>
 
@@ -81,7 +81,8 @@ KeyframeChunkIndex KeyframeChunkIndex::from_json(const nlohmann::json& j) {
       } catch (const std::exception&) {
         n = 0;
       }
-      if (s.empty() || n != s.size()) fail("keyframe chunk index: keyframe ", key, ": bad chunk id ", e.dump());
+      if (s.empty() || n != s.size())
+        fail("keyframe chunk index: keyframe ", key, ": bad chunk id ", e.dump());
       chunk_coord(ChunkId(c));  // rejects ids no coordinate produces
       idx.add(uint32_t(k), ChunkId(c));
     }
@@ -215,11 +216,13 @@ class Corrector {
       const PinResult pr = add_to(dest, block);
       if (!pr.ok)
         fail("loop correction: ", block.size(), " Gaussians moved into ", chunk_name(dest),
-             " do not fit beside its ", res_.count(dest), " under the budget of ", res_.budget(), ": ", pr.message);
+             " do not fit beside its ", res_.count(dest), " under the budget of ", res_.budget(), ": ",
+             pr.message);
     }
     if (stats_.batch && res_.budget() != old_budget) res_.set_budget(old_budget);
     stats_.chunks_touched = touched_.size();
-    stats_.apply_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    stats_.apply_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return stats_;
   }
 
@@ -249,7 +252,8 @@ class Corrector {
       GaussianParams& p = block.params;
       if (d != corr_.delta.end()) {
         transform_gaussian(d->second, &p.mean[3 * i], &p.rotation[4 * i]);
-        if (block.sh_degree > 0) rotate_sh(sh_of(kf, d->second), block.sh_degree, &p.sh[size_t(kShFloats) * i]);
+        if (block.sh_degree > 0)
+          rotate_sh(sh_of(kf, d->second), block.sh_degree, &p.sh[size_t(kShFloats) * i]);
         ++stats_.gaussians_moved;
       }
       if (junction) {
@@ -335,7 +339,8 @@ class Corrector {
 
 }  // namespace
 
-PoseCorrectionStats apply_pose_correction(Residency& residency, double chunk_size, const PoseCorrection& correction,
+PoseCorrectionStats apply_pose_correction(Residency& residency, double chunk_size,
+                                          const PoseCorrection& correction,
                                           std::span<const ChunkId> candidates, KeyframeChunkIndex& index) {
   if (!(chunk_size > 0)) fail("loop correction: chunk size must be positive, got ", chunk_size);
   for (const auto& [k, d] : correction.delta)

@@ -6,11 +6,11 @@
 //
 // Only the chunks that hold Gaussians of the moved keyframes are visited (KeyframeChunkIndex),
 // each exactly once; every Gaussian of a visited chunk is re-filed by its position (the optimiser
-// may have carried unmoved ones out of their chunk before). A Gaussian that leaves its chunk is appended to its new chunk right away when
-// that chunk will not be visited (or already was); when the destination is still to be visited it
-// waits in host memory until the visiting is over, so no Gaussian is transformed twice. Batch mode
-// pins all visited chunks at once under a temporarily raised budget (up to the pool's capacity);
-// when they do not fit, chunks are visited one at a time under the normal budget.
+// may have carried unmoved ones out of their chunk before). A Gaussian that leaves its chunk is appended to
+// its new chunk right away when that chunk will not be visited (or already was); when the destination is
+// still to be visited it waits in host memory until the visiting is over, so no Gaussian is transformed
+// twice. Batch mode pins all visited chunks at once under a temporarily raised budget (up to the pool's
+// capacity); when they do not fit, chunks are visited one at a time under the normal budget.
 #pragma once
 #include <cstdint>
 #include <nlohmann/json.hpp>
@@ -25,8 +25,8 @@
 namespace chungs {
 
 struct PoseCorrectionStats {
-  size_t keyframes = 0, gaussians_moved = 0, chunks_touched = 0, chunks_created = 0, gaussians_changed_chunk = 0,
-         junction_gaussians = 0;
+  size_t keyframes = 0, gaussians_moved = 0, chunks_touched = 0, chunks_created = 0,
+         gaussians_changed_chunk = 0, junction_gaussians = 0;
   bool batch = false;
   double apply_ms = 0, refine_ms = 0;
   nlohmann::json to_json() const;
@@ -63,7 +63,8 @@ struct PoseCorrection {
 // skipped) through the residency, so the pool (host or device) and the chunk files stay in step.
 // Junction Gaussians get the reset opacity and zero Adam moments and steps. The index learns the
 // new chunks of moved Gaussians. Fills every field of the stats but keyframes and refine_ms.
-PoseCorrectionStats apply_pose_correction(Residency& residency, double chunk_size, const PoseCorrection& correction,
+PoseCorrectionStats apply_pose_correction(Residency& residency, double chunk_size,
+                                          const PoseCorrection& correction,
                                           std::span<const ChunkId> candidates, KeyframeChunkIndex& index);
 
 // The rigid change of one Gaussian (exposed for tests): mean and rotation (w, x, y, z) in place.

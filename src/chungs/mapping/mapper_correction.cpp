@@ -12,7 +12,8 @@ namespace chungs {
 
 PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, SE3>>& new_poses,
                                           const std::vector<uint32_t>& junction, int refine_iterations) {
-  if (refine_iterations < 0) fail("mapper: loop correction: refine_iterations must be >= 0, got ", refine_iterations);
+  if (refine_iterations < 0)
+    fail("mapper: loop correction: refine_iterations must be >= 0, got ", refine_iterations);
   std::unordered_map<uint32_t, size_t> position;  // keyframe id -> index in keyframes_
   for (size_t i = 0; i < keyframes_.size(); ++i) position.emplace(keyframes_[i].id, i);
   auto record_of = [&](uint32_t id, const char* what) -> KeyframeRecord& {
@@ -73,11 +74,12 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
       step_keyframe(order[size_t(i) % order.size()]);
   }
   stats.refine_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  const std::string msg = cat("loop correction: ", stats.keyframes, " keyframes, ", stats.gaussians_moved, " Gaussians moved (",
-            stats.gaussians_changed_chunk, " to another chunk) over ", stats.chunks_touched, " chunks (",
-            stats.chunks_created, " new), ", stats.batch ? "batch" : "chunk by chunk", ", ", stats.apply_ms,
-            " ms; ", stats.junction_gaussians, " junction Gaussians refined for ", refine_iterations, " steps in ",
-            stats.refine_ms, " ms");
+  const std::string msg =
+      cat("loop correction: ", stats.keyframes, " keyframes, ", stats.gaussians_moved, " Gaussians moved (",
+          stats.gaussians_changed_chunk, " to another chunk) over ", stats.chunks_touched, " chunks (",
+          stats.chunks_created, " new), ", stats.batch ? "batch" : "chunk by chunk", ", ", stats.apply_ms,
+          " ms; ", stats.junction_gaussians, " junction Gaussians refined for ", refine_iterations,
+          " steps in ", stats.refine_ms, " ms");
   // A loop closure (with a junction) is news; the small updates of local bundle adjustment are not.
   if (pc.junction.empty())
     log::debug(msg);
