@@ -11,6 +11,7 @@
 #include "chungs/synth/room.hpp"
 #include "chungs/synth/sequence.hpp"
 #include "command.hpp"
+#include "presets.hpp"
 
 namespace chungs::app {
 namespace {
@@ -58,8 +59,7 @@ int run_demo(const DemoArgs& a) {
   o.poses = "gt";
   o.out = map;
   Config& c = o.config;
-  c.loss = LossConfig::indoor();  // the indoor preset of `diskchungs run`
-  c.adam.lr_position = AdamConfig::indoor().lr_position;
+  apply_preset(c, "indoor", o.dataset);
   c.residency.budget_gaussians = a.budget;
   c.store.chunk_size = a.chunk_size;
   c.mapper.resolution = a.resolution;

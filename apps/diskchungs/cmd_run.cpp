@@ -5,6 +5,7 @@
 #include "chungs/mapping/run_pipeline.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
+#include "presets.hpp"
 
 namespace chungs::app {
 namespace {
@@ -18,22 +19,6 @@ struct RunArgs {
   std::string pacing, depth, device;
   bool json = false, no_eval = false, no_ba = false, no_loop = false;
 };
-
-// Outdoor (KITTI) and indoor defaults differ in two numbers (PAPER.md: depth weight, position lr).
-void apply_preset(Config& c, const std::string& preset, const std::string& dataset) {
-  std::string p = preset;
-  if (p == "auto") p = dataset.rfind("kitti:", 0) == 0 ? "outdoor" : "indoor";
-  if (p == "outdoor") {
-    c.loss = LossConfig::kitti();
-    c.adam.lr_position = AdamConfig::kitti().lr_position;
-    c.sampler.fill_depth = 80.0;  // sky and far field beyond the stereo range
-  } else if (p == "indoor") {
-    c.loss = LossConfig::indoor();
-    c.adam.lr_position = AdamConfig::indoor().lr_position;
-  } else {
-    fail("--preset must be auto, outdoor or indoor, got '", preset, "'");
-  }
-}
 
 const Command cmd{
     "run", "map a dataset (given or tracked poses) into a chunked Gaussian map", [](CLI::App& app) {

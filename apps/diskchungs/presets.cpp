@@ -1,0 +1,22 @@
+#include "presets.hpp"
+
+#include "chungs/common/error.hpp"
+
+namespace chungs::app {
+
+void apply_preset(Config& c, const std::string& preset, const std::string& dataset) {
+  std::string p = preset;
+  if (p == "auto") p = dataset.rfind("kitti:", 0) == 0 ? "outdoor" : "indoor";
+  if (p == "outdoor") {
+    c.loss = LossConfig::kitti();
+    c.adam.lr_position = AdamConfig::kitti().lr_position;
+    c.sampler.fill_depth = 80.0;  // sky and far field beyond the stereo range
+  } else if (p == "indoor") {
+    c.loss = LossConfig::indoor();
+    c.adam.lr_position = AdamConfig::indoor().lr_position;
+  } else {
+    fail("--preset must be auto, outdoor or indoor, got '", preset, "'");
+  }
+}
+
+}  // namespace chungs::app
