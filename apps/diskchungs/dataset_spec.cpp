@@ -43,7 +43,8 @@ std::unique_ptr<Dataset> open_street(const std::string& spec, const std::string&
     at = comma + 1;
     const size_t eq = item.find('=');
     if (eq == std::string::npos || eq == 0)
-      fail("dataset '", spec, "': '", item, "' is not key=value (keys: length, width, height, seed, frames, depth)");
+      fail("dataset '", spec, "': '", item,
+           "' is not key=value (keys: length, width, height, seed, frames, depth)");
     const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
     if (!seen.insert(key).second) fail("dataset '", spec, "': key '", key, "' is given twice");
     if (key == "length") {
@@ -61,10 +62,12 @@ std::unique_ptr<Dataset> open_street(const std::string& spec, const std::string&
     } else if (key == "frames") {
       o.max_frames = whole(spec, key, value, uint64_t(1) << 32);
     } else if (key == "depth") {
-      if (value != "0" && value != "1") fail("dataset '", spec, "': value '", value, "' of depth must be 0 or 1");
+      if (value != "0" && value != "1")
+        fail("dataset '", spec, "': value '", value, "' of depth must be 0 or 1");
       o.depth = value == "1";
     } else {
-      fail("dataset '", spec, "': unknown key '", key, "' (keys: length, width, height, seed, frames, depth)");
+      fail("dataset '", spec, "': unknown key '", key,
+           "' (keys: length, width, height, seed, frames, depth)");
     }
   }
   if (have_width != have_height) fail("dataset '", spec, "': give both width and height, or neither");

@@ -1,12 +1,13 @@
 // Checkpoint writes on several threads: every chunk saved with its own content, and any failure
 // (producing a block or saving it) comes back to the caller without a hang.
+#include "chungs/residency/parallel_save.hpp"
+
 #include <gtest/gtest.h>
 
 #include <map>
 #include <thread>
 
 #include "chungs/common/error.hpp"
-#include "chungs/residency/parallel_save.hpp"
 #include "store/random_block.hpp"
 #include "test_support.hpp"
 
@@ -38,7 +39,8 @@ TEST(ParallelSave, EveryChunkGetsItsOwnBlockWhateverTheThreadCount) {
           b = test::random_block(5 + k, k);
         },
         threads);
-    for (const auto& p : producers) EXPECT_TRUE(p == std::this_thread::get_id()) << "blocks come from the caller";
+    for (const auto& p : producers)
+      EXPECT_TRUE(p == std::this_thread::get_id()) << "blocks come from the caller";
     ASSERT_EQ(store.size(), ids.size());
     for (size_t k = 0; k < ids.size(); ++k)
       EXPECT_TRUE(test::same_bits(store.load(ids[k]), test::random_block(5 + k, k))) << k << ", " << threads;

@@ -40,8 +40,9 @@ TEST(ChunkFileName, RoundTripsAndRejectsForeignNames) {
       EXPECT_EQ(n->generation, g);
       EXPECT_EQ(n->tombstone, t);
     }
-  for (const char* bad : {"0123456789abcdef.chunk.tmp-1-2", "0123456789abcdeg.chunk", "0123456789abcdef-.chunk",
-                          "0123456789abcdef-0000000000000000.chunk", "0123456789abcdef.removed", "manifest.txt"})
+  for (const char* bad :
+       {"0123456789abcdef.chunk.tmp-1-2", "0123456789abcdeg.chunk", "0123456789abcdef-.chunk",
+        "0123456789abcdef-0000000000000000.chunk", "0123456789abcdef.removed", "manifest.txt"})
     EXPECT_FALSE(parse_chunk_file_name(bad)) << bad;
 }
 
@@ -105,7 +106,8 @@ TEST(ChunkStore, AdoptsAGenerationNewerThanTheManifestOnlyIfItReadsBackWhole) {
       s.save(id, v2);
       newer = crashed / "chunks" / s.chunk_path(id).filename();
       // The folder as a process killed now would leave it.
-      fs::copy(dir.path(), crashed.path(), fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+      fs::copy(dir.path(), crashed.path(),
+               fs::copy_options::recursive | fs::copy_options::overwrite_existing);
     }
     fs::remove(crashed / "lock");
     if (torn) fs::resize_file(newer, fs::file_size(newer) - 100);
@@ -125,7 +127,8 @@ TEST(ChunkStore, ReadsTheVersion1LayoutAndSupersedesIt) {
   const ChunkFileInfo info = write_chunk_file(legacy, id, v1, {false, 1, false, false});
   // A version 1 manifest as the previous build wrote it: 4 fields per chunk, no generations.
   char text[256];
-  std::snprintf(text, sizeof text, "diskchungs-manifest 1\nchunk_size 10\nsh_degree 3\nchunk %016llx %llu %llu %016llx\n",
+  std::snprintf(text, sizeof text,
+                "diskchungs-manifest 1\nchunk_size 10\nsh_degree 3\nchunk %016llx %llu %llu %016llx\n",
                 (unsigned long long)id, (unsigned long long)info.count, (unsigned long long)info.file_bytes,
                 (unsigned long long)info.payload_checksum);
   const std::string body = text;

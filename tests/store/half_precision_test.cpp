@@ -135,7 +135,8 @@ TEST(ChunkFileHalf, ShrinksFilesAsAnnouncedAndKeepsParametersExact) {
     bool m, sh;
     uint64_t per_gaussian;
   };
-  for (const Case c : {Case{false, false, 724}, Case{true, false, 488}, Case{true, true, 398}, Case{false, true, 634}}) {
+  for (const Case c :
+       {Case{false, false, 724}, Case{true, false, 488}, Case{true, true, 398}, Case{false, true, 634}}) {
     const fs::path f = dir / "c.chunk";
     const auto info = write_chunk_file(f, kId, b, {false, 1, true, false, c.m, c.sh});
     const uint64_t constant = (c.m ? 40 : 0) + (c.sh ? 4 : 0);  // one scale per half array
@@ -182,7 +183,8 @@ TEST(ChunkFileHalf, MomentsAndShComeBackWithinHalfPrecision) {
       const auto& w = want->*arr;
       const auto& g = got->*arr;
       // v is stored as sqrt(v): relative error doubles, and the range is twice as wide in log.
-      expect_close(g, w, second ? 2.2 * rel : rel, largest(w) * (second ? std::ldexp(1.0, -70) : std::ldexp(1.0, -40)),
+      expect_close(g, w, second ? 2.2 * rel : rel,
+                   largest(w) * (second ? std::ldexp(1.0, -70) : std::ldexp(1.0, -40)),
                    second ? "adam_v" : "adam_m");
       if (second) {
         for (size_t i = 0; i < w.size(); ++i)
@@ -203,7 +205,8 @@ TEST(ChunkFileHalf, ReadsVersion1FilesAndNamesTheFileForUnknownVersions) {
     std::memcpy(bytes.data() + 8, &v, 4);
     const uint64_t sum = xxh64(bytes.data(), 64);
     std::memcpy(bytes.data() + 64, &sum, 8);
-    std::ofstream(f, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    std::ofstream(f, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
   };
   set_version(1);
   GaussianBlock r;

@@ -34,7 +34,7 @@ std::map<std::string, FileEvent>* events = nullptr;
 void record(const fs::path& file, FileEvent e) { (*events)[file.lexically_normal().string()] = e; }
 
 struct Op {
-  int chunk;       // -1: commit
+  int chunk;         // -1: commit
   uint32_t version;  // 0: remove
 };
 

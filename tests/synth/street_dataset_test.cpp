@@ -1,13 +1,14 @@
 // The on-demand street dataset against the written sequence: the same frame bytes, poses, stamps
 // and camera as `diskchungs synth street` writes and the KITTI reader reads back, whatever the
 // order of requests and from several threads at once.
+#include "chungs/synth/street_dataset.hpp"
+
 #include <gtest/gtest.h>
 
 #include <thread>
 
 #include "chungs/common/error.hpp"
 #include "chungs/synth/sequence.hpp"
-#include "chungs/synth/street_dataset.hpp"
 #include "test_support.hpp"
 
 using namespace chungs;

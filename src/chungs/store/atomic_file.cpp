@@ -104,8 +104,8 @@ void sync_directory(const fs::path& dir) {
 
 void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> parts, bool durable,
                            bool start_writeback) {
-  const fs::path tmp = file.string() + kTmpTag + std::to_string(::getpid()) + "-" +
-                       std::to_string(tmp_counter.fetch_add(1));
+  const fs::path tmp =
+      file.string() + kTmpTag + std::to_string(::getpid()) + "-" + std::to_string(tmp_counter.fetch_add(1));
   FileDescriptor fd(::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
   if (!fd) fail(tmp.string(), ": cannot create: ", why());
   try {

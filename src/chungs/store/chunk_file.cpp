@@ -62,8 +62,8 @@ ZSTD_DCtx* decompressor() {
   return d.get();
 }
 
-std::vector<uint8_t> compress(const Arrays& arrays, uint64_t raw_bytes,
-                              const ChunkWriteOptions& opt, const fs::path& file) {
+std::vector<uint8_t> compress(const Arrays& arrays, uint64_t raw_bytes, const ChunkWriteOptions& opt,
+                              const fs::path& file) {
   ZSTD_CCtx* c = compressor();
   ZSTD_CCtx_reset(c, ZSTD_reset_session_and_parameters);
   ZSTD_CCtx_setParameter(c, ZSTD_c_compressionLevel, opt.zstd_level);
@@ -93,8 +93,7 @@ std::vector<uint8_t> compress(const Arrays& arrays, uint64_t raw_bytes,
   return out;
 }
 
-void decompress(const std::vector<uint8_t>& in, const Arrays& arrays, bool shuffled,
-                const fs::path& file) {
+void decompress(const std::vector<uint8_t>& in, const Arrays& arrays, bool shuffled, const fs::path& file) {
   ZSTD_DCtx* d = decompressor();
   ZSTD_DCtx_reset(d, ZSTD_reset_session_and_parameters);
   ZSTD_inBuffer ib{in.data(), in.size(), 0};
@@ -129,9 +128,10 @@ Header read_and_check_header(const FileDescriptor& fd, const fs::path& file, uin
   read_exact(fd, &h, sizeof h, file);
   if (std::memcmp(h.magic, kMagic, sizeof kMagic) != 0) fail(file.string(), ": not a chunk file (bad magic)");
   if (h.version < 1 || h.version > kChunkFormatVersion)
-    fail(file.string(), ": chunk format version ", h.version, " is not supported (this build reads versions 1 to ",
-         kChunkFormatVersion, ")");
-  if (h.header_size != sizeof h) fail(file.string(), ": header size ", h.header_size, " should be ", sizeof h);
+    fail(file.string(), ": chunk format version ", h.version,
+         " is not supported (this build reads versions 1 to ", kChunkFormatVersion, ")");
+  if (h.header_size != sizeof h)
+    fail(file.string(), ": header size ", h.header_size, " should be ", sizeof h);
   if (xxh64(&h, kChecksummedHeaderBytes) != h.header_checksum)
     fail(file.string(), ": header checksum mismatch: the file is corrupt");
   if (h.count > kMaxCount) fail(file.string(), ": implausible Gaussian count ", h.count);
@@ -156,7 +156,7 @@ ChunkFileInfo info_of(const Header& h, uint64_t size) {
 }  // namespace
 
 ChunkFileInfo write_chunk_file(const fs::path& file, ChunkId id, const GaussianBlock& block,
-                          const ChunkWriteOptions& opt) {
+                               const ChunkWriteOptions& opt) {
   block.validate(file.c_str());
   Header h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);

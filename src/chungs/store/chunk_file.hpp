@@ -6,8 +6,9 @@
 // then the payload: the GaussianBlock arrays in a fixed order (chunk_codec.hpp), each as raw
 // 4-byte elements or, with the half flags (version 2), Adam moments and/or SH rest coefficients
 // as a scale plus binary16 values; optionally byte-shuffled (all first bytes of the array's
-// elements, then all second bytes, ...) and zstd-compressed as one stream. The payload checksum covers the stored (possibly compressed)
-// bytes, so corruption is caught before decompression; the header has its own checksum.
+// elements, then all second bytes, ...) and zstd-compressed as one stream. The payload checksum covers the
+// stored (possibly compressed) bytes, so corruption is caught before decompression; the header has its own
+// checksum.
 #pragma once
 #include <cstdint>
 #include <filesystem>
@@ -29,10 +30,10 @@ constexpr uint64_t kChunkBytesPerGaussian = 3 * kParamFloats * 4 + 4 * 4;
 struct ChunkWriteOptions {
   bool compress = false;  // zstd; pays off mostly on fresh Gaussians (zero SH, zero Adam state)
   int zstd_level = 1;
-  bool shuffle = true;    // byte-shuffle before zstd: float exponents compress, mantissas barely
-  bool durable = true;    // flush file and folder (survives power loss, not just a killed process)
-  bool half_moments = false;  // Adam moments as binary16 (see chunk_codec.hpp)
-  bool half_sh_rest = false;  // SH coefficients beyond DC as binary16
+  bool shuffle = true;           // byte-shuffle before zstd: float exponents compress, mantissas barely
+  bool durable = true;           // flush file and folder (survives power loss, not just a killed process)
+  bool half_moments = false;     // Adam moments as binary16 (see chunk_codec.hpp)
+  bool half_sh_rest = false;     // SH coefficients beyond DC as binary16
   bool start_writeback = false;  // without durable: start writing to disk now, do not wait
 };
 
@@ -48,7 +49,7 @@ struct ChunkFileInfo {
 // Writes crash-safely (temporary + flush + rename + folder flush); returns what a header read of
 // the new file would. Throws Error naming the file on I/O failure and on an inconsistent block.
 ChunkFileInfo write_chunk_file(const std::filesystem::path& file, ChunkId id, const GaussianBlock& block,
-                          const ChunkWriteOptions& options);
+                               const ChunkWriteOptions& options);
 // Checks magic, version, header checksum and file size, without reading the payload.
 ChunkFileInfo read_chunk_header(const std::filesystem::path& file);
 // Reads and verifies everything; `out` is replaced only on success. Every rejection names the file.

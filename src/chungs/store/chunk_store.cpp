@@ -18,8 +18,11 @@ namespace chungs {
 namespace fs = std::filesystem;
 
 ChunkStore::ChunkStore(fs::path folder, const ChunkStoreConfig& config)
-    : folder_(std::move(folder)), chunk_dir_(folder_ / "chunks"), config_(config),
-      chunk_size_(config.chunk_size), sh_degree_(config.sh_degree) {
+    : folder_(std::move(folder)),
+      chunk_dir_(folder_ / "chunks"),
+      config_(config),
+      chunk_size_(config.chunk_size),
+      sh_degree_(config.sh_degree) {
   if (!(chunk_size_ > 0)) fail("chunk store: chunk size must be positive, got ", chunk_size_);
   std::error_code ec;
   fs::create_directories(chunk_dir_, ec);
@@ -131,7 +134,8 @@ GaussianBlock ChunkStore::load(ChunkId id) const {
     ScopedTimer t(counters_.load_ns);
     info = read_chunk_file(file, b);
   }
-  if (info.id != id) fail(file.string(), ": header names ", chunk_name(info.id), ", expected ", chunk_name(id));
+  if (info.id != id)
+    fail(file.string(), ": header names ", chunk_name(info.id), ", expected ", chunk_name(id));
   counters_.loads++;
   counters_.bytes_read += info.file_bytes;
   return b;

@@ -40,13 +40,13 @@ struct ChunkStoreConfig {
   int sh_degree = 3;         // recorded for a new map
   bool compress = false;     // zstd on chunk files (see bench/README.md for the trade-off)
   int zstd_level = 1;
-  bool shuffle = true;         // byte-shuffle before zstd
-  bool durable = true;         // commit() flushes (power-loss safe); off: kill-safe only
-  bool verify_on_open = false; // check every chunk's payload checksum on open (reads the whole map)
+  bool shuffle = true;          // byte-shuffle before zstd
+  bool durable = true;          // commit() flushes (power-loss safe); off: kill-safe only
+  bool verify_on_open = false;  // check every chunk's payload checksum on open (reads the whole map)
   // Smaller chunk files (chunk_codec.hpp); memory keeps float32. Each save uses the current
   // setting, files of either kind read back.
-  bool half_moments = false;   // Adam moments as binary16: 724 -> 488 bytes per Gaussian
-  bool half_sh_rest = false;   // SH beyond DC as binary16 too: -> 398 bytes per Gaussian
+  bool half_moments = false;  // Adam moments as binary16: 724 -> 488 bytes per Gaussian
+  bool half_sh_rest = false;  // SH beyond DC as binary16 too: -> 398 bytes per Gaussian
 };
 
 // What opening had to repair. A clean close leaves all zeros.
@@ -122,16 +122,16 @@ class ChunkStore {
   int sh_degree_;
   StoreOpenReport report_;
   FileDescriptor lock_;
-  mutable std::mutex mutex_;   // guards everything below but counters_
-  std::mutex commit_mutex_;    // one manifest write at a time
+  mutable std::mutex mutex_;  // guards everything below but counters_
+  std::mutex commit_mutex_;   // one manifest write at a time
   Manifest manifest_;
   bool dirty_ = false;
-  bool committing_ = false;                    // a commit() is between snapshot and manifest
+  bool committing_ = false;  // a commit() is between snapshot and manifest
   uint64_t next_generation_ = 1;
-  std::set<uint64_t> writing_;                 // generations being written (not yet in manifest_)
-  std::map<ChunkId, uint64_t> committed_;      // generations the manifest on disk names
+  std::set<uint64_t> writing_;                       // generations being written (not yet in manifest_)
+  std::map<ChunkId, uint64_t> committed_;            // generations the manifest on disk names
   std::set<std::pair<ChunkId, uint64_t>> unsynced_;  // chunk files written since the last barrier
-  std::vector<Retired> retired_;               // waiting for a commit before deletion
+  std::vector<Retired> retired_;                     // waiting for a commit before deletion
   mutable IoCounters counters_;
 };
 

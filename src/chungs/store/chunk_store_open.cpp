@@ -65,7 +65,8 @@ void ChunkStore::reconcile(bool have_manifest) {
         continue;
       }
       if (info.id != id)
-        fail(file.string(), ": header names ", chunk_name(info.id), " but the file name names ", chunk_name(id));
+        fail(file.string(), ": header names ", chunk_name(info.id), " but the file name names ",
+             chunk_name(id));
       chosen[id] = entry_of(info, gen);
       keep = gen;
       decided = true;
@@ -81,7 +82,8 @@ void ChunkStore::reconcile(bool have_manifest) {
         info = read_chunk_header(file);
       }
       if (info.id != id)
-        fail(file.string(), ": header names ", chunk_name(info.id), " but the file name names ", chunk_name(id));
+        fail(file.string(), ": header names ", chunk_name(info.id), " but the file name names ",
+             chunk_name(id));
       chosen[id] = entry_of(info, named->generation);
       keep = named->generation;
     }
@@ -94,8 +96,8 @@ void ChunkStore::reconcile(bool have_manifest) {
         } catch (const Error&) {
         }
       if (info && info->id != id)
-        fail(chunk_file(id, gen).string(), ": header names ", chunk_name(info->id), " but the file name names ",
-             chunk_name(id));
+        fail(chunk_file(id, gen).string(), ": header names ", chunk_name(info->id),
+             " but the file name names ", chunk_name(id));
       retired_.push_back({id, gen, tombstone});
       ++report_.orphans;
     }
@@ -113,7 +115,8 @@ void ChunkStore::reconcile(bool have_manifest) {
   if (have_manifest && (report_.repaired() || report_.files_rejected))
     log::warn(folder_.string(), ": manifest was behind the chunk files (interrupted session): adopted ",
               report_.entries_adopted, ", updated ", report_.entries_updated, ", dropped ",
-              report_.entries_dropped, " entries; ", report_.files_rejected, " unreadable newer files ignored");
+              report_.entries_dropped, " entries; ", report_.files_rejected,
+              " unreadable newer files ignored");
 }
 
 }  // namespace chungs

@@ -28,7 +28,7 @@ uint16_t float_to_half(float f) {
   const uint16_t sign = uint16_t((x >> 16) & 0x8000);
   const uint32_t a = x & 0x7fffffff;
   if (a >= 0x7f800000) return sign | (a > 0x7f800000 ? 0x7e00 : 0x7c00);  // NaN stays NaN
-  if (a >= 0x47800000) return sign | 0x7c00;                             // >= 2^16: infinity
+  if (a >= 0x47800000) return sign | 0x7c00;                              // >= 2^16: infinity
   if (a < 0x38800000) {
     // Below 2^-14 the half is subnormal: its integer mantissa is the value in units of 2^-24.
     // The product is exact (a power-of-two factor) and nearbyint rounds half to even.

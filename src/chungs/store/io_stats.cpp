@@ -18,26 +18,29 @@ IoStats IoCounters::snapshot() const {
 }
 
 void IoCounters::reset() {
-  for (auto* c : {&loads, &saves, &removes, &bytes_read, &bytes_written, &load_ns, &save_ns, &wait_ns,
-                  &pool_loads, &prefetch_hits, &write_behind_hits, &sync_loads, &waits, &evictions_clean,
-                  &evictions_dirty, &barriers, &synced_files, &barrier_ns, &checkpoints, &checkpoint_ns})
+  for (auto* c :
+       {&loads,       &saves,           &removes,         &bytes_read,    &bytes_written,     &load_ns,
+        &save_ns,     &wait_ns,         &pool_loads,      &prefetch_hits, &write_behind_hits, &sync_loads,
+        &waits,       &evictions_clean, &evictions_dirty, &barriers,      &synced_files,      &barrier_ns,
+        &checkpoints, &checkpoint_ns})
     c->store(0);
 }
 
 std::string IoStats::summary() const {
   char buf[768];
-  std::snprintf(buf, sizeof buf,
-                "chunk I/O: %llu loads (%.1f MB, %.2f ms avg), %llu saves (%.1f MB, %.2f ms avg), %llu removes; "
-                "pool loads %llu: %llu prefetched, %llu from write-behind, %llu waited on disk (%.1f %%); "
-                "%llu waits, %.1f ms; evictions %llu clean, %llu dirty; %llu checkpoints, %.1f ms, "
-                "%llu barriers flushing %llu files, %.1f ms",
-                (unsigned long long)loads, double(bytes_read) / 1e6, mean_load_ms(), (unsigned long long)saves,
-                double(bytes_written) / 1e6, mean_save_ms(), (unsigned long long)removes,
-                (unsigned long long)pool_loads, (unsigned long long)prefetch_hits,
-                (unsigned long long)write_behind_hits, (unsigned long long)sync_loads, 100.0 * wait_fraction(),
-                (unsigned long long)waits, wait_ms, (unsigned long long)evictions_clean,
-                (unsigned long long)evictions_dirty, (unsigned long long)checkpoints, checkpoint_ms,
-                (unsigned long long)barriers, (unsigned long long)synced_files, barrier_ms);
+  std::snprintf(
+      buf, sizeof buf,
+      "chunk I/O: %llu loads (%.1f MB, %.2f ms avg), %llu saves (%.1f MB, %.2f ms avg), %llu removes; "
+      "pool loads %llu: %llu prefetched, %llu from write-behind, %llu waited on disk (%.1f %%); "
+      "%llu waits, %.1f ms; evictions %llu clean, %llu dirty; %llu checkpoints, %.1f ms, "
+      "%llu barriers flushing %llu files, %.1f ms",
+      (unsigned long long)loads, double(bytes_read) / 1e6, mean_load_ms(), (unsigned long long)saves,
+      double(bytes_written) / 1e6, mean_save_ms(), (unsigned long long)removes,
+      (unsigned long long)pool_loads, (unsigned long long)prefetch_hits,
+      (unsigned long long)write_behind_hits, (unsigned long long)sync_loads, 100.0 * wait_fraction(),
+      (unsigned long long)waits, wait_ms, (unsigned long long)evictions_clean,
+      (unsigned long long)evictions_dirty, (unsigned long long)checkpoints, checkpoint_ms,
+      (unsigned long long)barriers, (unsigned long long)synced_files, barrier_ms);
   return buf;
 }
 

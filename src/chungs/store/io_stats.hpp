@@ -14,17 +14,17 @@ struct IoStats {
   uint64_t bytes_read = 0, bytes_written = 0;
   double load_ms = 0, save_ms = 0;  // summed over all loads / saves (any thread)
   // Residency: where chunks entering the pool came from, and how often the caller blocked.
-  uint64_t pool_loads = 0;          // chunks scattered into the pool
-  uint64_t prefetch_hits = 0;       // ... already read by the background thread
-  uint64_t write_behind_hits = 0;   // ... still queued for writing (served from memory)
-  uint64_t sync_loads = 0;          // ... read on the caller's thread (a wait)
-  uint64_t waits = 0;               // sync loads + waits for an in-flight read or a full queue
+  uint64_t pool_loads = 0;         // chunks scattered into the pool
+  uint64_t prefetch_hits = 0;      // ... already read by the background thread
+  uint64_t write_behind_hits = 0;  // ... still queued for writing (served from memory)
+  uint64_t sync_loads = 0;         // ... read on the caller's thread (a wait)
+  uint64_t waits = 0;              // sync loads + waits for an in-flight read or a full queue
   double wait_ms = 0;
   uint64_t evictions_clean = 0, evictions_dirty = 0;
   // Durability: saves are not flushed one by one; each commit() flushes the files written since
   // the previous one, then the folder, then writes the manifest (one barrier per checkpoint).
   uint64_t barriers = 0, synced_files = 0;
-  double barrier_ms = 0;     // flushing files and folder, manifest write included
+  double barrier_ms = 0;  // flushing files and folder, manifest write included
   // Checkpoints (Residency::flush): the caller blocks while dirty chunks are gathered, queued
   // writes finish and the barrier runs.
   uint64_t checkpoints = 0;
@@ -56,9 +56,9 @@ class ScopedTimer {
  public:
   explicit ScopedTimer(std::atomic<uint64_t>& ns) : ns_(ns), start_(std::chrono::steady_clock::now()) {}
   ~ScopedTimer() {
-    ns_ += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                        std::chrono::steady_clock::now() - start_)
-                        .count());
+    ns_ += uint64_t(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_)
+            .count());
   }
   ScopedTimer(const ScopedTimer&) = delete;
   ScopedTimer& operator=(const ScopedTimer&) = delete;

@@ -45,8 +45,10 @@ std::string Manifest::serialize() const {
   std::ostringstream os;
   char num[40];
   std::snprintf(num, sizeof num, "%.17g", chunk_size);
-  os << kMagic << ' ' << kManifestVersion << '\n' << "chunk_size " << num << '\n'
-     << "sh_degree " << sh_degree << '\n' << "next_generation " << next_generation << '\n';
+  os << kMagic << ' ' << kManifestVersion << '\n'
+     << "chunk_size " << num << '\n'
+     << "sh_degree " << sh_degree << '\n'
+     << "next_generation " << next_generation << '\n';
   for (const auto& [k, v] : config) {
     if (k.empty() || k.find_first_of(" \t\r\n") != std::string::npos)
       fail("manifest: config key '", k, "' must be non-empty and free of blanks");
@@ -73,8 +75,7 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
   std::istringstream end_line(text.substr(end_at + 1));
   std::string tag, count_s, sum_s, extra;
   end_line >> tag >> count_s >> sum_s;
-  if (tag != "end" || sum_s.empty() || (end_line >> extra))
-    fail(where, ":", line_no, ": malformed end line");
+  if (tag != "end" || sum_s.empty() || (end_line >> extra)) fail(where, ":", line_no, ": malformed end line");
   const uint64_t declared = parse_u64(count_s, 10, file, line_no, "entry count");
   if (parse_u64(sum_s, 16, file, line_no, "checksum") != xxh64(body.data(), body.size()))
     fail(where, ": manifest checksum mismatch: the file is corrupt");
@@ -94,7 +95,8 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
     if (n == 1) {
       if (key != kMagic || !(ls >> version)) bad("not a diskchungs manifest");
       if (version < 1 || version > kManifestVersion)
-        bad(cat("manifest version ", version, " is not supported (this build reads versions 1 to ", kManifestVersion, ")"));
+        bad(cat("manifest version ", version, " is not supported (this build reads versions 1 to ",
+                kManifestVersion, ")"));
     } else if (key == "chunk_size") {
       if (!(ls >> m.chunk_size) || !(m.chunk_size > 0) || !std::isfinite(m.chunk_size)) bad("bad chunk_size");
       have_size = true;
@@ -115,7 +117,8 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
     } else if (key == "chunk") {
       std::string id_s, count_s2, bytes_s, sum2, gen_s;
       const bool fields = (ls >> id_s >> count_s2 >> bytes_s >> sum2) && (version < 2 || (ls >> gen_s));
-      if (!fields || (ls >> extra)) bad(version < 2 ? "chunk line needs 4 fields" : "chunk line needs 5 fields");
+      if (!fields || (ls >> extra))
+        bad(version < 2 ? "chunk line needs 4 fields" : "chunk line needs 5 fields");
       const ChunkId id = parse_u64(id_s, 16, file, n, "chunk id");
       ManifestEntry e{parse_u64(count_s2, 10, file, n, "count"), parse_u64(bytes_s, 10, file, n, "file size"),
                       parse_u64(sum2, 16, file, n, "checksum"),

@@ -18,10 +18,10 @@
 namespace chungs::synth {
 
 struct StreetDatasetOptions {
-  StreetOptions street;      // seed, length_m, ... as `diskchungs synth street`
+  StreetOptions street;  // seed, length_m, ... as `diskchungs synth street`
   int width = 1241, height = 376;
-  size_t max_frames = 0;     // 0: the whole route
-  bool depth = false;        // also hand out the rendered depth (the KITTI reader gives none)
+  size_t max_frames = 0;  // 0: the whole route
+  bool depth = false;     // also hand out the rendered depth (the KITTI reader gives none)
 };
 
 class StreetDataset : public Dataset {
