@@ -127,6 +127,46 @@ TEST(HalfFloat, ArrayConversionsEqualTheScalarOnes) {
   }
 }
 
+TEST(HalfFloat, FusedArrayHelpersEqualTheirScalarDefinitions) {
+  std::mt19937 rng(12);
+  std::normal_distribution<float> g(0.f, 1.f);
+  const size_t n = 1003;
+  std::vector<float> in(n);
+  for (size_t i = 0; i < n; ++i) in[i] = std::ldexp(g(rng), int(rng() % 60) - 40);
+  in[5] = 0.0f, in[6] = -0.0f, in[7] = std::numeric_limits<float>::infinity(), in[8] = std::nanf("");
+  in[900] = -1e30f;  // the largest magnitude, in the scalar tail of no block
+  EXPECT_EQ(max_finite_abs(in.data(), n), 1e30f);
+  std::vector<float> roots(n);
+  signed_sqrt(in.data(), roots.data(), n);
+  for (size_t i = 0; i < n; ++i) {
+    const float want = std::copysign(std::sqrt(std::fabs(in[i])), in[i]);
+    if (std::isnan(want)) {
+      EXPECT_TRUE(std::isnan(roots[i]));
+    } else {
+      ASSERT_EQ(std::memcmp(&roots[i], &want, 4), 0) << i;
+    }
+  }
+  const float factor = std::ldexp(1.0f, 7);
+  std::vector<uint8_t> bytes(2 * n + 2);  // at an odd 2-byte offset, as in a chunk payload
+  scaled_floats_to_halves(in.data(), factor, bytes.data() + 2, n);
+  std::vector<float> back(n);
+  halves_to_scaled_floats(bytes.data() + 2, 1 / factor, back.data(), n);
+  for (size_t i = 0; i < n; ++i) {
+    uint16_t h;
+    std::memcpy(&h, bytes.data() + 2 + 2 * i, 2);
+    if (std::isnan(in[i])) continue;
+    ASSERT_EQ(h, float_to_half(in[i] * factor)) << i;
+    const float want = half_to_float(h) / factor;
+    ASSERT_EQ(std::memcmp(&back[i], &want, 4), 0) << i;
+  }
+  keep_nonzero(in.data(), bytes.data() + 2, n);
+  for (size_t i = 0; i < n; ++i) {
+    uint16_t h;
+    std::memcpy(&h, bytes.data() + 2 + 2 * i, 2);
+    EXPECT_EQ((h & 0x7fff) == 0, in[i] == 0) << i << ": " << in[i];
+  }
+}
+
 TEST(ChunkFileHalf, ShrinksFilesAsAnnouncedAndKeepsParametersExact) {
   test::TempDir dir;
   const GaussianBlock b = trained_block(300, 1);

@@ -49,8 +49,6 @@ size_t stored_bytes(const Field& f) {
   return f.kind == Kind::Raw || f.kind == Kind::ShDc ? 4 * f.elements : 4 + 2 * f.elements;
 }
 
-float signed_sqrt(float v) { return std::copysign(std::sqrt(std::fabs(v)), v); }
-
 // The field's values in file order (SH split by coefficient), as a contiguous array.
 void gather(const Field& f, std::vector<float>& out) {
   out.resize(f.elements);
@@ -60,7 +58,7 @@ void gather(const Field& f, std::vector<float>& out) {
     for (size_t g = 0; g < gaussians; ++g)
       std::memcpy(&out[g * size_t(count)], f.f + g * kShFloats + first, sizeof(float) * size_t(count));
   } else if (f.kind == Kind::HalfSqrt) {
-    for (size_t i = 0; i < f.elements; ++i) out[i] = signed_sqrt(f.f[i]);
+    signed_sqrt(f.f, out.data(), f.elements);
   } else {
     std::memcpy(out.data(), f.f, sizeof(float) * f.elements);
   }
@@ -85,52 +83,40 @@ std::vector<float>& scratch_floats() {
   thread_local std::vector<float> v;
   return v;
 }
-std::vector<uint16_t>& scratch_halves() {
-  thread_local std::vector<uint16_t> v;
-  return v;
-}
 
 void encode(const Field& f, uint8_t* out) {
-  std::vector<float>& values = scratch_floats();
-  gather(f, values);
+  // Contiguous moments are converted in place; v's square roots and the SH split need a copy.
+  const float* values = f.f;
+  if (f.kind != Kind::Half) {
+    gather(f, scratch_floats());
+    values = scratch_floats().data();
+  }
   if (f.kind == Kind::ShDc) {
-    std::memcpy(out, values.data(), 4 * values.size());
+    std::memcpy(out, values, 4 * f.elements);
     return;
   }
-  float largest = 0;
-  for (float v : values) {
-    const float a = std::fabs(v);
-    if (a > largest && a <= std::numeric_limits<float>::max()) largest = a;
-  }
+  const float largest = max_finite_abs(values, f.elements);
   int e = 0;
   std::frexp(largest, &e);  // largest < 2^e
   const float scale = largest > 0 ? std::ldexp(1.0f, e - 15) : 1.0f;
-  const float inv = 1.0f / scale;  // exact: a power of two
-  for (float& v : values) v *= inv;
-  std::vector<uint16_t>& halves = scratch_halves();
-  halves.resize(values.size());
-  floats_to_halves(values.data(), halves.data(), values.size());
-  if (f.kind == Kind::HalfSqrt)
-    for (size_t i = 0; i < halves.size(); ++i)
-      if ((halves[i] & 0x7fff) == 0 && f.f[i] != 0) halves[i] = uint16_t((halves[i] & 0x8000) | 1);
   std::memcpy(out, &scale, 4);
-  std::memcpy(out + 4, halves.data(), 2 * halves.size());
+  scaled_floats_to_halves(values, 1.0f / scale, out + 4, f.elements);  // 1/scale: exact, a power of two
+  if (f.kind == Kind::HalfSqrt) keep_nonzero(f.f, out + 4, f.elements);
 }
 
 void decode(const Field& f, const uint8_t* in) {
+  float scale = 1;
+  if (f.kind != Kind::ShDc) std::memcpy(&scale, in, 4);
+  if (f.kind == Kind::Half) {
+    halves_to_scaled_floats(in + 4, scale, f.f, f.elements);
+    return;
+  }
   std::vector<float>& values = scratch_floats();
   values.resize(f.elements);
-  if (f.kind == Kind::ShDc) {
+  if (f.kind == Kind::ShDc)
     std::memcpy(values.data(), in, 4 * f.elements);
-  } else {
-    float scale;
-    std::memcpy(&scale, in, 4);
-    std::vector<uint16_t>& halves = scratch_halves();
-    halves.resize(f.elements);
-    std::memcpy(halves.data(), in + 4, 2 * f.elements);
-    halves_to_floats(halves.data(), values.data(), f.elements);
-    for (float& v : values) v *= scale;
-  }
+  else
+    halves_to_scaled_floats(in + 4, scale, values.data(), f.elements);
   scatter(f, values);
 }
 
