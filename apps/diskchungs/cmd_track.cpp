@@ -21,6 +21,7 @@ struct TrackArgs {
   std::string dataset, out, format = "tum";
   size_t max_frames = 0;
   bool no_ba = false, no_loop = false, json = false;
+  int kf_min_interval = -1, kf_max_interval = -1;
 };
 
 int run_track(const TrackArgs& a) {
@@ -29,6 +30,8 @@ int run_track(const TrackArgs& a) {
   tracking::TrackerOptions opt;
   opt.local_ba = !a.no_ba;
   opt.loop_closure = !a.no_loop;
+  if (a.kf_min_interval >= 0) opt.min_keyframe_interval = a.kf_min_interval;
+  if (a.kf_max_interval >= 0) opt.max_keyframe_interval = a.kf_max_interval;
   tracking::VisualTracker tracker(opt);
   const size_t n = a.max_frames ? std::min(a.max_frames, ds->size()) : ds->size();
   Trajectory gt;
@@ -88,6 +91,8 @@ const Command track_cmd("track", "visual SLAM tracking of a stereo or RGB-D data
   app.add_option("--max-frames", args->max_frames, "track only the first N frames (0: all)");
   app.add_flag("--no-ba", args->no_ba, "skip local bundle adjustment");
   app.add_flag("--no-loop", args->no_loop, "skip loop closure");
+  app.add_option("--kf-min-interval", args->kf_min_interval, "frames after a keyframe before the next (default from the tracker settings)");
+  app.add_option("--kf-max-interval", args->kf_max_interval, "a keyframe at least every N frames (0: no limit)");
   app.add_flag("--json", args->json, "print the summary as JSON");
   return [args] { return run_track(*args); };
 });

@@ -9,8 +9,15 @@
 namespace chungs::tracking {
 
 bool VisualTracker::need_keyframe(const Current& c, int inliers) const {
-  int ref_points = 0;
-  for (long pid : map_.kf(ref_kf_).points) ref_points += pid >= 0 && map_.point(pid);
+  // The reference keyframe's points that other keyframes confirmed: fresh single-view points (most of
+  // a new keyframe's) would make every following frame look like it lost track of the reference.
+  const int min_obs = map_.keyframes() <= 2 ? 2 : 3;
+  int ref_points = 0, ref_all = 0;
+  for (long pid : map_.kf(ref_kf_).points)
+    if (const MapPoint* p = pid >= 0 ? map_.point(pid) : nullptr) {
+      ref_points += int(p->obs.size()) >= min_obs;
+      ++ref_all;
+    }
   // Close points (reliable depth) the frame tracks, and close features it could add.
   int tracked_close = 0, untracked_close = 0;
   const double close = close_depth();
@@ -19,7 +26,15 @@ bool VisualTracker::need_keyframe(const Current& c, int inliers) const {
     (c.matches[i] >= 0 ? tracked_close : untracked_close)++;
   }
   const bool need_close = tracked_close < 100 && untracked_close > 70;
-  return inliers < opt_.keyframe_ratio * ref_points || need_close;
+  const size_t since = c.index - last_kf_frame_;
+  if (opt_.max_keyframe_interval > 0 && since >= size_t(opt_.max_keyframe_interval)) return true;
+  // Right after a keyframe only a weak frame (few points left, or a view with many new close features)
+  // makes another one.
+  const bool weak = inliers < 0.25 * ref_points || need_close;
+  if (since < size_t(opt_.min_keyframe_interval) && !weak) return false;
+  // Also when the frame keeps less than a share of all the reference's points: on fast turns the
+  // confirmed points alone lag behind and tracking would run out of points before they trigger.
+  return inliers < opt_.keyframe_ratio * ref_points || inliers < opt_.keyframe_all_ratio * ref_all || need_close;
 }
 
 long VisualTracker::create_keyframe(Current& c) {

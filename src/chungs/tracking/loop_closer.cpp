@@ -57,6 +57,20 @@ std::optional<LoopEvent> LoopCloser::process(Map& map, long kf) {
   for (int i = 0; i < std::min<int>(opt_.candidates, int(ranked.size())); ++i) {
     auto v = verify(map, kf, ranked[i].second);
     if (!v) continue;
+    // Repeated places (the same facade or block seen in two streets) pass the geometric check; a true
+    // revisit only moves the query by the drift accumulated since the candidate, a few percent of the way.
+    double path = 0;
+    for (long a = v->candidate, b = v->candidate + 1; b <= kf; ++b) {
+      if (map.kf(b).bad && b != kf) continue;
+      path += (map.pose(b).t - map.pose(a).t).norm();
+      a = b;
+    }
+    const double jump = (v->T_wq.t - map.kf(kf).T_wc.t).norm();
+    if (jump > opt_.min_drift_gate + opt_.max_drift_ratio * path) {
+      log::info("loop closure: keyframe ", kf, " vs keyframe ", v->candidate, " rejected: it would move the query by ",
+                jump, " m after ", path, " m of travel");
+      continue;
+    }
     log::info("loop closure: keyframe ", kf, " (frame ", map.kf(kf).frame_index, ") matches keyframe ", v->candidate,
               " (frame ", map.kf(v->candidate).frame_index, ", score ", ranked[i].first, ", ", v->pairs.size(), " inliers)");
     return close(map, kf, *v);

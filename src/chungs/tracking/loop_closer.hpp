@@ -22,6 +22,8 @@ struct LoopOptions {
   int min_keyframe_gap = 20;         // a loop candidate is at least this many keyframes older
   int min_inliers = 40;              // verified matches needed to accept a loop
   int candidates = 3;                // best-scoring keyframes verified per query
+  double max_drift_ratio = 0.2;      // reject loops moving the query more than this share of the path since
+  double min_drift_gate = 0.5;       // the candidate, plus this many metres
   float scale_factor = 1.2f;
 };
 

@@ -16,7 +16,10 @@ struct TrackerOptions {
   int min_init_points = 50;             // features with depth needed to start the map
   int min_inliers = 20;                 // below this, tracking falls back to PnP, then relocalisation
   double motion_check_ratio = 0.4;     // motion-model inliers below this share of the last frame's: try PnP too
-  float keyframe_ratio = 0.75f;         // new keyframe when tracked < ratio * reference keyframe's points
+  float keyframe_ratio = 0.75f;         // new keyframe when tracked < ratio * reference keyframe's points seen 3 times
+  float keyframe_all_ratio = 0.5f;      // ... or tracked < this * all the reference keyframe's points
+  int min_keyframe_interval = 0;        // frames after a keyframe before a non-weak frame may be one
+  int max_keyframe_interval = 0;        // a keyframe at least every this many frames (0: no limit)
   int local_keyframes = 12;             // covisible keyframes whose points form the local map
   bool local_ba = true;
   int ba_window = 8;                    // keyframes optimised by local bundle adjustment
