@@ -22,6 +22,7 @@ struct TrackArgs {
   size_t max_frames = 0;
   bool no_ba = false, no_loop = false, json = false;
   int kf_min_interval = -1, kf_max_interval = -1;
+  double rgbd_baseline = 0;
 };
 
 int run_track(const TrackArgs& a) {
@@ -30,6 +31,7 @@ int run_track(const TrackArgs& a) {
   tracking::TrackerOptions opt;
   opt.local_ba = !a.no_ba;
   opt.loop_closure = !a.no_loop;
+  if (a.rgbd_baseline > 0) opt.rgbd_virtual_baseline = a.rgbd_baseline;
   if (a.kf_min_interval >= 0) opt.min_keyframe_interval = a.kf_min_interval;
   if (a.kf_max_interval >= 0) opt.max_keyframe_interval = a.kf_max_interval;
   tracking::VisualTracker tracker(opt);
@@ -93,6 +95,7 @@ const Command track_cmd("track", "visual SLAM tracking of a stereo or RGB-D data
   app.add_flag("--no-loop", args->no_loop, "skip loop closure");
   app.add_option("--kf-min-interval", args->kf_min_interval, "frames after a keyframe before the next (default from the tracker settings)");
   app.add_option("--kf-max-interval", args->kf_max_interval, "a keyframe at least every N frames (0: no limit)");
+  app.add_option("--rgbd-baseline", args->rgbd_baseline, "RGB-D: virtual stereo baseline (m) that weights the depth residual");
   app.add_flag("--json", args->json, "print the summary as JSON");
   return [args] { return run_track(*args); };
 });

@@ -46,7 +46,9 @@ void VisualTracker::extract(const Frame& frame, Current& c) {
     baseline_ = frame.baseline;
   } else if (frame.depth) {
     stereo_ = false;
-    baseline_ = opt_.rgbd_virtual_baseline;
+    baseline_ = opt_.rgbd_virtual_baseline > 0 ? opt_.rgbd_virtual_baseline : 1.0 / (cam.fx * opt_.rgbd_depth_noise);
+    if (!std::isfinite(baseline_) || !(baseline_ > 0))
+      fail("tracking: RGB-D depth noise ", opt_.rgbd_depth_noise, " with fx ", cam.fx, " gives no usable virtual baseline");
   } else {
     fail("tracking: frame ", frame.index, " (", frame.source, ") has neither a right image nor depth (monocular tracking is not supported)");
   }
