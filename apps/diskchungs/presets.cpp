@@ -6,7 +6,8 @@ namespace chungs::app {
 
 void apply_preset(Config& c, const std::string& preset, const std::string& dataset) {
   std::string p = preset;
-  if (p == "auto") p = dataset.rfind("kitti:", 0) == 0 ? "outdoor" : "indoor";
+  if (p == "auto")
+    p = dataset.rfind("kitti:", 0) == 0 || dataset.rfind("synth-street:", 0) == 0 ? "outdoor" : "indoor";
   if (p == "outdoor") {
     c.loss = LossConfig::kitti();
     c.adam.lr_position = AdamConfig::kitti().lr_position;

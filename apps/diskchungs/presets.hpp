@@ -7,7 +7,7 @@
 
 namespace chungs::app {
 
-// preset: auto (outdoor for kitti: datasets, indoor otherwise) | outdoor | indoor.
+// preset: auto (outdoor for kitti: and synth-street: datasets, indoor otherwise) | outdoor | indoor.
 void apply_preset(Config& c, const std::string& preset, const std::string& dataset);
 
 }  // namespace chungs::app

@@ -18,7 +18,9 @@ void fields(V& v, ChunkStoreConfig& c) {
   v("compress", c.compress, "zstd-compress chunk files");
   v("zstd_level", c.zstd_level, "");
   v("shuffle", c.shuffle, "byte-shuffle before zstd");
-  v("durable", c.durable, "flush files and folders on every write (power-loss safe)");
+  v("durable", c.durable, "power-loss safe at each commit (checkpoint); saves are not flushed one by one");
+  v("half_moments", c.half_moments, "store Adam moments as binary16 in chunk files (724 -> 488 bytes per Gaussian)");
+  v("half_sh_rest", c.half_sh_rest, "store SH beyond DC as binary16 too (-> 398 bytes per Gaussian)");
   v("verify_on_open", c.verify_on_open, "check every chunk checksum when a map is opened");
 }
 template <class V>
@@ -35,6 +37,7 @@ void fields(V& v, ResidencyConfig& c) {
   v("async_io", c.async_io, "background prefetch and write-behind");
   v("prefetch_max_gaussians", c.prefetch_max_gaussians, "host read-ahead, Gaussians; 0: a quarter of the budget");
   v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: a quarter of the budget");
+  v("flush_threads", c.flush_threads, "threads writing modified chunks at a checkpoint");
 }
 template <class V>
 void fields(V& v, CullerConfig& c) {
@@ -96,7 +99,8 @@ void fields(V& v, MapperConfig& c) {
   v("holdout_every", c.holdout_every, "frame i is held out (never trained) when i % n == n - 1; 0: none");
   v("resolution", c.resolution, "image scale factor for mapping (1 = full resolution)");
   v("depth", c.depth, "auto | sensor | stereo | none");
-  v("checkpoint_every", c.checkpoint_every, "keyframes between checkpoints (resume point)");
+  v("checkpoint_every", c.checkpoint_every, "keyframes between checkpoints (resume point) ...");
+  v("checkpoint_seconds", c.checkpoint_seconds, "... or, when > 0, seconds between checkpoints instead");
   v("seed", c.seed, "random seed (sampling, keyframe picks)");
   v("eval_keyframe_stride", c.eval_keyframe_stride, "score every n-th keyframe at the end (paper protocol); 0: off");
   v("max_saved_renders", c.max_saved_renders, "held-out renders written as PNG at most");

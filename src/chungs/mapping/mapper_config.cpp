@@ -20,6 +20,7 @@ void MapperConfig::validate() const {
   if (depth != "auto" && depth != "sensor" && depth != "stereo" && depth != "none")
     fail("mapper: depth must be auto, sensor, stereo or none, got '", depth, "'");
   if (checkpoint_every < 1) fail("mapper: checkpoint_every must be >= 1, got ", checkpoint_every);
+  if (!(checkpoint_seconds >= 0)) fail("mapper: checkpoint_seconds must be >= 0, got ", checkpoint_seconds);
   if (device != "auto" && device != "cuda" && device != "cpu")
     fail("mapper: device must be auto, cuda or cpu, got '", device, "'");
   if (loop_refine_iterations < 0) fail("mapper: loop_refine_iterations must be >= 0, got ", loop_refine_iterations);

@@ -17,7 +17,9 @@ struct MapperConfig {
   int holdout_every = 8;            // frame i is never trained on when i % n == n - 1 (0: none)
   double resolution = 1.0;          // images (and intrinsics) scaled by this before mapping
   std::string depth = "auto";       // auto | sensor | stereo | none
-  int checkpoint_every = 5;         // keyframes between checkpoints (flush chunks, save state)
+  int checkpoint_every = 5;         // keyframes between checkpoints (flush chunks, save state) ...
+  double checkpoint_seconds = 0;    // ... or, when > 0, seconds between them: every checkpoint rewrites
+                                    // each modified chunk, so long runs checkpoint by time
   uint64_t seed = 1;
   int eval_keyframe_stride = 1;     // paper protocol: score every n-th keyframe at the end (0: off)
   int max_saved_renders = 64;       // held-out renders written as PNG at most

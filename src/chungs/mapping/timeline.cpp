@@ -13,10 +13,11 @@ namespace chungs {
 std::string timeline_csv(const std::vector<TimelineSample>& samples) {
   std::ostringstream s;
   s << "seconds,frame,keyframes,iterations,resident_gaussians,total_gaussians,chunks,rss_mb,chunk_loads,chunk_saves,"
-       "chunk_io_ms\n";
+       "chunk_io_ms,read_mb,written_mb,io_wait_ms,disk_mb\n";
   for (const auto& t : samples)
     s << t.seconds << ',' << t.frame << ',' << t.keyframes << ',' << t.iterations << ',' << t.resident << ','
-      << t.total << ',' << t.chunks << ',' << t.rss_mb << ',' << t.loads << ',' << t.saves << ',' << t.io_ms << '\n';
+      << t.total << ',' << t.chunks << ',' << t.rss_mb << ',' << t.loads << ',' << t.saves << ',' << t.io_ms << ','
+      << t.read_mb << ',' << t.written_mb << ',' << t.wait_ms << ',' << t.disk_mb << '\n';
   return s.str();
 }
 
@@ -24,7 +25,7 @@ nlohmann::json to_json(const std::vector<TimelineSample>& samples) {
   nlohmann::json a = nlohmann::json::array();
   for (const auto& t : samples)
     a.push_back({t.seconds, t.frame, t.keyframes, t.iterations, t.resident, t.total, t.chunks, t.rss_mb, t.loads,
-                 t.saves, t.io_ms});
+                 t.saves, t.io_ms, t.read_mb, t.written_mb, t.wait_ms, t.disk_mb});
   return a;
 }
 
@@ -32,7 +33,9 @@ std::vector<TimelineSample> timeline_from_json(const nlohmann::json& j) {
   std::vector<TimelineSample> out;
   if (!j.is_array()) return out;
   for (const auto& r : j) {
-    if (!r.is_array() || r.size() != 11) fail("timeline: a sample must have 11 fields, got ", r.dump());
+    // 11 fields: written before the I/O columns existed (a map resumed from an older version).
+    if (!r.is_array() || (r.size() != 11 && r.size() != 15))
+      fail("timeline: a sample must have 15 (or 11) fields, got ", r.dump());
     TimelineSample t;
     t.seconds = r[0];
     t.frame = r[1];
@@ -45,6 +48,12 @@ std::vector<TimelineSample> timeline_from_json(const nlohmann::json& j) {
     t.loads = r[8];
     t.saves = r[9];
     t.io_ms = r[10];
+    if (r.size() == 15) {
+      t.read_mb = r[11];
+      t.written_mb = r[12];
+      t.wait_ms = r[13];
+      t.disk_mb = r[14];
+    }
     out.push_back(t);
   }
   return out;

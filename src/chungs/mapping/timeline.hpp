@@ -13,7 +13,10 @@ struct TimelineSample {
   uint64_t resident = 0, total = 0, chunks = 0;
   double rss_mb = 0;
   uint64_t loads = 0, saves = 0;
-  double io_ms = 0;  // chunk load + save time
+  double io_ms = 0;  // chunk load + save time (any thread)
+  double read_mb = 0, written_mb = 0;  // chunk bytes moved
+  double wait_ms = 0;  // time the optimiser was blocked on chunk I/O (loads, full queues, checkpoints)
+  double disk_mb = 0;  // the map folder's size on disk
 };
 
 std::string timeline_csv(const std::vector<TimelineSample>& samples);

@@ -1,0 +1,64 @@
+// The timeline survives a checkpoint (JSON in run_state) and reads the shorter samples of maps saved
+// before the I/O columns existed; the CSV has one column per field.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <sstream>
+
+#include "chungs/common/error.hpp"
+#include "chungs/mapping/timeline.hpp"
+
+namespace chungs {
+namespace {
+
+TEST(Timeline, RoundTripsThroughJsonWithEveryField) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.5, 900.0);
+  std::vector<TimelineSample> in(5);
+  for (auto& t : in) {
+    t.seconds = u(rng);
+    t.frame = uint64_t(u(rng));
+    t.keyframes = uint64_t(u(rng));
+    t.iterations = uint64_t(u(rng)) * 30;
+    t.resident = uint64_t(u(rng)) * 100;
+    t.total = t.resident * 3;
+    t.chunks = uint64_t(u(rng));
+    t.rss_mb = u(rng);
+    t.loads = uint64_t(u(rng));
+    t.saves = uint64_t(u(rng));
+    t.io_ms = u(rng);
+    t.read_mb = u(rng);
+    t.written_mb = u(rng);
+    t.wait_ms = u(rng);
+    t.disk_mb = u(rng);
+  }
+  const auto out = timeline_from_json(to_json(in));
+  ASSERT_EQ(out.size(), in.size());
+  for (size_t i = 0; i < in.size(); ++i) {
+    EXPECT_EQ(out[i].total, in[i].total);
+    EXPECT_DOUBLE_EQ(out[i].io_ms, in[i].io_ms);
+    EXPECT_DOUBLE_EQ(out[i].read_mb, in[i].read_mb);
+    EXPECT_DOUBLE_EQ(out[i].written_mb, in[i].written_mb);
+    EXPECT_DOUBLE_EQ(out[i].wait_ms, in[i].wait_ms);
+    EXPECT_DOUBLE_EQ(out[i].disk_mb, in[i].disk_mb);
+  }
+  std::istringstream csv(timeline_csv(in));
+  std::string header, row;
+  std::getline(csv, header);
+  std::getline(csv, row);
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 14);
+  EXPECT_EQ(std::count(row.begin(), row.end(), ','), 14);
+  EXPECT_NE(header.find("io_wait_ms"), std::string::npos);
+}
+
+TEST(Timeline, ReadsOlderElevenFieldSamplesAndRejectsOthers) {
+  const nlohmann::json old = nlohmann::json::parse("[[1.5, 3, 2, 60, 100, 200, 4, 50.0, 1, 2, 3.5]]");
+  const auto t = timeline_from_json(old);
+  ASSERT_EQ(t.size(), 1u);
+  EXPECT_EQ(t[0].total, 200u);
+  EXPECT_EQ(t[0].disk_mb, 0.0);
+  EXPECT_THROW(timeline_from_json(nlohmann::json::parse("[[1, 2, 3]]")), Error);
+}
+
+}  // namespace
+}  // namespace chungs
