@@ -47,6 +47,9 @@ TEST(StereoMatcher, DepthMapGivesVirtualRightColumn) {
   EXPECT_EQ(attach_depth(depth, f, 40.0), 1);
   EXPECT_FLOAT_EQ(f.depth[0], 2.5f);
   EXPECT_NEAR(f.u_right[0], 10.2 - 40.0 / 2.5, 1e-5);
+  // A negative virtual right column is still one (it was read as "none" when -1 marked a missing column).
+  EXPECT_TRUE(has_right(f.u_right[0]));
+  EXPECT_FALSE(has_right(f.u_right[1]));
   EXPECT_FALSE(f.has_depth(1));
   EXPECT_FALSE(f.has_depth(2));
 }
@@ -64,7 +67,7 @@ TEST(PoseOptimizer, RecoversPoseDespiteOutliers) {
     Eigen::Vector3d pc(3 * U(rng), 2 * U(rng), 4 + 3 * (U(rng) + 1));
     Eigen::Vector3d X = truth.inverse() * pc;
     double u = k.fx * pc.x() / pc.z() + k.cx + N(rng), v = k.fy * pc.y() / pc.z() + k.cy + N(rng);
-    double ur = i % 2 ? u - k.bf / pc.z() + N(rng) : -1;
+    double ur = i % 2 ? u - k.bf / pc.z() + N(rng) : double(kNoRight);
     if (i % 5 == 0) u += 40 * U(rng) + 30, v -= 30;  // gross outliers
     obs.push_back({X, u, v, ur, 1.0});
   }

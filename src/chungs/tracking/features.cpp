@@ -52,7 +52,7 @@ Features extract_orb(const cv::Mat& gray, const OrbOptions& opt) {
   orb->compute(gray, kept, f.desc);
   f.kps = std::move(kept);
   f.depth.assign(f.kps.size(), 0.f);
-  f.u_right.assign(f.kps.size(), -1.f);
+  f.u_right.assign(f.kps.size(), kNoRight);
   return f;
 }
 

@@ -27,6 +27,11 @@ struct Features {
 };
 
 // Scale of pyramid level `octave` relative to level 0.
+// "No right column" for u_right. Not -1: an RGB-D virtual baseline makes real right columns negative
+// (u - bf / z < 0) for features left of bf / z, and those lost their depth row.
+constexpr float kNoRight = -1e9f;
+inline bool has_right(double ur) { return ur > -1e8; }
+
 float level_scale(int octave, float scale_factor = 1.2f);
 
 // 8-bit gray cv::Mat sharing nothing with the input (RGB is converted to luma).

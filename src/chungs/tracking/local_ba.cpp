@@ -62,7 +62,7 @@ LocalBAResult local_bundle_adjust(Map& map, long kf, const Intrinsics& k, float 
       const Keyframe& K = map.kf(id);
       const auto& kp = K.feat.kps[i];
       double ur = K.feat.u_right[i];
-      double delta = std::sqrt(ur >= 0 ? kChi2Stereo : kChi2Mono);
+      double delta = std::sqrt(has_right(ur) ? kChi2Stereo : kChi2Mono);
       problem.AddResidualBlock(
           ReprojectionCost::create(k, kp.pt.x, kp.pt.y, ur, 1.0 / level_scale(kp.octave, scale_factor)),
           new ceres::HuberLoss(delta), P.data(), P.data() + 4, X.data());
@@ -95,7 +95,7 @@ LocalBAResult local_bundle_adjust(Map& map, long kf, const Intrinsics& k, float 
     const auto& kp = K.feat.kps[o.kp];
     double ur = K.feat.u_right[o.kp];
     double chi2 = reprojection_chi2(k, T.q, T.t, p->pos, kp.pt.x, kp.pt.y, ur, 1.0 / level_scale(kp.octave, scale_factor));
-    if (chi2 > (ur >= 0 ? kChi2Stereo : kChi2Mono)) {
+    if (chi2 > (has_right(ur) ? kChi2Stereo : kChi2Mono)) {
       map.erase_observation(o.pid, o.kf);
       ++res.outliers;
     }

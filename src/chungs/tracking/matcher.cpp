@@ -33,7 +33,7 @@ int search_by_projection(const Map& map, const std::vector<long>& candidates, co
       const double du = kp.pt.x - u, dv = kp.pt.y - v;
       if (du * du + dv * dv > double(r) * r) continue;
       // With a right column, the predicted disparity must agree too.
-      if (f.u_right[i] >= 0 && std::abs(f.u_right[i] - ur_pred) > r) continue;
+      if (has_right(f.u_right[i]) && std::abs(f.u_right[i] - ur_pred) > r) continue;
       int d = hamming(p->desc.ptr<uint8_t>(0), f.desc.ptr<uint8_t>(i));
       if (d < best) second = best, second_oct = best_oct, best = d, best_i = i, best_oct = kp.octave;
       else if (d < second) second = d, second_oct = kp.octave;

@@ -22,7 +22,7 @@ int optimize_pose(SE3& T_cw, const Intrinsics& k, const std::vector<PoseObservat
     for (size_t i = 0; i < obs.size(); ++i) {
       if (!inlier[i]) continue;
       const auto& o = obs[i];
-      double delta = std::sqrt(o.ur >= 0 ? kChi2Stereo : kChi2Mono);
+      double delta = std::sqrt(has_right(o.ur) ? kChi2Stereo : kChi2Mono);
       problem.AddResidualBlock(ReprojectionCost::create_pose_only(k, o.u, o.v, o.ur, o.inv_sigma, o.X),
                                round < rounds - 1 ? new ceres::HuberLoss(delta) : nullptr, qa, ta);
       ++used;
@@ -42,7 +42,7 @@ int optimize_pose(SE3& T_cw, const Intrinsics& k, const std::vector<PoseObservat
     for (size_t i = 0; i < obs.size(); ++i) {
       const auto& o = obs[i];
       double chi2 = reprojection_chi2(k, q, t, o.X, o.u, o.v, o.ur, o.inv_sigma);
-      inlier[i] = chi2 <= (o.ur >= 0 ? kChi2Stereo : kChi2Mono);
+      inlier[i] = chi2 <= (has_right(o.ur) ? kChi2Stereo : kChi2Mono);
       n_in += inlier[i];
     }
     if (n_in < 10) break;

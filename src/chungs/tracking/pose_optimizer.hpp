@@ -10,7 +10,7 @@ namespace chungs::tracking {
 
 struct PoseObservation {
   Eigen::Vector3d X;    // world
-  double u, v, ur;      // pixels; ur < 0 without a right column
+  double u, v, ur;      // pixels; kNoRight without a right column
   double inv_sigma;     // 1 / (pyramid scale of the keypoint)
 };
 

@@ -16,7 +16,7 @@ struct PoseOnlyCost {
 }  // namespace
 
 ceres::CostFunction* ReprojectionCost::create(const Intrinsics& k, double u, double v, double ur, double inv_sigma) {
-  if (ur >= 0)
+  if (has_right(ur))
     return new ceres::AutoDiffCostFunction<ReprojectionCost, 3, 4, 3, 3>(new ReprojectionCost(k, u, v, ur, inv_sigma));
   return new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 4, 3, 3>(new ReprojectionCost(k, u, v, ur, inv_sigma));
 }
@@ -24,7 +24,7 @@ ceres::CostFunction* ReprojectionCost::create(const Intrinsics& k, double u, dou
 ceres::CostFunction* ReprojectionCost::create_pose_only(const Intrinsics& k, double u, double v, double ur,
                                                         double inv_sigma, const Eigen::Vector3d& X) {
   auto* f = new PoseOnlyCost{ReprojectionCost(k, u, v, ur, inv_sigma), X};
-  if (ur >= 0) return new ceres::AutoDiffCostFunction<PoseOnlyCost, 3, 4, 3>(f);
+  if (has_right(ur)) return new ceres::AutoDiffCostFunction<PoseOnlyCost, 3, 4, 3>(f);
   return new ceres::AutoDiffCostFunction<PoseOnlyCost, 2, 4, 3>(f);
 }
 
@@ -34,7 +34,7 @@ double reprojection_chi2(const Intrinsics& k, const Eigen::Quaterniond& q_cw, co
   if (p.z() <= 1e-3) return 1e12;
   double pu = k.fx * p.x() / p.z() + k.cx, pv = k.fy * p.y() / p.z() + k.cy;
   double e = (pu - u) * (pu - u) + (pv - v) * (pv - v);
-  if (ur >= 0) {
+  if (has_right(ur)) {
     double pr = pu - k.bf / p.z();
     e += (pr - ur) * (pr - ur);
   }

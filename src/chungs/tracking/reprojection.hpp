@@ -7,6 +7,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "chungs/tracking/features.hpp"
+
 namespace chungs::tracking {
 
 struct Intrinsics {
@@ -28,7 +30,7 @@ struct ReprojectionCost {
     T u = T(k_.fx) * p.x() * iz + T(k_.cx);
     r[0] = (u - T(u_)) * T(w_);
     r[1] = (T(k_.fy) * p.y() * iz + T(k_.cy) - T(v_)) * T(w_);
-    if (ur_ >= 0) r[2] = (u - T(k_.bf) * iz - T(ur_)) * T(w_);
+    if (has_right(ur_)) r[2] = (u - T(k_.bf) * iz - T(ur_)) * T(w_);
     return true;
   }
 

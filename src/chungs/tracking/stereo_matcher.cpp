@@ -37,7 +37,7 @@ int match_stereo(const cv::Mat& lg, const cv::Mat& rg, Features& left, const Fea
   std::vector<std::pair<int, int>> sads;  // (sad, left index) for outlier rejection
   for (int i = 0; i < int(left.size()); ++i) {
     left.depth[i] = 0;
-    left.u_right[i] = -1;
+    left.u_right[i] = kNoRight;
     const auto& kl = left.kps[i];
     int y = std::clamp(int(std::lround(kl.pt.y)), 0, rows - 1);
     int best = opt.max_descriptor_distance + 1, best_j = -1;
@@ -79,7 +79,7 @@ int match_stereo(const cv::Mat& lg, const cv::Mat& rg, Features& left, const Fea
     std::nth_element(vals.begin(), vals.begin() + vals.size() / 2, vals.end());
     const float thresh = 1.5f * 1.4f * float(vals[vals.size() / 2]);
     for (auto& [c, i] : sads)
-      if (float(c) > thresh) left.depth[i] = 0, left.u_right[i] = -1;
+      if (float(c) > thresh) left.depth[i] = 0, left.u_right[i] = kNoRight;
   }
   int n = 0;
   for (float d : left.depth) n += d > 0;
@@ -91,7 +91,7 @@ int attach_depth(const ImageF& depth, Features& f, double bf, float min_depth, f
   for (size_t i = 0; i < f.size(); ++i) {
     int x = int(std::lround(f.kps[i].pt.x)), y = int(std::lround(f.kps[i].pt.y));
     f.depth[i] = 0;
-    f.u_right[i] = -1;
+    f.u_right[i] = kNoRight;
     if (x < 0 || y < 0 || x >= depth.width() || y >= depth.height()) continue;
     float z = depth(x, y);
     if (!(z >= min_depth && z <= max_depth)) continue;
