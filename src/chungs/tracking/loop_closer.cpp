@@ -34,7 +34,10 @@ std::optional<LoopEvent> LoopCloser::process(Map& map, long kf) {
     return std::nullopt;
   }
   add_to_database(map, kf);
-  if (kf - last_loop_kf_ < opt_.min_keyframe_gap) return std::nullopt;
+  if (kf - last_loop_kf_ < opt_.min_keyframe_gap) {
+    groups_.clear();
+    return std::nullopt;
+  }
   const BowVector& q = bows_.at(kf);
   // The query must resemble a candidate at least as much as its own covisible neighbours resemble it.
   std::unordered_set<long> exclude = {kf};
@@ -54,8 +57,26 @@ std::optional<LoopEvent> LoopCloser::process(Map& map, long kf) {
     if (s >= min_score) ranked.emplace_back(s, c);
   }
   std::sort(ranked.rbegin(), ranked.rend());
-  for (int i = 0; i < std::min<int>(opt_.candidates, int(ranked.size())); ++i) {
-    auto v = verify(map, kf, ranked[i].second);
+  // A place seen again stays a candidate for several keyframes in a row (the candidate or a neighbour of it);
+  // a chance resemblance rarely does. Only such recurring candidates get the costly geometric check.
+  std::vector<Group> groups;
+  std::vector<long> consistent;
+  for (int i = 0; i < std::min<int>(opt_.tracked_candidates, int(ranked.size())); ++i) {
+    Group g;
+    g.members.insert(ranked[i].second);
+    for (auto& [n, shared] : map.covisible(ranked[i].second, 15, 10)) g.members.insert(n);
+    for (const Group& p : groups_)
+      for (long m : g.members)
+        if (p.members.count(m)) {
+          g.count = std::max(g.count, p.count + 1);
+          break;
+        }
+    if (g.count >= opt_.consistency && int(consistent.size()) < opt_.candidates) consistent.push_back(ranked[i].second);
+    groups.push_back(std::move(g));
+  }
+  groups_ = std::move(groups);
+  for (long candidate : consistent) {
+    auto v = verify(map, kf, candidate);
     if (!v) continue;
     // Repeated places (the same facade or block seen in two streets) pass the geometric check; a true
     // revisit only moves the query by the drift accumulated since the candidate, a few percent of the way.
@@ -72,7 +93,9 @@ std::optional<LoopEvent> LoopCloser::process(Map& map, long kf) {
       continue;
     }
     log::info("loop closure: keyframe ", kf, " (frame ", map.kf(kf).frame_index, ") matches keyframe ", v->candidate,
-              " (frame ", map.kf(v->candidate).frame_index, ", score ", ranked[i].first, ", ", v->pairs.size(), " inliers)");
+              " (frame ", map.kf(v->candidate).frame_index, ", score ", Vocabulary::score(q, bows_.at(v->candidate)), ", ",
+              v->pairs.size(), " inliers)");
+    groups_.clear();
     return close(map, kf, *v);
   }
   return std::nullopt;

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <optional>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "chungs/tracking/map.hpp"
@@ -21,7 +22,9 @@ struct LoopOptions {
   int branching = 10, levels = 3;
   int min_keyframe_gap = 20;         // a loop candidate is at least this many keyframes older
   int min_inliers = 40;              // verified matches needed to accept a loop
-  int candidates = 3;                // best-scoring keyframes verified per query
+  int candidates = 3;                // recurring candidates verified per query, best score first
+  int tracked_candidates = 10;       // best-scoring keyframes followed from query to query
+  int consistency = 3;               // consecutive queries a candidate (or its neighbours) must recur in
   double max_drift_ratio = 0.2;      // reject loops moving the query more than this share of the path since
   double min_drift_gate = 0.5;       // the candidate, plus this many metres
   float scale_factor = 1.2f;
@@ -52,6 +55,11 @@ class LoopCloser {
   std::vector<long> pending_;
   std::unordered_map<long, BowVector> bows_;
   std::unordered_map<int, std::vector<long>> inverted_;  // word -> keyframes containing it
+  struct Group {
+    std::unordered_set<long> members;  // a candidate and its covisible neighbours
+    int count = 1;                     // consecutive queries that had it
+  };
+  std::vector<Group> groups_;          // the previous query's candidate groups
   std::vector<PoseGraphEdge> loop_edges_;
   long last_loop_kf_ = -1000000;
 };
