@@ -70,6 +70,15 @@ TEST(LoopClosure, TrackerClosesRenderedRoomLoopAndReportsIt) {
   // The event carries what the mapper needs: both poses of every moved keyframe and the junction.
   ASSERT_FALSE(loop->new_poses.empty());
   ASSERT_EQ(loop->old_poses.size(), loop->new_poses.size());
+  // Every keyframe announced before the loop (culled ones included: they follow their parents) is listed once,
+  // under the id it was announced with.
+  std::unordered_map<long, int> listed;
+  for (size_t i = 0; i < loop->new_poses.size(); ++i) {
+    EXPECT_EQ(loop->new_poses[i].first, loop->old_poses[i].first);
+    ++listed[loop->new_poses[i].first];
+  }
+  for (const auto& [id, frame] : kf_frame)
+    if (id <= loop->query) EXPECT_EQ(listed[id], 1) << "keyframe " << id << " (frame " << frame << ")";
   EXPECT_NE(std::find(loop->junction.begin(), loop->junction.end(), loop->query), loop->junction.end());
   EXPECT_NE(std::find(loop->junction.begin(), loop->junction.end(), loop->match), loop->junction.end());
   double moved = 0;

@@ -70,9 +70,17 @@ long VisualTracker::create_keyframe(Current& c) {
   MapOperation added;
   std::vector<std::pair<long, SE3>> moved;
   if (opt_.local_ba && map_.keyframes() > 1) {
+    // Culled keyframes move with their parents: the mapper hears about those too.
+    std::vector<std::pair<long, SE3>> culled;
+    for (long k = 0; k < long(map_.keyframes()); ++k)
+      if (map_.kf(k).bad) culled.emplace_back(k, map_.pose(k));
     LocalBAResult ba = local_bundle_adjust(map_, id, k_, opt_.orb.scale_factor, opt_.ba_window, opt_.ba_iterations);
     for (long k : ba.keyframes)
       if (k != id) moved.emplace_back(k, map_.pose(k));
+    for (auto& [k, old] : culled) {
+      const SE3 now = map_.pose(k);
+      if (now.t != old.t || now.q.coeffs() != old.q.coeffs()) moved.emplace_back(k, now);
+    }
     c.T_cw = map_.kf(id).T_cw();
     last_T_cw_ = c.T_cw;
   }

@@ -205,10 +205,18 @@ LoopEvent LoopCloser::close(Map& map, long query, const Verified& v) {
   LoopEvent ev;
   ev.query = query;
   ev.match = v.candidate;
+  // Culled keyframes follow their parents; the mapper saw them as keyframes, so they are listed too.
+  std::vector<std::pair<long, SE3>> culled;
+  for (long i = 0; i < long(map.keyframes()); ++i)
+    if (map.kf(i).bad) culled.emplace_back(i, map.pose(i));
   for (long i : alive) {
     map.kf(i).T_wc = poses.at(i);
     ev.old_poses.emplace_back(i, before.at(i));
     ev.new_poses.emplace_back(i, poses.at(i));
+  }
+  for (auto& [i, old] : culled) {
+    ev.old_poses.emplace_back(i, old);
+    ev.new_poses.emplace_back(i, map.pose(i));
   }
   for (auto& [kp, pid] : v.pairs)
     if (map.point(pid)) map.add_observation(pid, query, kp);
