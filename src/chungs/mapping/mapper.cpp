@@ -1,9 +1,11 @@
 #include "chungs/mapping/mapper.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <unordered_map>
 
 #include "chungs/common/log.hpp"
+#include "chungs/store/atomic_file.hpp"
 
 namespace chungs {
 
@@ -29,7 +31,12 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   const bool existing = fs::exists(folder / "manifest.txt") || fs::exists(folder / "keyframes.txt");
   if (existing && !resume)
     fail(folder.string(), " already holds a map: pass --resume to continue it, or choose another folder");
-  store_ = std::make_unique<ChunkStore>(folder, config_.store);
+  // The map rolls back to the last checkpoint after a crash, so it always matches the keyframe list
+  // and run state committed with it (no Gaussians of frames that a resumed run processes again).
+  ChunkStoreConfig store_config = config_.store;
+  store_config.adopt_uncommitted = false;
+  store_ = std::make_unique<ChunkStore>(folder, store_config);
+  if (resume) recover_checkpoint_files();
   backend_ =
       make_optim_backend(device_, config_.residency.budget_gaussians, store_->sh_degree(), config_.raster);
   residency_ = std::make_unique<Residency>(*store_, backend_->pool(), config_.residency);
@@ -237,20 +244,57 @@ StepStats Mapper::step_keyframe(uint32_t keyframe) {
   return st;
 }
 
+namespace {
+
+fs::path checkpoint_file(const fs::path& folder, uint64_t seq, const std::string& final_name) {
+  return folder / cat("checkpoint-", seq, "-", final_name);
+}
+
+}  // namespace
+
+// A checkpoint is one commit of the chunk store whose manifest names it (`checkpoint` entry): its
+// keyframe list and run state are written first under numbered names, the commit makes them the
+// truth, and only then do they take the names that readers use. A crash before the commit leaves
+// the previous checkpoint whole; after it, opening finishes the renaming.
+void Mapper::recover_checkpoint_files() {
+  const auto tag = store_->config_value("checkpoint");
+  checkpoint_seq_ = tag ? std::stoull(*tag) : 0;
+  for (const auto& e : fs::directory_iterator(folder_)) {
+    const std::string name = e.path().filename().string();
+    unsigned long long seq = 0;
+    char rest[64] = {};
+    if (std::sscanf(name.c_str(), "checkpoint-%llu-%63s", &seq, rest) != 2) continue;
+    const std::string final_name = rest;
+    if (final_name != "keyframes.txt" && final_name != "run_state.json") continue;
+    if (tag && seq == checkpoint_seq_)
+      fs::rename(e.path(), folder_ / final_name);
+    else
+      fs::remove(e.path());
+  }
+}
+
 void Mapper::checkpoint(const nlohmann::json& run_state) {
-  residency_->flush();
+  const uint64_t seq = checkpoint_seq_ + 1;
   for (auto& k : keyframes_) {
     k.uses = selector_.usage(k.id).uses;
     k.last_loss = selector_.usage(k.id).last_loss;
   }
-  write_keyframe_records(folder_ / "keyframes.txt", keyframes_, config_.store.durable);
+  const fs::path keyframes_file = checkpoint_file(folder_, seq, "keyframes.txt");
+  const fs::path state_file = checkpoint_file(folder_, seq, "run_state.json");
+  write_keyframe_records(keyframes_file, keyframes_, config_.store.durable);
   nlohmann::json j = run_state;
   j["iterations"] = iterations_;
   j["keyframe_chunks"] = keyframe_chunks_.to_json();
   std::ostringstream s;
   s << rng_;
   j["rng"] = s.str();
-  write_json_atomically(folder_ / "run_state.json", j, config_.store.durable);
+  write_json_atomically(state_file, j, config_.store.durable);
+  store_->set_config("checkpoint", std::to_string(seq));
+  residency_->flush();  // every modified chunk, then the manifest naming this checkpoint
+  fs::rename(keyframes_file, folder_ / "keyframes.txt");
+  fs::rename(state_file, folder_ / "run_state.json");
+  if (config_.store.durable) sync_directory(folder_);
+  checkpoint_seq_ = seq;
 }
 
 }  // namespace chungs

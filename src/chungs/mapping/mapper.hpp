@@ -100,6 +100,8 @@ class Mapper {
   uint64_t iterations_ = 0, pruned_total_ = 0;
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
+  uint64_t checkpoint_seq_ = 0;  // the last committed checkpoint (see recover_checkpoint_files)
+  void recover_checkpoint_files();
   std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
   bool loop_batch_allowed_ = true;

@@ -43,6 +43,10 @@ struct ChunkStoreConfig {
   bool shuffle = true;          // byte-shuffle before zstd
   bool durable = true;          // commit() flushes (power-loss safe); off: kill-safe only
   bool verify_on_open = false;  // check every chunk's payload checksum on open (reads the whole map)
+  // On open after a crash: true takes chunk files saved after the last commit when they read back
+  // whole; false rolls every chunk back to the last commit, so the map matches state that a higher
+  // layer committed with it (the mapper's checkpoints: keyframes and run state).
+  bool adopt_uncommitted = true;
   // Smaller chunk files (chunk_codec.hpp); memory keeps float32. Each save uses the current
   // setting, files of either kind read back.
   bool half_moments = false;  // Adam moments as binary16: 724 -> 488 bytes per Gaussian

@@ -42,7 +42,7 @@ void ChunkStore::reconcile(bool have_manifest) {
     bool decided = false;
     std::optional<uint64_t> keep;
     std::vector<std::pair<uint64_t, bool>> newer;  // newest first
-    for (auto g = generations.rbegin(); g != generations.rend(); ++g) {
+    for (auto g = generations.rbegin(); config_.adopt_uncommitted && g != generations.rend(); ++g) {
       if (g->first < watermark || (named && g->first <= named->generation)) break;
       newer.push_back(*g);
     }

@@ -1,0 +1,116 @@
+// A map folder after a crash matches its last checkpoint: chunk files saved after it are rolled
+// back (no Gaussians of keyframes the resumed run will add again), and a crash between the commit
+// and the renaming of the keyframe list and run state finishes the renaming on open.
+#include <gtest/gtest.h>
+
+#include "chungs/common/log.hpp"
+#include "chungs/mapping/mapper.hpp"
+#include "chungs/mapping/map_state.hpp"
+#include "chungs/store/chunk_store.hpp"
+#include "synthetic_sequence.hpp"
+#include "test_support.hpp"
+
+namespace chungs {
+namespace {
+
+namespace fs = std::filesystem;
+
+Config small_config() {
+  Config c;
+  c.loss = LossConfig::indoor();
+  c.store.chunk_size = 1.0;
+  c.store.durable = false;
+  c.keyframes.durable = false;
+  c.sampler.min_per_chunk = 10;
+  c.sampler.density = 4.0;
+  c.mapper.device = "cpu";
+  return c;
+}
+
+void add_frames(Mapper& m, const test::WallSequence& seq, size_t from, size_t to) {
+  for (size_t i = from; i < to; ++i) {
+    const Frame f = seq.frame(i);
+    m.add_keyframe(i, f.timestamp, f.left, f.depth, f.camera, *f.gt_pose);
+    for (int k = 0; k < 3; ++k) m.step();
+  }
+}
+
+// Every Gaussian of the map folder, by the keyframe that created it (read with the store alone).
+std::vector<uint32_t> creators(const fs::path& folder) {
+  ChunkStoreConfig sc;
+  sc.adopt_uncommitted = false;
+  ChunkStore store(folder, sc);
+  std::vector<uint32_t> out;
+  for (ChunkId id : store.ids()) {
+    const GaussianBlock b = store.load(id);
+    out.insert(out.end(), b.created_by_keyframe.begin(), b.created_by_keyframe.end());
+  }
+  return out;
+}
+
+void copy_folder(const fs::path& from, const fs::path& to) {
+  fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  fs::remove(to / "lock");
+}
+
+TEST(MapperCheckpoint, CrashBeforeTheCommitRollsTheMapBackToTheLastCheckpoint) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(10);
+  const Config c = small_config();
+  const fs::path a = dir / "a", b = dir / "b";
+  {
+    Mapper m(b, c, false);
+    add_frames(m, seq, 0, 4);
+    m.checkpoint({{"next_frame", 4}});
+    copy_folder(b, a);  // the folder as checkpoint 1 left it
+    add_frames(m, seq, 4, 9);
+    m.checkpoint({{"next_frame", 9}});
+  }
+  // Checkpoint 2 crashed after its chunk files and numbered state files, before the commit.
+  for (const auto& e : fs::directory_iterator(b / "chunks"))
+    if (!fs::exists(a / "chunks" / e.path().filename())) fs::copy_file(e.path(), a / "chunks" / e.path().filename());
+  fs::copy_file(b / "keyframes.txt", a / "checkpoint-2-keyframes.txt");
+  fs::copy_file(b / "run_state.json", a / "checkpoint-2-run_state.json");
+  {
+    Mapper m(a, c, true);
+    EXPECT_EQ(m.keyframes().size(), 4u);
+    EXPECT_EQ(m.resumed_state()["next_frame"].get<int>(), 4);
+  }
+  EXPECT_FALSE(fs::exists(a / "checkpoint-2-keyframes.txt"));
+  EXPECT_FALSE(fs::exists(a / "checkpoint-2-run_state.json"));
+  const auto ids = creators(a);
+  ASSERT_FALSE(ids.empty());
+  for (uint32_t k : ids) ASSERT_LT(k, 4u) << "a Gaussian of keyframe " << k << " survived the rollback";
+  EXPECT_LT(ids.size(), creators(b).size());
+}
+
+TEST(MapperCheckpoint, CrashAfterTheCommitFinishesTheRenamingOnOpen) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(10);
+  const Config c = small_config();
+  const fs::path b = dir / "b";
+  std::string old_keyframes;
+  {
+    Mapper m(b, c, false);
+    add_frames(m, seq, 0, 3);
+    m.checkpoint({{"next_frame", 3}});
+    fs::copy_file(b / "keyframes.txt", dir / "kf1.txt");
+    add_frames(m, seq, 3, 7);
+    m.checkpoint({{"next_frame", 7}});
+  }
+  // Committed, but the new keyframe list still has its numbered name and the old one is in place.
+  fs::rename(b / "keyframes.txt", b / "checkpoint-2-keyframes.txt");
+  fs::copy_file(dir / "kf1.txt", b / "keyframes.txt");
+  {
+    Mapper m(b, c, true);
+    EXPECT_EQ(m.keyframes().size(), 7u);
+  }
+  EXPECT_FALSE(fs::exists(b / "checkpoint-2-keyframes.txt"));
+  EXPECT_EQ(read_keyframe_records(b / "keyframes.txt").size(), 7u);
+  for (uint32_t k : creators(b)) ASSERT_LT(k, 7u);
+}
+
+}  // namespace
+}  // namespace chungs
