@@ -9,6 +9,7 @@
 #include "chungs/store/chunk_store.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
+#include "tiny_config.hpp"
 
 namespace chungs {
 namespace {
@@ -16,13 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 
 Config small_config() {
-  Config c;
-  c.loss = LossConfig::indoor();
-  c.store.chunk_size = 1.0;
-  c.store.durable = false;
-  c.keyframes.durable = false;
-  c.sampler.min_per_chunk = 10;
-  c.sampler.density = 4.0;
+  Config c = test::tiny_mapping_config();
   c.mapper.device = "cpu";
   return c;
 }

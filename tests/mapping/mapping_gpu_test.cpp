@@ -11,27 +11,15 @@
 #include "chungs/mapping/run_pipeline.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
+#include "tiny_config.hpp"
 
 namespace chungs {
 namespace {
 
 Config tiny_gpu_config(const std::string& device) {
-  Config c;
-  c.loss = LossConfig::indoor();
-  c.adam.lr_position = 1e-3f;
-  c.store.chunk_size = 1.0;
-  c.store.durable = false;
-  c.keyframes.durable = false;
-  c.sampler.min_per_chunk = 10;
-  c.sampler.density = 4.0;
-  c.sampler.empty_floor = 0.1;
-  c.mapper.iterations_per_keyframe = 12;
-  c.mapper.final_iterations = 60;
+  Config c = test::tiny_mapping_config();
   c.mapper.checkpoint_every = 4;
-  c.mapper.eval_keyframe_stride = 0;
-  c.mapper.max_saved_renders = 0;
   c.mapper.device = device;
-  c.residency.budget_gaussians = 200'000;
   return c;
 }
 

@@ -15,30 +15,14 @@
 #include "chungs/mapping/run_pipeline.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
+#include "tiny_config.hpp"
 
 extern char** environ;
 
 namespace chungs {
 namespace {
 
-Config tiny_config() {
-  Config c;
-  c.loss = LossConfig::indoor();
-  c.adam.lr_position = 1e-3f;
-  c.store.chunk_size = 1.0;
-  c.store.durable = false;
-  c.keyframes.durable = false;
-  c.sampler.min_per_chunk = 10;
-  c.sampler.density = 4.0;  // tiny images: more samples per pixel of edge
-  c.sampler.empty_floor = 0.1;
-  c.mapper.iterations_per_keyframe = 12;
-  c.mapper.final_iterations = 60;
-  c.mapper.checkpoint_every = 2;
-  c.mapper.eval_keyframe_stride = 0;
-  c.mapper.max_saved_renders = 0;
-  c.residency.budget_gaussians = 200'000;
-  return c;
-}
+Config tiny_config() { return test::tiny_mapping_config(); }
 
 RunOptions options(const std::filesystem::path& out, const Config& c) {
   RunOptions o;

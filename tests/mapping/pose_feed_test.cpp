@@ -12,22 +12,16 @@
 #include "chungs/synth/sequence.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
+#include "tiny_config.hpp"
 
 namespace chungs {
 namespace {
 
 Config small_config() {
-  Config c;
-  c.loss = LossConfig::indoor();
-  c.adam.lr_position = 1e-3f;
-  c.store.chunk_size = 1.0;
-  c.store.durable = false;
-  c.keyframes.durable = false;
-  c.sampler.min_per_chunk = 10;
+  Config c = test::tiny_mapping_config();
   c.mapper.iterations_per_keyframe = 3;
   c.mapper.final_iterations = 0;
-  c.mapper.eval_keyframe_stride = 0;
-  c.mapper.max_saved_renders = 0;
+  c.mapper.checkpoint_every = 5;
   c.mapper.loop_refine_iterations = 5;
   c.mapper.device = "cpu";
   return c;

@@ -1,0 +1,28 @@
+// The mapping settings the tests share: the indoor preset on tiny images (denser sampling, small
+// chunks), nothing flushed to disk, no renders or keyframe scoring at the end. Tests change what
+// they exercise on top of it.
+#pragma once
+#include "chungs/config/config.hpp"
+
+namespace chungs::test {
+
+inline Config tiny_mapping_config() {
+  Config c;
+  c.loss = LossConfig::indoor();
+  c.adam.lr_position = 1e-3f;
+  c.store.chunk_size = 1.0;
+  c.store.durable = false;
+  c.keyframes.durable = false;
+  c.sampler.min_per_chunk = 10;
+  c.sampler.density = 4.0;  // tiny images: more samples per pixel of edge
+  c.sampler.empty_floor = 0.1;
+  c.mapper.iterations_per_keyframe = 12;
+  c.mapper.final_iterations = 60;
+  c.mapper.checkpoint_every = 2;
+  c.mapper.eval_keyframe_stride = 0;
+  c.mapper.max_saved_renders = 0;
+  c.residency.budget_gaussians = 200'000;
+  return c;
+}
+
+}  // namespace chungs::test
