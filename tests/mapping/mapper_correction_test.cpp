@@ -146,6 +146,39 @@ TEST(MapperCorrection, BatchAndChunkByChunkGiveTheSameMapAndResumeUndoes) {
   EXPECT_LT(worst, 1e-5);
 }
 
+// The pool holds pool_headroom beyond the budget, so a correction whose chunks exceed the budget
+// but fit the pool still runs in one batch (the budget is raised for it, then restored); without
+// headroom the same correction goes chunk by chunk. Both move the same Gaussians.
+TEST(MapperCorrection, PoolHeadroomLetsALargerCorrectionRunInOneBatch) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const Config c = tiny_config(200'000);
+  map_wall(dir / "a", c, 6);
+  std::filesystem::copy(dir / "a", dir / "b", std::filesystem::copy_options::recursive);
+  uint64_t total = 0;
+  {
+    Mapper m(dir / "a", c, true);
+    total = m.total_gaussians();
+  }
+  ASSERT_GT(total, 500u);
+  PoseCorrectionStats with, without;
+  for (const char* name : {"a", "b"}) {
+    const bool headroom = std::string(name) == "a";
+    Config cm = tiny_config(size_t(0.9 * double(total)));
+    cm.residency.pool_headroom = headroom ? 0.25 : 0.0;
+    Mapper m(dir / name, cm, true);
+    (headroom ? with : without) = m.correct_poses(shifted(m, 0, kDelta), {}, 0);
+    EXPECT_EQ(m.total_gaussians(), total);
+    EXPECT_EQ(m.budget(), cm.residency.budget_gaussians);  // restored after the batch
+    if (headroom) EXPECT_GT(m.peak_resident_gaussians(), cm.residency.budget_gaussians);
+    else EXPECT_LE(m.peak_resident_gaussians(), cm.residency.budget_gaussians);
+  }
+  EXPECT_TRUE(with.batch);
+  EXPECT_FALSE(without.batch);
+  EXPECT_EQ(with.gaussians_moved, without.gaussians_moved);
+  EXPECT_EQ(with.gaussians_moved, total);
+}
+
 // A folder saved before the keyframe->chunk index existed: the correction visits every chunk and
 // still moves every Gaussian of the corrected keyframes.
 TEST(MapperCorrection, MapWithoutSavedIndexVisitsEveryChunk) {

@@ -38,6 +38,7 @@ void fields(V& v, ResidencyConfig& c) {
   v("prefetch_max_gaussians", c.prefetch_max_gaussians, "host read-ahead, Gaussians; 0: a quarter of the budget");
   v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: a quarter of the budget");
   v("flush_threads", c.flush_threads, "threads writing modified chunks at a checkpoint");
+  v("pool_headroom", c.pool_headroom, "pool slots beyond the budget (fraction), used only by loop corrections");
 }
 template <class V>
 void fields(V& v, CullerConfig& c) {

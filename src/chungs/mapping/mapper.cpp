@@ -25,6 +25,16 @@ void inverse_depth_of(const ImageF& depth, ImageF& inv, Image8& mask) {
   }
 }
 
+namespace {
+
+size_t pool_capacity(const ResidencyConfig& rc) {
+  if (!(rc.pool_headroom >= 0 && rc.pool_headroom <= 4))
+    fail("residency: pool_headroom must be in [0, 4], got ", rc.pool_headroom);
+  return rc.budget_gaussians + size_t(double(rc.budget_gaussians) * rc.pool_headroom);
+}
+
+}  // namespace
+
 Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     : folder_(folder), config_(config), selector_(config.selector), rng_(config.mapper.seed) {
   device_ = resolve_device(config_.mapper.device);  // before anything is written to the folder
@@ -38,7 +48,7 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   store_ = std::make_unique<ChunkStore>(folder, store_config);
   if (resume) recover_checkpoint_files();
   backend_ =
-      make_optim_backend(device_, config_.residency.budget_gaussians, store_->sh_degree(), config_.raster);
+      make_optim_backend(device_, pool_capacity(config_.residency), store_->sh_degree(), config_.raster);
   residency_ = std::make_unique<Residency>(*store_, backend_->pool(), config_.residency);
   culler_ = std::make_unique<FrustumCuller>(store_->chunk_size(), config_.culling);
   keyframe_store_ = std::make_unique<KeyframeStore>(folder / "keyframes", config_.keyframes);
