@@ -11,20 +11,15 @@
 #include "chungs/mapping/mapper.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
+#include "tiny_config.hpp"
 
 namespace chungs {
 namespace {
 
 Config tiny_config(size_t budget) {
-  Config c;
-  c.loss = LossConfig::indoor();
-  c.adam.lr_position = 1e-3f;
+  Config c = test::tiny_mapping_config();
   c.store.chunk_size = 0.5;
-  c.store.durable = false;
-  c.keyframes.durable = false;
   c.sampler.min_per_chunk = 5;
-  c.sampler.density = 4.0;
-  c.sampler.empty_floor = 0.1;
   c.prune.every = 0;  // counts must not change through pruning here
   c.residency.budget_gaussians = budget;
   return c;

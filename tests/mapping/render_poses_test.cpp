@@ -8,25 +8,17 @@
 #include "chungs/mapping/run_pipeline.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
+#include "tiny_config.hpp"
 
 namespace chungs {
 namespace {
 
 Config small_map_config() {
-  Config c;
-  c.loss = LossConfig::indoor();
-  c.adam.lr_position = 1e-3f;
+  Config c = test::tiny_mapping_config();
   c.store.chunk_size = 0.5;  // several chunks along the wall, so a small budget has to stream
-  c.store.durable = false;
-  c.keyframes.durable = false;
-  c.sampler.min_per_chunk = 10;
-  c.sampler.density = 4.0;
-  c.sampler.empty_floor = 0.1;
   c.mapper.iterations_per_keyframe = 8;
   c.mapper.final_iterations = 40;
-  c.mapper.eval_keyframe_stride = 0;
-  c.mapper.max_saved_renders = 0;
-  c.residency.budget_gaussians = 200'000;
+  c.mapper.checkpoint_every = 5;
   return c;
 }
 

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "chungs/config/config.hpp"
@@ -67,6 +68,7 @@ class Mapper {
   const nlohmann::json& resumed_state() const { return resumed_state_; }
 
   const std::vector<KeyframeRecord>& keyframes() const { return keyframes_; }
+  const KeyframeRecord* find_keyframe(uint32_t id) const;  // null when unknown
   uint64_t iterations() const { return iterations_; }
   uint64_t total_gaussians() const;
   size_t resident_gaussians() const { return residency_->resident_gaussians(); }
@@ -84,7 +86,6 @@ class Mapper {
  private:
   // Visible chunks of a view, nearest first, trimmed so that they fit the budget.
   std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose);
-  const KeyframeRecord* find_keyframe(uint32_t id) const;  // null when unknown
   StepStats step_keyframe(uint32_t keyframe);  // one optimisation step on the given keyframe
   std::filesystem::path folder_;
   Config config_;
@@ -100,6 +101,9 @@ class Mapper {
   uint64_t iterations_ = 0, pruned_total_ = 0;
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
+  KeyframeRecord* mutable_keyframe(uint32_t id) {
+    return const_cast<KeyframeRecord*>(std::as_const(*this).find_keyframe(id));
+  }
   uint64_t checkpoint_seq_ = 0;  // the last committed checkpoint (see recover_checkpoint_files)
   void recover_checkpoint_files();
   std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <unordered_map>
 
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/mapper.hpp"
@@ -14,12 +13,10 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
                                           const std::vector<uint32_t>& junction, int refine_iterations) {
   if (refine_iterations < 0)
     fail("mapper: loop correction: refine_iterations must be >= 0, got ", refine_iterations);
-  std::unordered_map<uint32_t, size_t> position;  // keyframe id -> index in keyframes_
-  for (size_t i = 0; i < keyframes_.size(); ++i) position.emplace(keyframes_[i].id, i);
   auto record_of = [&](uint32_t id, const char* what) -> KeyframeRecord& {
-    const auto it = position.find(id);
-    if (it == position.end()) fail("mapper: loop correction: ", what, " keyframe ", id, " is not in the map");
-    return keyframes_[it->second];
+    KeyframeRecord* k = mutable_keyframe(id);
+    if (!k) fail("mapper: loop correction: ", what, " keyframe ", id, " is not in the map");
+    return *k;
   };
   PoseCorrection pc;
   pc.allow_batch = loop_batch_allowed_;

@@ -1,6 +1,5 @@
 #include "chungs/mapping/pose_updates.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 #include "chungs/common/log.hpp"
@@ -14,9 +13,8 @@ PoseUpdateApplier::Applied PoseUpdateApplier::apply(const std::vector<PoseUpdate
     for (const auto& [source, pose] : u.poses) {
       const auto it = ids_.find(source);
       if (it == ids_.end()) continue;  // a held-out frame's keyframe, or one the map never had
-      const auto& kfs = mapper_.keyframes();
-      const auto rec = std::find_if(kfs.begin(), kfs.end(), [&](const auto& k) { return k.id == it->second; });
-      if (rec == kfs.end()) continue;
+      const KeyframeRecord* rec = mapper_.find_keyframe(it->second);
+      if (!rec) continue;
       const SE3 change = rec->pose.inverse() * pose;
       if (change.t.norm() < config_.pose_update_min_translation &&
           change.angle() * 180.0 / M_PI < config_.pose_update_min_rotation_deg) {

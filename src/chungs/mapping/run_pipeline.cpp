@@ -31,7 +31,7 @@ using Clock = std::chrono::steady_clock;
 
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-TimelineSample sample_now(const Mapper& m, double seconds, uint64_t frame) {
+TimelineSample sample_now(const Mapper& m, double seconds, uint64_t frame, double disk_mb) {
   TimelineSample t;
   t.seconds = seconds;
   t.frame = frame;
@@ -48,7 +48,7 @@ TimelineSample sample_now(const Mapper& m, double seconds, uint64_t frame) {
   t.read_mb = double(io.bytes_read) / 1048576.0;
   t.written_mb = double(io.bytes_written) / 1048576.0;
   t.wait_ms = io.optimiser_wait_ms();
-  t.disk_mb = double(disk_usage(m.folder()).bytes) / 1048576.0;
+  t.disk_mb = disk_mb;
   return t;
 }
 
@@ -133,8 +133,15 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   };
   // Frame i arrives (anytime pacing) at its dataset time divided by the speed factor.
   const double stamp0 = n ? dataset->timestamp(0) : 0;
+  // The folder walk grows with the map (one file per chunk and keyframe), so it runs at most every
+  // couple of seconds rather than at every keyframe.
+  double disk_mb = 0, disk_measured_at = -1e9;
   auto record = [&](uint64_t frame) {
-    timeline.push_back(sample_now(mapper, seconds(), frame));
+    if (seconds() - disk_measured_at >= 2.0) {
+      disk_mb = double(disk_usage(o.out).bytes) / 1048576.0;
+      disk_measured_at = seconds();
+    }
+    timeline.push_back(sample_now(mapper, seconds(), frame, disk_mb));
     const auto dm = mapper.device_memory();
     vram_mb.push_back(dm ? dm->used_mb : 0.0);
   };
