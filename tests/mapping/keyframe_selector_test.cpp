@@ -68,3 +68,20 @@ TEST(KeyframeSelector, RefusesAnEmptyPick) {
 
 }  // namespace
 }  // namespace chungs
+
+namespace chungs {
+namespace {
+
+TEST(KeyframeSelector, GiveBackReturnsTheUseAPickTook) {
+  KeyframeSelector s;
+  for (uint32_t i = 0; i < 5; ++i) s.add(i, Eigen::Vector3d(double(i), 0.5 * i, 0));
+  std::mt19937_64 rng(3);
+  const uint32_t id = s.pick(rng);
+  const int after_pick = s.usage(id).uses;
+  s.give_back(id);
+  EXPECT_EQ(s.usage(id).uses, after_pick + 1);
+  EXPECT_THROW(s.give_back(99), Error);
+}
+
+}  // namespace
+}  // namespace chungs

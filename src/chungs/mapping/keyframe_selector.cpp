@@ -64,6 +64,12 @@ uint32_t KeyframeSelector::pick(std::mt19937_64& rng) {
   fail("keyframe selector: internal error in the weighted pick");
 }
 
+void KeyframeSelector::give_back(uint32_t id) {
+  auto it = keyframes_.find(id);
+  if (it == keyframes_.end()) fail("keyframe selector: no keyframe ", id);
+  it->second.uses += 1;
+}
+
 void KeyframeSelector::report_loss(uint32_t id, double loss) {
   auto it = keyframes_.find(id);
   if (it == keyframes_.end()) fail("keyframe selector: loss for unknown keyframe ", id);

@@ -35,6 +35,8 @@ class KeyframeSelector {
   // Throws Error when no keyframe was added.
   uint32_t pick(std::mt19937_64& rng);
   void report_loss(uint32_t id, double loss);
+  // Returns the use that pick() took from `id` (a pick made ahead of time and then not trained on).
+  void give_back(uint32_t id);
   std::vector<uint32_t> candidates() const;  // keyframes in the latest keyframe's cell, ascending
   const KeyframeUsage& usage(uint32_t id) const;
   size_t size() const { return keyframes_.size(); }

@@ -174,6 +174,11 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   rec.camera = camera;
   rec.pose = pose;
   selector_.add(id, pose.t);
+  // The pick made ahead predates this keyframe (and may lie in the cell it just left): drawn again.
+  if (next_pick_) {
+    selector_.give_back(*next_pick_);
+    next_pick_.reset();
+  }
   rec.uses = selector_.usage(id).uses;
   keyframes_.push_back(rec);
   return stats;
