@@ -98,6 +98,8 @@ void fields(V& v, MapperConfig& c) {
   v("keyframe_translation", c.keyframe_translation, "metres of motion that also make a keyframe (0: off)");
   v("keyframe_rotation_deg", c.keyframe_rotation_deg, "degrees of rotation that also make a keyframe (0: off)");
   v("holdout_every", c.holdout_every, "frame i is held out (never trained) when i % n == n - 1; 0: none");
+  v("frame_lookahead", c.frame_lookahead,
+    "frames read ahead; keyframes are loaded and depth computed on their own threads (0: current frame only)");
   v("resolution", c.resolution, "image scale factor for mapping (1 = full resolution)");
   v("depth", c.depth, "auto | sensor | stereo | none");
   v("checkpoint_every", c.checkpoint_every, "keyframes between checkpoints (resume point) ...");

@@ -16,6 +16,8 @@ void MapperConfig::validate() const {
     fail("mapper: keyframe motion thresholds must be >= 0");
   if (holdout_every < 0 || holdout_every == 1)
     fail("mapper: holdout_every must be 0 or >= 2, got ", holdout_every);
+  if (frame_lookahead < 0 || frame_lookahead > 64)
+    fail("mapper: frame_lookahead must be in [0, 64], got ", frame_lookahead);
   if (!(resolution > 0 && resolution <= 1)) fail("mapper: resolution must be in (0, 1], got ", resolution);
   if (depth != "auto" && depth != "sensor" && depth != "stereo" && depth != "none")
     fail("mapper: depth must be auto, sensor, stereo or none, got '", depth, "'");

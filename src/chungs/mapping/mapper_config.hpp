@@ -15,6 +15,8 @@ struct MapperConfig {
   double keyframe_translation = 0;  // ... or (when > 0) once the camera moved this far (m) ...
   double keyframe_rotation_deg = 0; // ... or turned this much since the last keyframe
   int holdout_every = 8;            // frame i is never trained on when i % n == n - 1 (0: none)
+  int frame_lookahead = 4;          // frames read ahead, each keyframe loaded (and its depth computed) on
+                                    // its own thread while the map trains (0: only the current frame)
   double resolution = 1.0;          // images (and intrinsics) scaled by this before mapping
   std::string depth = "auto";       // auto | sensor | stereo | none
   int checkpoint_every = 5;         // keyframes between checkpoints (flush chunks, save state) ...

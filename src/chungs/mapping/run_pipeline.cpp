@@ -9,6 +9,7 @@
 #include "chungs/eval/report.hpp"
 #include "chungs/mapping/evaluation.hpp"
 #include "chungs/mapping/frame_feed.hpp"
+#include "chungs/mapping/frame_lookahead.hpp"
 #include "chungs/mapping/frame_source.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/pose_updates.hpp"
@@ -157,13 +158,21 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   size_t keyframes_since_checkpoint = 0;
   double last_checkpoint = seconds();
   uint64_t sampled = 0;
-  while (auto item = feed->next()) {
+  // The tracker's feed blocks until the tracker has a frame, so nothing is pulled ahead of it.
+  FrameLookahead ahead(
+      *feed, tracked ? 0 : size_t(mc.frame_lookahead),
+      [&](size_t i) { return load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo); },
+      mc.pacing == "anytime" ? FrameLookahead::SecondsUntil([&](size_t i) { return arrival(i) - seconds(); })
+                             : FrameLookahead::SecondsUntil());
+  while (auto entry = ahead.next()) {
     progress.step();
+    const FeedItem* item = &entry->item;
     const size_t i = item->frame;
-    if (item->keyframe && item->pose) {
+    if (entry->has_frame()) {
+      // Real time: the map trains until the frame has arrived and its depth is computed.
       if (mc.pacing == "anytime" && !mapper.keyframes().empty())
-        while (seconds() < arrival(i)) mapper.step();
-      const MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo);
+        while (!FrameLookahead::ready(*entry)) mapper.step();
+      const MappingFrame m = entry->frame.get();
       const SampleStats ss =
           mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose);
       updates.added(item->keyframe_id, mapper.keyframes().back().id);

@@ -1,0 +1,53 @@
+// Frames ahead of the mapper: items are pulled from the feed a few frames early and each keyframe's
+// images and depth are loaded (decoded or rendered, stereo-matched) on a thread of its own, so that
+// this work overlaps the optimiser instead of stopping it. Under real-time pacing a frame's load
+// starts no earlier than the moment the frame arrives: a camera cannot deliver it sooner.
+#pragma once
+#include <atomic>
+#include <deque>
+#include <functional>
+#include <future>
+#include <optional>
+
+#include "chungs/mapping/frame_feed.hpp"
+#include "chungs/mapping/frame_source.hpp"
+
+namespace chungs {
+
+class FrameLookahead {
+ public:
+  using Load = std::function<MappingFrame(size_t frame)>;
+  using SecondsUntil = std::function<double(size_t frame)>;  // until the frame arrives (<= 0: it has)
+
+  struct Entry {
+    FeedItem item;
+    std::future<MappingFrame> frame;  // valid only for a keyframe with a pose
+    bool has_frame() const { return frame.valid(); }
+  };
+
+  // depth: items pulled from the feed beyond the one handed out (0: none, for a feed whose next()
+  // blocks on a live source; the handed-out keyframe still loads while the caller steps).
+  // seconds_until may be empty (every frame is available at once).
+  FrameLookahead(FrameFeed& feed, size_t depth, Load load, SecondsUntil seconds_until = {});
+  // Stops waiting for arrivals, waits for loads still running; their results (and errors) are dropped.
+  ~FrameLookahead();
+  FrameLookahead(const FrameLookahead&) = delete;
+  FrameLookahead& operator=(const FrameLookahead&) = delete;
+
+  // The next item, after topping the lookahead up; none after the feed's last item.
+  std::optional<Entry> next();
+  // True when entry's frame is loaded (or its load failed): get() will not block.
+  static bool ready(const Entry& e);
+
+ private:
+  void fill(size_t target);
+  FrameFeed& feed_;
+  size_t depth_;
+  Load load_;
+  SecondsUntil until_;
+  std::atomic<bool> stop_{false};
+  std::deque<Entry> ahead_;
+  bool feed_done_ = false;
+};
+
+}  // namespace chungs
