@@ -2,6 +2,7 @@
 
 #include <fstream>
 #include <random>
+#include <thread>
 
 #include "chungs/common/error.hpp"
 #include "chungs/store/keyframe_store.hpp"
@@ -58,6 +59,7 @@ TEST(KeyframeStore, KeepsAtMostNInMemoryDroppingTheLeastRecentlyUsed) {
   test::TempDir dir;
   KeyframeStore s(dir.path(), small(3));
   for (uint64_t i = 0; i < 5; ++i) s.put(i, random_keyframe(8, 8, uint32_t(i)));
+  s.commit();  // written: only the cache holds keyframes in memory now
   EXPECT_EQ(s.in_memory(), 3u);
   EXPECT_FALSE(s.is_in_memory(0));
   EXPECT_FALSE(s.is_in_memory(1));
@@ -78,6 +80,7 @@ TEST(KeyframeStore, ImagesStayValidAfterTheCacheDropsThem) {
   s.put(1, random_keyframe(8, 8, 1));
   const auto held = s.get(1);
   s.put(2, random_keyframe(8, 8, 2));
+  s.commit();
   EXPECT_FALSE(s.is_in_memory(1));
   EXPECT_EQ(held->color.vec(), random_keyframe(8, 8, 1).color.vec());
 }
@@ -118,4 +121,66 @@ TEST(KeyframeStore, RejectsACorruptFileNamingIt) {
     EXPECT_NE(std::string(e.what()).find(p.string()), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("checksum"), std::string::npos) << e.what();
   }
+}
+
+TEST(KeyframeStore, WritesRunBehindUntilACommitFlushesThemAll) {
+  test::TempDir dir;
+  KeyframeStoreConfig c = small(2);
+  c.durable = true;
+  {
+    KeyframeStore s(dir.path(), c);
+    for (uint64_t i = 0; i < 6; ++i) s.put(i, random_keyframe(16, 8, uint32_t(i)));
+    // Not yet written ones are served from memory, never lost from it.
+    for (uint64_t i = 0; i < 6; ++i) EXPECT_EQ(s.get(i)->color.vec(), random_keyframe(16, 8, uint32_t(i)).color.vec());
+    s.commit();
+    const IoStats st = s.counters().snapshot();
+    EXPECT_EQ(st.saves, 6u);
+    EXPECT_EQ(st.barriers, 1u);
+    EXPECT_EQ(st.synced_files, 6u);
+    for (uint64_t i = 0; i < 6; ++i) EXPECT_TRUE(fs::exists(s.path_of(i)));
+    s.commit();  // nothing new: nothing flushed again
+    EXPECT_EQ(s.counters().snapshot().synced_files, 6u);
+  }
+  KeyframeStore again(dir.path(), c);
+  EXPECT_EQ(again.size(), 6u);
+  EXPECT_EQ(again.get(5)->depth.vec(), random_keyframe(16, 8, 5).depth.vec());
+}
+
+TEST(KeyframeStore, ReadAheadSparesTheCallerTheDiskRead) {
+  test::TempDir dir;
+  KeyframeStore s(dir.path(), small(1));
+  s.put(1, random_keyframe(8, 8, 1));
+  s.put(2, random_keyframe(8, 8, 2));
+  s.commit();
+  ASSERT_FALSE(s.is_in_memory(1));
+  s.prefetch(1);
+  for (int t = 0; t < 400 && !s.is_in_memory(1); ++t) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_EQ(s.get(1)->color.vec(), random_keyframe(8, 8, 1).color.vec());
+  const IoStats st = s.counters().snapshot();
+  EXPECT_EQ(st.loads, 1u);
+  EXPECT_EQ(st.sync_loads, 0u);
+  s.get(2);  // dropped for 1 and not read ahead: read on the caller's thread
+  EXPECT_EQ(s.counters().snapshot().sync_loads, 1u);
+}
+
+TEST(KeyframeStore, AFailedBackgroundWriteFailsEveryLaterWriteAndCommit) {
+  test::TempDir dir;
+  KeyframeStore s(dir / "kf", small(4));
+  fs::remove_all(dir / "kf");  // the folder vanishes under the store: writes fail
+  s.put(9, random_keyframe(8, 8, 9));
+  EXPECT_THROW(s.commit(), Error);
+  EXPECT_THROW(s.put(10, random_keyframe(8, 8, 10)), Error);  // and every later write
+  EXPECT_EQ(s.get(9)->color.vec(), random_keyframe(8, 8, 9).color.vec());  // still held in memory
+}
+
+TEST(KeyframeStore, WritesOnTheCallersThreadWhenAskedTo) {
+  test::TempDir dir;
+  KeyframeStoreConfig c = small(1);
+  c.background = false;
+  KeyframeStore s(dir.path(), c);
+  s.put(1, random_keyframe(8, 8, 1));
+  EXPECT_TRUE(fs::exists(s.path_of(1)));  // written before put returned
+  s.put(2, random_keyframe(8, 8, 2));
+  EXPECT_EQ(s.get(1)->color.vec(), random_keyframe(8, 8, 1).color.vec());
+  EXPECT_EQ(s.counters().snapshot().sync_loads, 1u);
 }

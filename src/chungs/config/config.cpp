@@ -28,7 +28,8 @@ void fields(V& v, KeyframeStoreConfig& c) {
   v("max_in_memory", c.max_in_memory, "keyframes kept in memory, the rest on disk (LRU)");
   v("compress", c.compress, "");
   v("zstd_level", c.zstd_level, "");
-  v("durable", c.durable, "");
+  v("durable", c.durable, "power-loss safe at each commit (checkpoint)");
+  v("background", c.background, "writes and read-ahead on the store's own thread");
 }
 template <class V>
 void fields(V& v, ResidencyConfig& c) {

@@ -77,6 +77,9 @@ class Mapper {
   size_t chunk_count() const { return residency_->catalogue().size(); }
   IoStats io_stats() const { return residency_->stats(); }
   IoStats keyframe_io_stats() const { return keyframe_store_->counters().snapshot(); }
+  // Time the optimiser thread was blocked by I/O: chunk loads it waited for, checkpoints, and
+  // keyframe reads it waited for (keyframe writes run behind; their flush is part of a checkpoint).
+  double optimiser_io_wait_ms() const;
   uint64_t pruned_total() const { return pruned_total_; }
   const std::filesystem::path& folder() const { return folder_; }
   const Config& config() const { return config_; }
@@ -99,6 +102,7 @@ class Mapper {
   std::vector<KeyframeRecord> keyframes_;
   std::mt19937_64 rng_;
   uint64_t iterations_ = 0, pruned_total_ = 0;
+  double keyframe_commit_ms_ = 0;  // checkpoints waiting for keyframe writes and their flush
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
   KeyframeRecord* mutable_keyframe(uint32_t id) {
