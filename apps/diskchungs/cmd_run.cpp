@@ -82,13 +82,20 @@ const Command cmd{
                       r["tracking"]["ate"]["rmse"].get<double>(), r["tracking"]["gt_path_length_m"].get<double>(),
                       r["tracking"]["loop_closures"].get<size_t>(), r["tracking"]["lost_frames"].get<size_t>());
         if (r.contains("held_out")) {
-          std::printf(
-              "held-out PSNR %.3f dB  SSIM %.4f  (%zu frames); keyframes PSNR %.3f dB; %.1f s, %.3f FPS on "
-              "%s; report %s\n",
-              r["held_out"]["mean_psnr"].get<double>(), r["held_out"]["mean_ssim"].get<double>(),
-              r["held_out"]["count"].get<size_t>(), r["keyframes_eval"]["mean_psnr"].get<double>(),
-              r["time"]["mapping_s"].get<double>(), r["time"]["processing_fps"].get<double>(),
-              r["device"].get<std::string>().c_str(), (a->o.out / "report.json").string().c_str());
+          std::printf("held-out PSNR %.3f dB  SSIM %.4f  (%zu frames)", r["held_out"]["mean_psnr"].get<double>(),
+                      r["held_out"]["mean_ssim"].get<double>(), r["held_out"]["count"].get<size_t>());
+          if (r.contains("keyframes_eval"))
+            std::printf("; keyframes PSNR %.3f dB", r["keyframes_eval"]["mean_psnr"].get<double>());
+          std::printf("; ");
+        }
+        std::printf("%.1f s, %.3f FPS on %s; report %s\n", r["time"]["mapping_s"].get<double>(),
+                    r["time"]["processing_fps"].get<double>(), r["device"].get<std::string>().c_str(),
+                    (a->o.out / "report.json").string().c_str());
+        if (r.contains("stopped")) {
+          std::fprintf(stderr, "stopped early at frame %zu: %s (%zu Gaussians)\n",
+                       r["stopped"]["frame"].get<size_t>(), r["stopped"]["reason"].get<std::string>().c_str(),
+                       r["stopped"]["gaussians"].get<size_t>());
+          return 3;
         }
         return 0;
       };

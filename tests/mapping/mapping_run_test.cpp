@@ -79,6 +79,26 @@ TEST(MappingRun, ResidentGaussiansNeverExceedTheBudget) {
   EXPECT_GT(r["chunk_io"]["loads"].get<uint64_t>(), 0u);
 }
 
+TEST(MappingRun, InCoreComparisonStopsWhereTheMapOutgrowsTheBudget) {
+  log::set_level(log::Level::Error);
+  test::TempDir dir;
+  const test::WallSequence seq(24, 64, 48, 0.25);
+  Config c = tiny_config();
+  c.store.chunk_size = 0.5;
+  c.residency.budget_gaussians = 1000;
+  c.mapper.final_iterations = 0;
+  c.mapper.in_core_only = true;
+  const auto r = run_mapping(options(dir / "map", c), seq);
+  ASSERT_TRUE(r.contains("stopped")) << r.dump(1);
+  const size_t stop = r["stopped"]["frame"];
+  EXPECT_LT(stop, 23u);
+  EXPECT_GT(r["gaussians"]["total"].get<uint64_t>(), 1000u);
+  EXPECT_EQ(r["chunk_io"]["loads"].get<uint64_t>(), 0u);  // nothing ever left memory
+  EXPECT_EQ(r["chunk_io"]["evictions_dirty"].get<uint64_t>() + r["chunk_io"]["evictions_clean"].get<uint64_t>(), 0u);
+  // Only the frames the map covers are scored: held-out frames are 7, 15, 23.
+  EXPECT_EQ(r["held_out"]["count"].get<size_t>(), size_t((stop + 1) / 8));
+}
+
 // Run by MappingRun.ResumesAfterSigkill in a child process (the parent kills it halfway).
 TEST(MappingRunChild, MapsUntilKilled) {
   const char* out = std::getenv("CHUNGS_TEST_CHILD_MAP");

@@ -50,7 +50,12 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   if (resume) recover_checkpoint_files();
   backend_ =
       make_optim_backend(device_, pool_capacity(config_.residency), store_->sh_degree(), config_.raster);
-  residency_ = std::make_unique<Residency>(*store_, backend_->pool(), config_.residency);
+  ResidencyConfig rc = config_.residency;
+  // In-core comparison: nothing may leave memory before the run stops once the map passes the
+  // budget, so eviction starts only at the pool's full capacity (which the stop never reaches:
+  // one keyframe adds far less than the headroom).
+  if (config_.mapper.in_core_only) rc.budget_gaussians = pool_capacity(config_.residency);
+  residency_ = std::make_unique<Residency>(*store_, backend_->pool(), rc);
   culler_ = std::make_unique<FrustumCuller>(store_->chunk_size(), config_.culling);
   keyframe_store_ = std::make_unique<KeyframeStore>(folder / "keyframes", config_.keyframes);
   if (resume && fs::exists(folder / "keyframes.txt")) {

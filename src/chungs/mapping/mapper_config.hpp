@@ -28,6 +28,8 @@ struct MapperConfig {
   int loop_refine_iterations = 1000;         // steps on the junction after a loop closure (the paper's 1 k)
   double pose_update_min_translation = 0.01; // m: smaller keyframe moves from the tracker are not applied ...
   double pose_update_min_rotation_deg = 0.1; // ... unless it also turned this much
+  bool in_core_only = false;        // comparison without out-of-core management: the run stops (with a
+                                    // checkpoint and a report) once the map outgrows the budget
   std::string device = "auto";      // optimisation on auto | cuda | cpu (auto: cuda when a GPU is usable)
   void validate() const;
 };

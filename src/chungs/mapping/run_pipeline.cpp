@@ -154,6 +154,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                                      mapper.keyframes().empty() ? std::nullopt
                                                                 : std::optional(mapper.keyframes().back().pose));
   PoseUpdateApplier updates(mapper, mc);
+  std::optional<size_t> stopped_at;  // in-core comparison: the frame at which the map outgrew memory
   Progress progress("mapping", (long long)(n - std::min(start, n)));
   size_t keyframes_since_checkpoint = 0;
   double last_checkpoint = seconds();
@@ -194,8 +195,15 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       keyframes_since_checkpoint = 0;
       last_checkpoint = seconds();
     }
+    if (mc.in_core_only && mapper.total_gaussians() > cfg.residency.budget_gaussians) {
+      stopped_at = i;
+      log::warn("frame ", i, ": the map (", mapper.total_gaussians(), " Gaussians) outgrew the budget of ",
+                cfg.residency.budget_gaussians, " and mapper.in_core_only keeps every chunk in memory: stopping");
+      break;
+    }
   }
   progress.finish();
+  const size_t done = stopped_at ? *stopped_at + 1 : n;  // frames the map covers
   if (mapper.keyframes().empty()) fail("dataset ", o.dataset, ": no frame with a pose became a keyframe");
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
     Progress refine("refining", mc.final_iterations);
@@ -205,12 +213,12 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     }
     refine.finish();
   }
-  record(n ? n - 1 : 0);
-  mapper.checkpoint(state(n, true));
+  record(done ? done - 1 : 0);
+  mapper.checkpoint(state(done, !stopped_at));
   const std::vector<std::optional<SE3>> poses = feed->final_poses();
   {
     Trajectory traj;  // the poses the map was made on (after every correction), TUM format
-    for (size_t i = 0; i < std::min(n, poses.size()); ++i)
+    for (size_t i = 0; i < std::min(done, poses.size()); ++i)
       if (poses[i]) traj.push_back(dataset->timestamp(i), *poses[i]);
     write_tum_trajectory(o.out / "trajectory.txt", traj);
   }
@@ -220,6 +228,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["dataset"] = o.dataset;
   report["poses"] = o.poses;
   report["frames"] = n;
+  if (stopped_at)
+    report["stopped"] = {{"frame", *stopped_at},
+                         {"reason", "in_core_only: the map outgrew the budget"},
+                         {"gaussians", mapper.total_gaussians()}};
   report["resolution"] = {info.camera.width * mc.resolution, info.camera.height * mc.resolution};
   report["depth"] = depth_mode_name(mode);
   report["settings"] = {{"pacing", mc.pacing},
@@ -239,21 +251,21 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["keyframes"] = mapper.keyframes().size();
   report["iterations"] = mapper.iterations();
   report["time"] = {{"mapping_s", map_seconds},
-                    {"processing_fps", map_seconds > 0 ? double(n) / map_seconds : 0},
+                    {"processing_fps", map_seconds > 0 ? double(done) / map_seconds : 0},
                     // Everything the optimiser thread lost to I/O (chunks, checkpoints, keyframes).
                     {"io_wait_share", map_seconds > 0 ? mapper.optimiser_io_wait_ms() / 1000.0 / map_seconds : 0}};
   {
     // Distance covered, for drives: the intake rate in km/h is what the paper's settings name.
     double path_m = 0;
     std::optional<SE3> prev_pose;
-    for (size_t i = 0; i < std::min(n, poses.size()); ++i)
+    for (size_t i = 0; i < std::min(done, poses.size()); ++i)
       if (poses[i]) {
         if (prev_pose) path_m += (poses[i]->t - prev_pose->t).norm();
         prev_pose = poses[i];
       }
     report["time"]["path_km"] = path_m / 1000.0;
     report["time"]["processing_kmh"] = map_seconds > 0 ? path_m / map_seconds * 3.6 : 0;
-    const double span = n > 1 ? (dataset->timestamp(n - 1) - stamp0) / mc.speed : 0;
+    const double span = done > 1 ? (dataset->timestamp(done - 1) - stamp0) / mc.speed : 0;
     if (mc.pacing == "anytime" && span > 0) report["time"]["intake_kmh"] = path_m / span * 3.6;
   }
   const IoStats io = mapper.io_stats();
@@ -309,7 +321,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   if (o.evaluate) {
     const auto te = Clock::now();
     std::vector<size_t> held, kfs;
-    for (size_t i = 0; i < n; ++i)
+    for (size_t i = 0; i < done; ++i)
       if (is_held_out(i, mc.holdout_every)) held.push_back(i);
     if (mc.eval_keyframe_stride > 0)
       for (size_t k = 0; k < mapper.keyframes().size(); k += size_t(mc.eval_keyframe_stride))
