@@ -1,12 +1,13 @@
 // The timeline survives a checkpoint (JSON in run_state) and reads the shorter samples of maps saved
-// before the I/O columns existed; the CSV has one column per field.
+// before the I/O and VRAM columns existed; the CSV has one column per field, VRAM last.
+#include "chungs/mapping/timeline.hpp"
+
 #include <gtest/gtest.h>
 
 #include <random>
 #include <sstream>
 
 #include "chungs/common/error.hpp"
-#include "chungs/mapping/timeline.hpp"
 
 namespace chungs {
 namespace {
@@ -31,6 +32,7 @@ TEST(Timeline, RoundTripsThroughJsonWithEveryField) {
     t.written_mb = u(rng);
     t.wait_ms = u(rng);
     t.disk_mb = u(rng);
+    t.vram_mb = u(rng);
   }
   const auto out = timeline_from_json(to_json(in));
   ASSERT_EQ(out.size(), in.size());
@@ -41,22 +43,33 @@ TEST(Timeline, RoundTripsThroughJsonWithEveryField) {
     EXPECT_DOUBLE_EQ(out[i].written_mb, in[i].written_mb);
     EXPECT_DOUBLE_EQ(out[i].wait_ms, in[i].wait_ms);
     EXPECT_DOUBLE_EQ(out[i].disk_mb, in[i].disk_mb);
+    EXPECT_DOUBLE_EQ(out[i].vram_mb, in[i].vram_mb);
   }
   std::istringstream csv(timeline_csv(in));
   std::string header, row;
   std::getline(csv, header);
   std::getline(csv, row);
-  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 14);
-  EXPECT_EQ(std::count(row.begin(), row.end(), ','), 14);
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 15);
+  EXPECT_EQ(std::count(row.begin(), row.end(), ','), 15);
   EXPECT_NE(header.find("io_wait_ms"), std::string::npos);
+  // A GPU test and scripts find VRAM as the last column.
+  const std::string last = ",vram_used_mb";
+  EXPECT_EQ(header.substr(header.size() - last.size()), last);
+  EXPECT_NEAR(std::stod(row.substr(row.rfind(',') + 1)), in[0].vram_mb, 1e-5 * in[0].vram_mb);  // 6 digits
 }
 
-TEST(Timeline, ReadsOlderElevenFieldSamplesAndRejectsOthers) {
+TEST(Timeline, ReadsOlderElevenAndFifteenFieldSamplesAndRejectsOthers) {
   const nlohmann::json old = nlohmann::json::parse("[[1.5, 3, 2, 60, 100, 200, 4, 50.0, 1, 2, 3.5]]");
   const auto t = timeline_from_json(old);
   ASSERT_EQ(t.size(), 1u);
   EXPECT_EQ(t[0].total, 200u);
   EXPECT_EQ(t[0].disk_mb, 0.0);
+  EXPECT_EQ(t[0].vram_mb, 0.0);
+  const auto v = timeline_from_json(
+      nlohmann::json::parse("[[1.5, 3, 2, 60, 100, 200, 4, 50.0, 1, 2, 3.5, 7.0, 8.0, 9.5, 123.25]]"));
+  ASSERT_EQ(v.size(), 1u);
+  EXPECT_EQ(v[0].disk_mb, 123.25);
+  EXPECT_EQ(v[0].vram_mb, 0.0);
   EXPECT_THROW(timeline_from_json(nlohmann::json::parse("[[1, 2, 3]]")), Error);
 }
 

@@ -1,5 +1,5 @@
-// What the mapper's memory and map size did over a run: one sample per keyframe, written as CSV
-// and drawn as a PNG plot (the paper's Figure 6: resident vs total Gaussians and process memory).
+// What the mapper's memory, map size and chunk I/O did over a run: one sample per keyframe, written
+// as CSV and drawn as a PNG plot against time (like the paper's Figure 6).
 #pragma once
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -13,18 +13,31 @@ struct TimelineSample {
   uint64_t resident = 0, total = 0, chunks = 0;
   double rss_mb = 0;
   uint64_t loads = 0, saves = 0;
-  double io_ms = 0;  // chunk load + save time (any thread)
+  double io_ms = 0;                    // chunk load + save time (any thread)
   double read_mb = 0, written_mb = 0;  // chunk bytes moved
   double wait_ms = 0;  // time the optimiser was blocked on chunk I/O (loads, full queues, checkpoints)
   double disk_mb = 0;  // the map folder's size on disk
+  double vram_mb = 0;  // device memory in use (0 on a CPU run)
 };
 
 std::string timeline_csv(const std::vector<TimelineSample>& samples);
 nlohmann::json to_json(const std::vector<TimelineSample>& samples);
 std::vector<TimelineSample> timeline_from_json(const nlohmann::json& j);
 
-// Line plot: resident and total Gaussians (left axis, thousands) and RSS (right axis, MB) against
-// keyframes, with axes, ticks and a legend.
-void write_timeline_plot(const std::filesystem::path& file, const std::vector<TimelineSample>& samples, uint64_t budget);
+// Three stacked panels against time (minutes for runs over three minutes, else seconds):
+// Gaussians (total, resident, on disk, budget), memory (host RSS, VRAM when sampled) and chunk I/O
+// (cumulative loads and saves, map folder size on a right axis, the optimiser's I/O wait share).
+void write_timeline_plot(const std::filesystem::path& file, const std::vector<TimelineSample>& samples,
+                         uint64_t budget);
+
+// Where write_timeline_plot puts its panels' plot areas (pixels, inclusive), so tests can look inside.
+struct TimelinePlotBox {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+struct TimelinePlotLayout {
+  int width = 0, height = 0;
+  TimelinePlotBox gaussians, memory, io;
+};
+TimelinePlotLayout timeline_plot_layout();
 
 }  // namespace chungs
