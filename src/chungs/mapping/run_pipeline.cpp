@@ -50,23 +50,9 @@ TimelineSample sample_now(const Mapper& m, double seconds, uint64_t frame, doubl
   t.written_mb = double(io.bytes_written) / 1048576.0;
   t.wait_ms = m.optimiser_io_wait_ms();
   t.disk_mb = disk_mb;
+  const auto dm = m.device_memory();
+  t.vram_mb = dm ? dm->used_mb : 0.0;
   return t;
-}
-
-// timeline.csv with a vram_used_mb column appended (one value per sample row) on a GPU run.
-std::string with_vram_column(const std::string& csv, const std::vector<double>& vram_mb) {
-  std::istringstream in(csv);
-  std::ostringstream out;
-  std::string line;
-  size_t row = 0;
-  while (std::getline(in, line)) {
-    if (row == 0)
-      out << line << ",vram_used_mb\n";
-    else
-      out << line << ',' << (row - 1 < vram_mb.size() ? vram_mb[row - 1] : 0.0) << '\n';
-    ++row;
-  }
-  return out.str();
 }
 
 void write_text(const fs::path& file, const std::string& text) {
@@ -107,7 +93,6 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   size_t start = 0;
   double carried_seconds = 0;
   std::vector<TimelineSample> timeline;
-  std::vector<double> vram_mb;  // device memory in use at each timeline sample (GPU runs)
   if (o.resume && !prev.is_null()) {
     if (prev.value("dataset", std::string()) != o.dataset)
       fail(o.out.string(), ": the map was made from ", prev.value("dataset", std::string("?")), ", not ",
@@ -115,7 +100,6 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     start = prev.value("next_frame", size_t(0));
     carried_seconds = prev.value("seconds", 0.0);
     if (prev.contains("timeline")) timeline = timeline_from_json(prev["timeline"]);
-    if (prev.contains("vram_mb")) vram_mb = prev["vram_mb"].get<std::vector<double>>();
     log::info("resuming ", o.out.string(), " at frame ", start, " with ", mapper.keyframes().size(),
               " keyframes and ", mapper.total_gaussians(), " Gaussians");
   }
@@ -130,7 +114,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     return nlohmann::json{{"dataset", o.dataset},          {"poses", o.poses},
                           {"next_frame", next_frame},      {"frames", n},
                           {"finished", finished},          {"seconds", seconds()},
-                          {"timeline", to_json(timeline)}, {"vram_mb", vram_mb}};
+                          {"timeline", to_json(timeline)}};
   };
   // Frame i arrives (anytime pacing) at its dataset time divided by the speed factor.
   const double stamp0 = n ? dataset->timestamp(0) : 0;
@@ -143,8 +127,6 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       disk_measured_at = seconds();
     }
     timeline.push_back(sample_now(mapper, seconds(), frame, disk_mb));
-    const auto dm = mapper.device_memory();
-    vram_mb.push_back(dm ? dm->used_mb : 0.0);
   };
   auto arrival = [&](size_t i) { return (dataset->timestamp(i) - stamp0) / mc.speed; };
 
@@ -282,7 +264,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                       {"peak_rss_mb_process", double(peak_rss_bytes()) / 1048576.0}};
   if (const auto dm = mapper.device_memory()) {
     double peak_vram = 0;
-    for (double v : vram_mb) peak_vram = std::max(peak_vram, v);
+    for (const auto& t : timeline) peak_vram = std::max(peak_vram, t.vram_mb);
     // Device-wide (cudaMemGetInfo): includes the CUDA context and any other process on the GPU.
     report["memory"]["vram_used_mb_peak_sampled"] = peak_vram;
     report["memory"]["vram_used_mb_end"] = dm->used_mb;
@@ -336,8 +318,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, " over ", h.views.size(),
               " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
   }
-  const std::string csv = timeline_csv(timeline);
-  write_text(o.out / "timeline.csv", mapper.device_memory() ? with_vram_column(csv, vram_mb) : csv);
+  write_text(o.out / "timeline.csv", timeline_csv(timeline));
   write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());
   write_json(o.out / "report.json", report);
   log::info("map ", o.out.string(), ": ", mapper.total_gaussians(), " Gaussians in ", mapper.chunk_count(),

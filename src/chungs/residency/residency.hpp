@@ -32,7 +32,7 @@ struct ResidencyConfig {
   // the budget, at least 10 000: host memory then stays in proportion to the budget, not the map.
   size_t prefetch_max_gaussians = 0;      // read ahead into host memory at most this many
   size_t write_behind_max_gaussians = 0;  // queued for writing before eviction waits
-  int flush_threads = 4;  // threads writing the modified resident chunks at flush() (async_io only)
+  int flush_threads = 8;  // threads writing the modified resident chunks at flush() (async_io only)
   // Pool slots beyond the budget (a fraction of it), used only while a loop correction raises the
   // budget so that all affected chunks are moved in one batch.
   double pool_headroom = 0.25;

@@ -27,18 +27,24 @@ KeyframeStore::KeyframeStore(fs::path folder, const KeyframeStoreConfig& config)
     on_disk_.insert(std::stoull(stem));
   }
   if (ec) fail(folder_.string(), ": cannot list keyframe folder: ", ec.message());
-  if (config_.background) thread_ = std::thread([this] { worker(); });
+  // Two threads: reads ahead must not queue behind a write (a write takes 2-3 times as long as a
+  // read, and the optimiser needs the read within one step); only the first thread writes, so
+  // two writes of one keyframe never race.
+  if (config_.background) {
+    threads_.emplace_back([this] { worker(false); });
+    threads_.emplace_back([this] { worker(true); });
+  }
 }
 
 KeyframeStore::~KeyframeStore() {
-  if (!thread_.joinable()) return;
+  if (threads_.empty()) return;
   {
     std::unique_lock lock(mutex_);
     drain_locked(lock);
     stop_ = true;
   }
   wake_.notify_all();
-  thread_.join();
+  for (auto& t : threads_) t.join();
   if (error_) {
     try {
       std::rethrow_exception(error_);
@@ -93,14 +99,16 @@ KeyframeStore::Images KeyframeStore::read_now(uint64_t id) {
   return std::make_shared<const KeyframeImages>(std::move(im));
 }
 
-void KeyframeStore::worker() {
+void KeyframeStore::worker(bool reads_only) {
   std::unique_lock lock(mutex_);
   for (;;) {
-    wake_.wait(lock, [&] { return stop_ || !jobs_.empty(); });
-    if (jobs_.empty()) return;
+    // Reads are queued at the front, so a reader looks only there.
+    auto usable = [&] { return !jobs_.empty() && (!reads_only || !jobs_.front().write); };
+    wake_.wait(lock, [&] { return stop_ || usable(); });
+    if (!usable()) return;
     Job job = std::move(jobs_.front());
     jobs_.pop_front();
-    busy_ = true;
+    ++busy_;
     lock.unlock();
     Images read;
     std::exception_ptr err;
@@ -113,7 +121,7 @@ void KeyframeStore::worker() {
       err = std::current_exception();
     }
     lock.lock();
-    busy_ = false;
+    --busy_;
     if (err && !error_) error_ = err;
     if (job.write) {
       // A newer put of the same keyframe queued another write; it stays until that one is done.
@@ -129,12 +137,12 @@ void KeyframeStore::worker() {
 }
 
 void KeyframeStore::drain_locked(std::unique_lock<std::mutex>& lock) {
-  idle_.wait(lock, [&] { return jobs_.empty() && !busy_; });
+  idle_.wait(lock, [&] { return jobs_.empty() && busy_ == 0; });
 }
 
 void KeyframeStore::put(uint64_t id, KeyframeImages images) {
   auto shared = std::make_shared<const KeyframeImages>(std::move(images));
-  if (!thread_.joinable()) {
+  if (threads_.empty()) {
     write_now(id, *shared, config_.durable);
     std::lock_guard lock(mutex_);
     on_disk_.insert(id);
@@ -155,7 +163,7 @@ void KeyframeStore::put(uint64_t id, KeyframeImages images) {
     cache_locked(id, shared);
     jobs_.push_back(Job{true, id, std::move(shared)});
   }
-  wake_.notify_one();
+  wake_.notify_all();
 }
 
 KeyframeStore::Images KeyframeStore::get(uint64_t id) {
@@ -189,15 +197,15 @@ KeyframeStore::Images KeyframeStore::get(uint64_t id) {
 }
 
 void KeyframeStore::prefetch(uint64_t id) {
-  if (!thread_.joinable()) return;
+  if (threads_.empty()) return;
   {
     std::lock_guard lock(mutex_);
     if (cache_.count(id) || unwritten_.count(id) || reading_.count(id) || !on_disk_.count(id)) return;
     reading_.insert(id);
     counters_.prefetch_hits++;  // a read the caller will not wait for (unless it comes too soon)
-    jobs_.push_back(Job{false, id, nullptr});
+    jobs_.push_front(Job{false, id, nullptr});  // before queued writes: the optimiser needs it next
   }
-  wake_.notify_one();
+  wake_.notify_all();
 }
 
 void KeyframeStore::commit() {

@@ -28,7 +28,7 @@ struct KeyframeStoreConfig {
   bool compress = true;
   int zstd_level = 1;
   bool durable = true;       // commit() flushes what was written since the last one
-  bool background = true;    // writes and read-ahead on a thread of the store's own
+  bool background = true;    // writes and read-ahead on threads of the store's own
 };
 
 class KeyframeStore {
@@ -66,7 +66,7 @@ class KeyframeStore {
   void cache_locked(uint64_t id, Images images);
   void write_now(uint64_t id, const KeyframeImages& images, bool durable);
   Images read_now(uint64_t id);
-  void worker();
+  void worker(bool reads_only);
   void drain_locked(std::unique_lock<std::mutex>& lock);  // until no job is queued or running
   void rethrow_locked();
 
@@ -85,9 +85,10 @@ class KeyframeStore {
   std::unordered_map<uint64_t, Cached> cache_;
   std::list<uint64_t> lru_;  // front: most recently used
   std::deque<Job> jobs_;
-  bool busy_ = false, stop_ = false;
+  int busy_ = 0;  // jobs being worked on
+  bool stop_ = false;
   std::exception_ptr error_;
-  std::thread thread_;
+  std::vector<std::thread> threads_;
   mutable IoCounters counters_;
 };
 
