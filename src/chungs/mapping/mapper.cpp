@@ -1,7 +1,6 @@
 #include "chungs/mapping/mapper.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <unordered_map>
 
@@ -205,8 +204,7 @@ StepStats Mapper::step() {
 }
 
 double Mapper::optimiser_io_wait_ms() const {
-  return residency_->stats().optimiser_wait_ms() + keyframe_store_->counters().snapshot().wait_ms +
-         keyframe_commit_ms_;
+  return residency_->stats().optimiser_wait_ms() + keyframe_store_->counters().snapshot().optimiser_wait_ms();
 }
 
 const KeyframeRecord* Mapper::find_keyframe(uint32_t id) const {
@@ -307,9 +305,7 @@ void Mapper::checkpoint(const nlohmann::json& run_state) {
     k.last_loss = selector_.usage(k.id).last_loss;
   }
   // The keyframe list about to be committed must not name a keyframe whose file could be lost.
-  const auto t0 = std::chrono::steady_clock::now();
   keyframe_store_->commit();
-  keyframe_commit_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const fs::path keyframes_file = checkpoint_file(folder_, seq, "keyframes.txt");
   const fs::path state_file = checkpoint_file(folder_, seq, "run_state.json");
   write_keyframe_records(keyframes_file, keyframes_, config_.store.durable);

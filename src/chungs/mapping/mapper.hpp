@@ -102,7 +102,6 @@ class Mapper {
   std::vector<KeyframeRecord> keyframes_;
   std::mt19937_64 rng_;
   uint64_t iterations_ = 0, pruned_total_ = 0;
-  double keyframe_commit_ms_ = 0;  // checkpoints waiting for keyframe writes and their flush
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
   KeyframeRecord* mutable_keyframe(uint32_t id) {

@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <sstream>
 
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
@@ -198,12 +197,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   record(done ? done - 1 : 0);
   mapper.checkpoint(state(done, !stopped_at));
   const std::vector<std::optional<SE3>> poses = feed->final_poses();
-  {
-    Trajectory traj;  // the poses the map was made on (after every correction), TUM format
-    for (size_t i = 0; i < std::min(done, poses.size()); ++i)
-      if (poses[i]) traj.push_back(dataset->timestamp(i), *poses[i]);
-    write_tum_trajectory(o.out / "trajectory.txt", traj);
-  }
+  Trajectory traj;  // the poses the map was made on (after every correction), TUM format
+  for (size_t i = 0; i < std::min(done, poses.size()); ++i)
+    if (poses[i]) traj.push_back(dataset->timestamp(i), *poses[i]);
+  write_tum_trajectory(o.out / "trajectory.txt", traj);
   const double map_seconds = seconds();
 
   nlohmann::json report;
@@ -238,13 +235,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                     {"io_wait_share", map_seconds > 0 ? mapper.optimiser_io_wait_ms() / 1000.0 / map_seconds : 0}};
   {
     // Distance covered, for drives: the intake rate in km/h is what the paper's settings name.
-    double path_m = 0;
-    std::optional<SE3> prev_pose;
-    for (size_t i = 0; i < std::min(done, poses.size()); ++i)
-      if (poses[i]) {
-        if (prev_pose) path_m += (poses[i]->t - prev_pose->t).norm();
-        prev_pose = poses[i];
-      }
+    const double path_m = traj.path_length();
     report["time"]["path_km"] = path_m / 1000.0;
     report["time"]["processing_kmh"] = map_seconds > 0 ? path_m / map_seconds * 3.6 : 0;
     const double span = done > 1 ? (dataset->timestamp(done - 1) - stamp0) / mc.speed : 0;

@@ -209,6 +209,8 @@ void KeyframeStore::prefetch(uint64_t id) {
 }
 
 void KeyframeStore::commit() {
+  ScopedTimer whole(counters_.checkpoint_ns);  // the caller waits for queued writes and the flush
+  counters_.checkpoints++;
   std::vector<fs::path> files;
   {
     std::unique_lock lock(mutex_);

@@ -46,7 +46,7 @@ class KeyframeStore {
   Images get(uint64_t id);                       // throws naming the keyframe when absent
   void prefetch(uint64_t id);                    // a later get() finds it in memory (when it fits)
   // Waits for queued writes; when durable, flushes the files written since the last commit and
-  // the folder. Throws the first background error.
+  // the folder (counted as a checkpoint in counters()). Throws the first background error.
   void commit();
   bool contains(uint64_t id) const;
   void erase(uint64_t id);
