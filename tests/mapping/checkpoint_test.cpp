@@ -3,6 +3,8 @@
 // and the renaming of the keyframe list and run state finishes the renaming on open.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "chungs/mapping/map_state.hpp"
@@ -43,9 +45,17 @@ std::vector<uint32_t> creators(const fs::path& folder) {
   return out;
 }
 
+// What a kill at this moment leaves; background threads may be writing or deleting files meanwhile.
 void copy_folder(const fs::path& from, const fs::path& to) {
-  fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
-  fs::remove(to / "lock");
+  fs::create_directories(to);
+  for (const auto& e : fs::recursive_directory_iterator(from)) {
+    const fs::path target = to / fs::relative(e.path(), from);
+    std::error_code ec;
+    if (e.is_directory(ec))
+      fs::create_directories(target);
+    else if (e.path().filename() != "lock")
+      fs::copy_file(e.path(), target, fs::copy_options::overwrite_existing, ec);
+  }
 }
 
 TEST(MapperCheckpoint, CrashBeforeTheCommitRollsTheMapBackToTheLastCheckpoint) {
@@ -105,6 +115,39 @@ TEST(MapperCheckpoint, CrashAfterTheCommitFinishesTheRenamingOnOpen) {
   EXPECT_FALSE(fs::exists(b / "checkpoint-2-keyframes.txt"));
   EXPECT_EQ(read_keyframe_records(b / "keyframes.txt").size(), 7u);
   for (uint32_t k : creators(b)) ASSERT_LT(k, 7u);
+}
+
+// A checkpoint written behind training: the folder, copied at any moment after it committed while
+// training goes on, resumes to exactly its keyframes, with no Gaussian of a later keyframe.
+TEST(MapperCheckpoint, ACheckpointWrittenBehindResumesToItsOwnMoment) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(12);
+  Config c = small_config();
+  const fs::path b = dir / "b", a = dir / "a";
+  {
+    Mapper m(b, c, false);
+    add_frames(m, seq, 0, 3);
+    m.checkpoint({{"next_frame", 3}});
+    add_frames(m, seq, 3, 6);
+    m.checkpoint({{"next_frame", 6}}, /*behind=*/true);
+    // Training goes on (steps finish the checkpoint) until the keyframe list of it is in place.
+    size_t next = 6;
+    while (read_keyframe_records(b / "keyframes.txt").size() != 6 && next < 11) add_frames(m, seq, next, next + 1), ++next;
+    ASSERT_EQ(read_keyframe_records(b / "keyframes.txt").size(), 6u) << "the checkpoint never committed";
+    add_frames(m, seq, next, next + 1);
+    copy_folder(b, a);  // killed now
+  }
+  {
+    Mapper m(a, c, true);
+    EXPECT_EQ(m.keyframes().size(), 6u);
+    EXPECT_EQ(m.resumed_state()["next_frame"].get<int>(), 6);
+  }
+  const auto ids = creators(a);
+  ASSERT_FALSE(ids.empty());
+  for (uint32_t k : ids) ASSERT_LT(k, 6u) << "a Gaussian of keyframe " << k << " is in the checkpoint";
+  std::set<uint32_t> distinct(ids.begin(), ids.end());
+  EXPECT_GE(distinct.size(), 5u) << "the keyframes before the checkpoint keep their Gaussians";
 }
 
 }  // namespace

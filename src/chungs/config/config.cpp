@@ -36,9 +36,10 @@ void fields(V& v, ResidencyConfig& c) {
   v("budget_gaussians", c.budget_gaussians, "Gaussians resident in (GPU) memory at most");
   v("eviction_hysteresis", c.eviction_hysteresis, "fraction of the budget evicted beyond the shortfall");
   v("async_io", c.async_io, "background prefetch and write-behind");
-  v("prefetch_max_gaussians", c.prefetch_max_gaussians, "host read-ahead, Gaussians; 0: a quarter of the budget");
-  v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: a quarter of the budget");
-  v("flush_threads", c.flush_threads, "threads writing modified chunks at a checkpoint");
+  v("prefetch_max_gaussians", c.prefetch_max_gaussians, "host read-ahead, Gaussians; 0: 1/32 of the budget");
+  v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: 1/8 of the budget");
+  v("flush_threads", c.flush_threads, "threads writing modified chunks at a checkpoint the caller waits for");
+  v("checkpoint_threads", c.checkpoint_threads, "threads writing a checkpoint behind the optimiser");
   v("pool_headroom", c.pool_headroom, "pool slots beyond the budget (fraction), used only by loop corrections");
 }
 template <class V>

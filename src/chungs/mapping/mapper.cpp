@@ -88,7 +88,14 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
               store_->open_report().entries_updated, " updated)");
 }
 
-Mapper::~Mapper() = default;
+Mapper::~Mapper() {
+  // A checkpoint in flight uses the keyframe store, which goes before the residency.
+  try {
+    residency_->finish_checkpoint();
+  } catch (const std::exception& e) {
+    log::error("mapper: the checkpoint in flight failed: ", e.what());
+  }
+}
 
 uint64_t Mapper::total_gaussians() const {
   uint64_t n = 0;
@@ -191,6 +198,7 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
 
 StepStats Mapper::step() {
   if (keyframes_.empty()) fail("mapper: an optimisation step needs at least one keyframe");
+  residency_->advance_checkpoint();
   // The keyframe after this one is drawn now and its chunks are read in the background while this
   // step runs, so the next pin finds them in host memory instead of waiting on the disk.
   const uint32_t keyframe = next_pick_ ? *next_pick_ : selector_.pick(rng_);
@@ -298,29 +306,43 @@ void Mapper::recover_checkpoint_files() {
   }
 }
 
-void Mapper::checkpoint(const nlohmann::json& run_state) {
+void Mapper::checkpoint(const nlohmann::json& run_state, bool behind) {
+  residency_->finish_checkpoint();  // its files are renamed, its sequence number is taken
   const uint64_t seq = checkpoint_seq_ + 1;
   for (auto& k : keyframes_) {
     k.uses = selector_.usage(k.id).uses;
     k.last_loss = selector_.usage(k.id).last_loss;
   }
-  // The keyframe list about to be committed must not name a keyframe whose file could be lost.
-  keyframe_store_->commit();
   const fs::path keyframes_file = checkpoint_file(folder_, seq, "keyframes.txt");
   const fs::path state_file = checkpoint_file(folder_, seq, "run_state.json");
-  write_keyframe_records(keyframes_file, keyframes_, config_.store.durable);
   nlohmann::json j = run_state;
   j["iterations"] = iterations_;
   j["keyframe_chunks"] = keyframe_chunks_.to_json();
   std::ostringstream s;
   s << rng_;
   j["rng"] = s.str();
-  write_json_atomically(state_file, j, config_.store.durable);
+  const bool durable = config_.store.durable;
+  // Everything the commit names is written first, under numbered names (see above). Behind the
+  // caller this runs on a writer thread: hence the copies.
+  auto write_state = [this, keyframes_file, state_file, durable, behind, records = keyframes_, j = std::move(j)] {
+    // The keyframe list about to be committed must not name a keyframe whose file could be lost.
+    keyframe_store_->commit(!behind);
+    write_keyframe_records(keyframes_file, records, durable);
+    write_json_atomically(state_file, j, durable);
+  };
+  auto publish = [this, keyframes_file, state_file, durable] {
+    fs::rename(keyframes_file, folder_ / "keyframes.txt");
+    fs::rename(state_file, folder_ / "run_state.json");
+    if (durable) sync_directory(folder_);
+  };
   store_->set_config("checkpoint", std::to_string(seq));
-  residency_->flush();  // every modified chunk, then the manifest naming this checkpoint
-  fs::rename(keyframes_file, folder_ / "keyframes.txt");
-  fs::rename(state_file, folder_ / "run_state.json");
-  if (config_.store.durable) sync_directory(folder_);
+  if (behind) {
+    residency_->begin_checkpoint(std::move(write_state), std::move(publish));
+  } else {
+    write_state();
+    residency_->flush();  // every modified chunk, then the manifest naming this checkpoint
+    publish();
+  }
   checkpoint_seq_ = seq;
 }
 

@@ -172,7 +172,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     const bool due = mc.checkpoint_seconds > 0 ? seconds() - last_checkpoint >= mc.checkpoint_seconds
                                                : keyframes_since_checkpoint >= size_t(mc.checkpoint_every);
     if (due || applied.loop) {
-      mapper.checkpoint(state(i + 1, false));
+      mapper.checkpoint(state(i + 1, false), /*behind=*/true);
       keyframes_since_checkpoint = 0;
       last_checkpoint = seconds();
     }
@@ -273,6 +273,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       {"wait_ms", io.wait_ms},
       {"checkpoints", io.checkpoints},
       {"checkpoint_ms", io.checkpoint_ms},
+      {"checkpoints_behind", io.checkpoints_behind},
+      {"checkpoint_behind_ms", io.checkpoint_behind_ms},
       {"barrier_ms", io.barrier_ms},
       {"bytes_read", io.bytes_read},
       {"bytes_written", io.bytes_written},

@@ -17,10 +17,9 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
   if (!(config_.eviction_hysteresis >= 0 && config_.eviction_hysteresis < 1))
     fail("residency: eviction hysteresis must be in [0, 1), got ", config_.eviction_hysteresis);
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
-  const size_t automatic = std::max<size_t>(budget_ / 4, 10'000);
-  io_ = std::make_unique<IoWorker>(store_, config_.async_io,
-                                   config_.prefetch_max_gaussians ? config_.prefetch_max_gaussians : automatic,
-                                   config_.write_behind_max_gaussians ? config_.write_behind_max_gaussians : automatic);
+  auto or_automatic = [&](size_t set, size_t divisor) { return set ? set : std::max<size_t>(budget_ / divisor, 10'000); };
+  io_ = std::make_unique<IoWorker>(store_, config_.async_io, or_automatic(config_.prefetch_max_gaussians, 32),
+                                   or_automatic(config_.write_behind_max_gaussians, 8));
 }
 
 Residency::~Residency() {
@@ -111,6 +110,7 @@ PinResult Residency::pin(std::span<const ChunkId> ids) {
     log::warn(r.message);
     return r;
   }
+  for (ChunkId id : want) copy_out(id);  // a pinned chunk may change
   if (!make_room(missing, want, &r.evicted))
     fail("residency: internal error: no room for ", missing, " Gaussians although the pinned set fits");
   for (ChunkId id : want) {
@@ -202,8 +202,12 @@ void Residency::evict_entry(ChunkId id) {
   Resident& e = resident_.at(id);
   const size_t n = e.slots.size();
   if (e.dirty) {
-    auto block = std::make_shared<GaussianBlock>();
-    pool_.gather(e.slots, *block);
+    std::shared_ptr<const GaussianBlock> block = copy_out(id);  // one copy serves both
+    if (!block) {
+      auto fresh = std::make_shared<GaussianBlock>();
+      pool_.gather(e.slots, *fresh);
+      block = std::move(fresh);
+    }
     io_->write_behind(id, std::move(block));  // throws before anything changed here
     store_.counters().evictions_dirty++;
   } else {
@@ -250,6 +254,7 @@ PinResult Residency::add(ChunkId id, const GaussianBlock& block) {
     load(id);
     ++r.loaded;
   }
+  copy_out(id);
   Resident& e = resident_.at(id);
   std::vector<uint32_t> fresh = pool_.allocate(block.size());
   try {
@@ -272,6 +277,7 @@ PinResult Residency::add(ChunkId id, const GaussianBlock& block) {
 
 void Residency::remove_slots(ChunkId id, std::span<const uint32_t> slots) {
   Resident& e = resident_entry(id, "remove_slots");
+  copy_out(id);
   std::vector<uint32_t> gone(slots.begin(), slots.end());
   std::sort(gone.begin(), gone.end());
   if (std::adjacent_find(gone.begin(), gone.end()) != gone.end())
@@ -316,6 +322,7 @@ void Residency::evict_all_unpinned() {
 }
 
 void Residency::flush() {
+  finish_checkpoint();
   ScopedTimer t(store_.counters().checkpoint_ns);  // the caller is blocked for all of it
   store_.counters().checkpoints++;
   if (config_.async_io && config_.flush_threads > 1) {

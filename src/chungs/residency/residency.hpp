@@ -11,13 +11,17 @@
 // culler works over catalogue() and the store learns of changes when chunks are written.
 // Not thread-safe: one thread (the mapper) drives it; the I/O thread is internal.
 #pragma once
+#include <chrono>
+#include <functional>
 #include <list>
 #include <memory>
 #include <span>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
+#include "chungs/residency/checkpoint_writer.hpp"
 #include "chungs/residency/gaussian_pool.hpp"
 #include "chungs/residency/io_worker.hpp"
 #include "chungs/store/chunk_store.hpp"
@@ -28,11 +32,15 @@ struct ResidencyConfig {
   size_t budget_gaussians = 1'500'000;  // the paper's VRAM budget
   double eviction_hysteresis = 0.05;    // evict this fraction of the budget beyond the shortfall
   bool async_io = true;                 // background prefetch and write-behind
-  // Host memory for chunks in flight, in Gaussians (~0.7 kB each with Adam state). 0: a quarter of
-  // the budget, at least 10 000: host memory then stays in proportion to the budget, not the map.
+  // Host memory for chunks in flight, in Gaussians (~0.7 kB each with Adam state), so that host
+  // memory stays in proportion to the budget, not the map. 0: automatic, at least 10 000. Read-ahead
+  // (1/32 of the budget) only needs the chunks of the next few steps, and it fills only once the
+  // drive comes back to evicted chunks: a larger one raises the resident set minutes after the
+  // budget is reached. Write-behind (1/8) must take one eviction's burst (the hysteresis, 1/20).
   size_t prefetch_max_gaussians = 0;      // read ahead into host memory at most this many
   size_t write_behind_max_gaussians = 0;  // queued for writing before eviction waits
   int flush_threads = 8;  // threads writing the modified resident chunks at flush() (async_io only)
+  int checkpoint_threads = 4;  // threads writing a checkpoint behind the caller (begin_checkpoint)
   // Pool slots beyond the budget (a fraction of it), used only while a loop correction raises the
   // budget so that all affected chunks are moved in one batch.
   double pool_headroom = 0.25;
@@ -79,6 +87,19 @@ class Residency {
   // threads, after the write-behind queue has drained) and commits the manifest (the durability
   // barrier). After flush() the folder holds the whole map.
   void flush();
+  // A checkpoint written behind the caller: the map as it is at this call (the modified resident
+  // chunks and what is on disk) becomes the committed map while the caller goes on changing it.
+  // Each modified chunk is copied out of the pool just before the caller could change it (pin,
+  // add, remove_slots, eviction); advance_checkpoint() between steps copies the rest out a little
+  // at a time, so host memory holds at most ~1/32 of the budget of them. `before_commit` and
+  // `after_commit` run on a writer thread around the manifest commit. Chunks stay marked modified
+  // (the live map's files are not the checkpoint's), so a later eviction writes them again. One
+  // still in flight is finished first. Time the caller is blocked counts as checkpoint time.
+  void begin_checkpoint(std::function<void()> before_commit, std::function<void()> after_commit);
+  // Copies out a portion; collects a finished checkpoint (rethrowing its failure).
+  void advance_checkpoint();
+  bool checkpoint_in_flight() const { return checkpoint_ != nullptr; }
+  void finish_checkpoint();  // copies out the rest and waits until it is committed
   // Changes the budget (e.g. raised during loop closure); lowering evicts unpinned chunks.
   // Returns false (and changes nothing) when pinned chunks alone exceed the new budget.
   bool set_budget(size_t gaussians);
@@ -120,6 +141,10 @@ class Residency {
   Resident& resident_entry(ChunkId id, const char* what);
   void check_budget_invariant() const;
   std::string over_budget_message(uint64_t pinned, size_t chunks) const;
+  // The chunk's content for a checkpoint in flight that still needs it (else null): gathered
+  // now and handed to the writer. Must run before anything changes the chunk's slots.
+  std::shared_ptr<const GaussianBlock> copy_out(ChunkId id);
+  size_t checkpoint_memory_limit() const;
 
   ChunkStore& store_;
   GaussianPool& pool_;
@@ -131,6 +156,10 @@ class Residency {
   std::list<ChunkId> lru_;
   size_t resident_gaussians_ = 0, pinned_gaussians_ = 0, peak_resident_ = 0;
   std::unique_ptr<IoWorker> io_;
+  std::unique_ptr<CheckpointWriter> checkpoint_;  // in flight (begin_checkpoint)
+  std::unordered_set<ChunkId> checkpoint_todo_;   // modified at its moment, not yet copied out
+  std::function<void()> checkpoint_before_, checkpoint_after_;
+  std::chrono::steady_clock::time_point checkpoint_started_;
 };
 
 }  // namespace chungs

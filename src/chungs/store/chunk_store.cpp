@@ -146,6 +146,16 @@ void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
     remove(id);
     return;
   }
+  const auto [generation, info] = write_generation(id, block);
+  std::lock_guard lock(mutex_);
+  auto [it, fresh] = manifest_.chunks.try_emplace(id);
+  if (!fresh) retire({id, it->second.generation, false});
+  it->second = {info.count, info.file_bytes, info.payload_checksum, generation};
+  if (config_.durable) unsynced_.insert({id, generation});
+  dirty_ = true;
+}
+
+std::pair<uint64_t, ChunkFileInfo> ChunkStore::write_generation(ChunkId id, const GaussianBlock& block) {
   chunk_coord(id);  // rejects ids that no coordinate produces
   // The write starts its way to the disk at once (on the I/O thread when written behind), so the
   // next commit's barrier mostly waits for what is already done.
@@ -170,11 +180,7 @@ void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
   counters_.bytes_written += info.file_bytes;
   std::lock_guard lock(mutex_);
   writing_.erase(generation);
-  auto [it, fresh] = manifest_.chunks.try_emplace(id);
-  if (!fresh) retire({id, it->second.generation, false});
-  it->second = {info.count, info.file_bytes, info.payload_checksum, generation};
-  if (config_.durable) unsynced_.insert({id, generation});
-  dirty_ = true;
+  return {generation, info};
 }
 
 void ChunkStore::remove(ChunkId id) {
@@ -210,15 +216,19 @@ bool ChunkStore::is_committed(ChunkId id, uint64_t generation) const {
   return it != committed_.end() && it->second == generation;
 }
 
+bool ChunkStore::is_held(ChunkId id, uint64_t generation) const { return held_.count({id, generation}) > 0; }
+
 void ChunkStore::retire(const Retired& r) {
-  if (!r.tombstone) unsynced_.erase({r.id, r.generation});
-  if (!r.tombstone && !committing_ && !is_committed(r.id, r.generation))
+  const bool held = !r.tombstone && is_held(r.id, r.generation);
+  if (!r.tombstone && !held) unsynced_.erase({r.id, r.generation});
+  if (!r.tombstone && !held && !committing_ && !is_committed(r.id, r.generation))
     delete_file(r);
   else
     retired_.push_back(r);
 }
 
 bool ChunkStore::deletable_after(const Retired& r, const Manifest& durable) const {
+  if (r.orphan) return true;
   auto it = durable.chunks.find(r.id);
   if (it == durable.chunks.end()) return true;
   return r.tombstone ? it->second.generation > r.generation : it->second.generation != r.generation;
@@ -256,14 +266,31 @@ void ChunkStore::commit() {
   std::vector<std::pair<ChunkId, uint64_t>> to_sync;
   {
     std::lock_guard lock(mutex_);
+    if (snapshot_) fail(folder_.string(), ": commit while a snapshot is pending (commit or abandon it first)");
     if (!dirty_) return;
     snapshot = manifest_;
     snapshot.next_generation = writing_.empty() ? next_generation_ : *writing_.begin();
-    for (const auto& [id, e] : snapshot.chunks)
-      if (unsynced_.erase({id, e.generation})) to_sync.emplace_back(id, e.generation);
+    to_sync = start_commit_locked(snapshot);
     dirty_ = false;
-    committing_ = true;
   }
+  try {
+    commit_manifest(snapshot, to_sync);
+  } catch (...) {
+    std::lock_guard lock(mutex_);
+    dirty_ = true;
+    throw;
+  }
+}
+
+std::vector<std::pair<ChunkId, uint64_t>> ChunkStore::start_commit_locked(const Manifest& snapshot) {
+  std::vector<std::pair<ChunkId, uint64_t>> to_sync;
+  for (const auto& [id, e] : snapshot.chunks)
+    if (unsynced_.erase({id, e.generation})) to_sync.emplace_back(id, e.generation);
+  committing_ = true;  // from here until the manifest is written no superseded file is deleted
+  return to_sync;
+}
+
+void ChunkStore::commit_manifest(const Manifest& snapshot, const std::vector<std::pair<ChunkId, uint64_t>>& to_sync) {
   try {
     ScopedTimer t(counters_.barrier_ns);
     if (config_.durable) {
@@ -278,10 +305,9 @@ void ChunkStore::commit() {
     snapshot.write(manifest_path(), config_.durable);
   } catch (...) {
     std::lock_guard lock(mutex_);
-    dirty_ = true;
     committing_ = false;
     for (const auto& f : to_sync)
-      if (is_current_locked(f.first, f.second)) unsynced_.insert(f);
+      if (is_current_locked(f.first, f.second) || is_held(f.first, f.second)) unsynced_.insert(f);
     throw;
   }
   counters_.barriers++;

@@ -14,6 +14,11 @@
 //  - power loss (durable = true): the map reopens to at least the last commit, every chunk valid
 //    (a chunk saved later is adopted only if its file survived intact, else the committed one).
 // Files of the version 1 layout (chunks/<id>.chunk, generation 0) are read and superseded.
+// Snapshots (a checkpoint written behind the caller): begin_snapshot() fixes the map as it is;
+// save_to_snapshot() writes a chunk's content of that moment to a file of its own that only the
+// snapshot names (loads keep seeing the live map, which saves go on changing); commit_snapshot()
+// makes that map, not the live one, the committed manifest. Every file the pending snapshot names
+// is kept (and flushed at its commit) even when the live map supersedes it meanwhile.
 // A folder is locked (flock) while open: a second ChunkStore on it, in any process, is refused.
 // Thread-safe: loads and saves of different chunks may run concurrently (the I/O thread and the
 // optimiser); the caller must not save and load the same chunk at the same time.
@@ -100,8 +105,19 @@ class ChunkStore {
 
   void set_config(const std::string& key, const std::string& value);
   std::optional<std::string> config_value(const std::string& key) const;
-  // The durability barrier (see above) when anything changed since the last commit.
+  // The durability barrier (see above) when anything changed since the last commit. Refused
+  // while a snapshot is pending (it would commit the live map under the snapshot's name).
   void commit();
+
+  // Snapshot (see above). One at a time; begin_snapshot() copies the live manifest (its
+  // configuration included) and holds every file it names.
+  void begin_snapshot();
+  bool snapshot_pending() const;
+  // The chunk's content as of begin_snapshot() (an empty block: the chunk is not in the snapshot).
+  void save_to_snapshot(ChunkId id, const GaussianBlock& block);
+  // The durability barrier for the snapshot's map; the live map stays uncommitted.
+  void commit_snapshot();
+  void abandon_snapshot();  // releases the held files (after a failure; the last commit stands)
 
   IoCounters& counters() const { return counters_; }
 
@@ -110,15 +126,26 @@ class ChunkStore {
     ChunkId id;
     uint64_t generation;
     bool tombstone;
+    // Found on open and not chosen: goes once the repaired manifest is durable, even a tombstone
+    // newer than the chunk's entry (rolled back), which a later open with adoption would obey.
+    bool orphan = false;
   };
   void reconcile(bool have_manifest);
   bool is_committed(ChunkId id, uint64_t generation) const;
+  // Writes the chunk's next generation (not yet named anywhere): the generation and the file.
+  std::pair<uint64_t, ChunkFileInfo> write_generation(ChunkId id, const GaussianBlock& block);
   bool is_current_locked(ChunkId id, uint64_t generation) const;
   // Takes a file out of use: deleted now when no manifest on disk may name it, else after the
   // next commit. Needs mutex_.
   void retire(const Retired& r);
   bool deletable_after(const Retired& r, const Manifest& durable) const;
   void delete_file(const Retired& r) const;
+  bool is_held(ChunkId id, uint64_t generation) const;
+  // A commit in two parts: under mutex_, what of `snapshot` needs flushing (and no superseded
+  // file may be deleted from then on); then, unlocked, the flushes, the manifest write and the
+  // deletion of what it made obsolete. `dirty_` is the caller's business.
+  std::vector<std::pair<ChunkId, uint64_t>> start_commit_locked(const Manifest& snapshot);
+  void commit_manifest(const Manifest& snapshot, const std::vector<std::pair<ChunkId, uint64_t>>& to_sync);
 
   std::filesystem::path folder_, chunk_dir_;
   ChunkStoreConfig config_;
@@ -136,6 +163,8 @@ class ChunkStore {
   std::map<ChunkId, uint64_t> committed_;            // generations the manifest on disk names
   std::set<std::pair<ChunkId, uint64_t>> unsynced_;  // chunk files written since the last barrier
   std::vector<Retired> retired_;                     // waiting for a commit before deletion
+  std::optional<Manifest> snapshot_;                 // pending snapshot (begin_snapshot)
+  std::set<std::pair<ChunkId, uint64_t>> held_;      // files it names: kept until its commit
   mutable IoCounters counters_;
 };
 

@@ -98,7 +98,7 @@ void ChunkStore::reconcile(bool have_manifest) {
       if (info && info->id != id)
         fail(chunk_file(id, gen).string(), ": header names ", chunk_name(info->id),
              " but the file name names ", chunk_name(id));
-      retired_.push_back({id, gen, tombstone});
+      retired_.push_back({id, gen, tombstone, true});
       ++report_.orphans;
     }
     if (keep && config_.durable && (!named || *keep != named->generation)) unsynced_.insert({id, *keep});

@@ -29,6 +29,11 @@ struct IoStats {
   // writes finish and the barrier runs.
   uint64_t checkpoints = 0;
   double checkpoint_ms = 0;
+  // Of those, written behind the caller (Residency::begin_checkpoint): the caller blocks only to
+  // copy chunks out (counted in checkpoint_ms); from the checkpoint's moment to its commit took
+  // behind_ms on the writer threads.
+  uint64_t checkpoints_behind = 0;
+  double checkpoint_behind_ms = 0;
 
   double mean_load_ms() const { return loads ? load_ms / double(loads) : 0; }
   double mean_save_ms() const { return saves ? save_ms / double(saves) : 0; }
@@ -46,6 +51,7 @@ class IoCounters {
   std::atomic<uint64_t> pool_loads{0}, prefetch_hits{0}, write_behind_hits{0}, sync_loads{0}, waits{0};
   std::atomic<uint64_t> evictions_clean{0}, evictions_dirty{0};
   std::atomic<uint64_t> barriers{0}, synced_files{0}, barrier_ns{0}, checkpoints{0}, checkpoint_ns{0};
+  std::atomic<uint64_t> checkpoints_behind{0}, checkpoint_behind_ns{0};
 
   IoStats snapshot() const;
   void reset();

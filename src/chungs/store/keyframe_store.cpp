@@ -208,9 +208,10 @@ void KeyframeStore::prefetch(uint64_t id) {
   wake_.notify_all();
 }
 
-void KeyframeStore::commit() {
-  ScopedTimer whole(counters_.checkpoint_ns);  // the caller waits for queued writes and the flush
-  counters_.checkpoints++;
+void KeyframeStore::commit(bool caller_waits) {
+  std::atomic<uint64_t> unseen{0};
+  ScopedTimer whole(caller_waits ? counters_.checkpoint_ns : unseen);  // waits for queued writes and the flush
+  if (caller_waits) counters_.checkpoints++;
   std::vector<fs::path> files;
   {
     std::unique_lock lock(mutex_);

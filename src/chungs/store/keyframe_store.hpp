@@ -46,8 +46,9 @@ class KeyframeStore {
   Images get(uint64_t id);                       // throws naming the keyframe when absent
   void prefetch(uint64_t id);                    // a later get() finds it in memory (when it fits)
   // Waits for queued writes; when durable, flushes the files written since the last commit and
-  // the folder (counted as a checkpoint in counters()). Throws the first background error.
-  void commit();
+  // the folder (counted as a checkpoint in counters() when the caller waits: caller_waits = false
+  // for a commit on a background thread). Throws the first background error.
+  void commit(bool caller_waits = true);
   bool contains(uint64_t id) const;
   void erase(uint64_t id);
   std::vector<uint64_t> ids() const;  // ascending

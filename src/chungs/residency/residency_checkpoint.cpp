@@ -1,0 +1,83 @@
+// Residency's checkpoints written behind the caller (residency.hpp, begin_checkpoint).
+#include <algorithm>
+
+#include "chungs/residency/residency.hpp"
+
+namespace chungs {
+
+namespace {
+double ns_since(std::chrono::steady_clock::time_point t) {
+  return double(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t).count());
+}
+}  // namespace
+
+size_t Residency::checkpoint_memory_limit() const { return std::max<size_t>(budget_ / 32, 10'000); }
+
+void Residency::begin_checkpoint(std::function<void()> before_commit, std::function<void()> after_commit) {
+  finish_checkpoint();
+  IoCounters& c = store_.counters();
+  ScopedTimer t(c.checkpoint_ns);
+  c.checkpoints++;
+  c.checkpoints_behind++;
+  checkpoint_started_ = std::chrono::steady_clock::now();
+  io_->drain();  // evictions queued so far belong to the checkpoint's map
+  checkpoint_ = std::make_unique<CheckpointWriter>(store_, config_.checkpoint_threads);
+  checkpoint_before_ = std::move(before_commit);
+  checkpoint_after_ = std::move(after_commit);
+  checkpoint_todo_.clear();
+  for (const auto& [id, e] : resident_)
+    if (e.dirty) checkpoint_todo_.insert(id);
+  if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
+}
+
+std::shared_ptr<const GaussianBlock> Residency::copy_out(ChunkId id) {
+  if (!checkpoint_ || !checkpoint_todo_.erase(id)) return nullptr;
+  ScopedTimer t(store_.counters().checkpoint_ns);
+  auto block = std::make_shared<GaussianBlock>();
+  pool_.gather(resident_.at(id).slots, *block);
+  checkpoint_->put(id, block);
+  if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
+  return block;
+}
+
+void Residency::advance_checkpoint() {
+  if (!checkpoint_) return;
+  if (!checkpoint_todo_.empty()) {
+    // A portion per call spreads the gathers over many steps; the bound keeps host memory flat.
+    const size_t limit = checkpoint_memory_limit();
+    size_t copied = 0;
+    while (!checkpoint_todo_.empty() && copied < limit / 4 && checkpoint_->queued_gaussians() < limit) {
+      const ChunkId id = *checkpoint_todo_.begin();
+      copied += copy_out(id)->size() + 1;
+    }
+  }
+  if (checkpoint_->finished()) {
+    store_.counters().checkpoint_behind_ns += uint64_t(ns_since(checkpoint_started_));
+    auto done = std::move(checkpoint_);
+    checkpoint_todo_.clear();
+    done->rethrow();
+  }
+}
+
+void Residency::finish_checkpoint() {
+  if (!checkpoint_) return;
+  {
+    ScopedTimer t(store_.counters().checkpoint_ns);
+    const size_t limit = checkpoint_memory_limit();
+    try {
+      while (!checkpoint_todo_.empty()) {
+        checkpoint_->wait_below(limit);
+        copy_out(*checkpoint_todo_.begin());
+      }
+      checkpoint_->wait();
+    } catch (...) {
+      checkpoint_.reset();
+      checkpoint_todo_.clear();
+      throw;
+    }
+  }
+  store_.counters().checkpoint_behind_ns += uint64_t(ns_since(checkpoint_started_));
+  checkpoint_.reset();
+}
+
+}  // namespace chungs

@@ -1,0 +1,68 @@
+// Snapshots of the map, committed while the live map goes on changing (chunk_store.hpp).
+#include "chungs/common/error.hpp"
+#include "chungs/store/chunk_store.hpp"
+
+namespace chungs {
+
+void ChunkStore::begin_snapshot() {
+  std::lock_guard lock(mutex_);
+  if (snapshot_) fail(folder_.string(), ": a snapshot is already pending");
+  snapshot_ = manifest_;
+  // Later generations were written after the moment the snapshot shows.
+  snapshot_->next_generation = writing_.empty() ? next_generation_ : *writing_.begin();
+  held_.clear();
+  for (const auto& [id, e] : snapshot_->chunks) held_.insert({id, e.generation});
+}
+
+bool ChunkStore::snapshot_pending() const {
+  std::lock_guard lock(mutex_);
+  return snapshot_.has_value();
+}
+
+void ChunkStore::save_to_snapshot(ChunkId id, const GaussianBlock& block) {
+  if (!snapshot_pending()) fail(folder_.string(), ": save_to_snapshot of ", chunk_name(id), " without a snapshot");
+  if (block.size() == 0) {
+    std::lock_guard lock(mutex_);
+    snapshot_->chunks.erase(id);
+    return;
+  }
+  const auto [generation, info] = write_generation(id, block);
+  std::lock_guard lock(mutex_);
+  held_.insert({id, generation});
+  if (config_.durable) unsynced_.insert({id, generation});
+  snapshot_->chunks[id] = {info.count, info.file_bytes, info.payload_checksum, generation};
+}
+
+void ChunkStore::commit_snapshot() {
+  std::lock_guard commit_lock(commit_mutex_);
+  Manifest snapshot;
+  std::vector<std::pair<ChunkId, uint64_t>> to_sync;
+  {
+    std::lock_guard lock(mutex_);
+    if (!snapshot_) fail(folder_.string(), ": commit_snapshot without a snapshot");
+    snapshot = *snapshot_;
+    to_sync = start_commit_locked(snapshot);
+  }
+  commit_manifest(snapshot, to_sync);
+  std::lock_guard lock(mutex_);
+  // Files only the snapshot names go once a later commit no longer names them.
+  for (const auto& [id, e] : snapshot.chunks)
+    if (!is_current_locked(id, e.generation)) retired_.push_back({id, e.generation, false});
+  snapshot_.reset();
+  held_.clear();
+  dirty_ = true;  // the live map is not what the disk now names
+}
+
+void ChunkStore::abandon_snapshot() {
+  std::lock_guard lock(mutex_);
+  if (!snapshot_) return;
+  for (const auto& [id, e] : snapshot_->chunks)
+    if (!is_current_locked(id, e.generation) && !is_committed(id, e.generation)) {
+      unsynced_.erase({id, e.generation});
+      retired_.push_back({id, e.generation, false});
+    }
+  snapshot_.reset();
+  held_.clear();
+}
+
+}  // namespace chungs
