@@ -117,6 +117,28 @@ TEST(MapperCheckpoint, CrashAfterTheCommitFinishesTheRenamingOnOpen) {
   for (uint32_t k : creators(b)) ASSERT_LT(k, 7u);
 }
 
+TEST(MapperCheckpoint, ClosingWithoutACheckpointLeavesTheLastOne) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(10);
+  Config c = small_config();
+  c.residency.budget_gaussians = 3000;  // evictions write chunks between the checkpoints
+  const fs::path b = dir / "b";
+  {
+    Mapper m(b, c, false);
+    add_frames(m, seq, 0, 4);
+    m.checkpoint({{"next_frame", 4}});
+    add_frames(m, seq, 4, 9);  // then an error ends the run: no checkpoint
+  }
+  {
+    Mapper m(b, c, true);
+    EXPECT_EQ(m.keyframes().size(), 4u);
+  }
+  const auto ids = creators(b);
+  ASSERT_FALSE(ids.empty());
+  for (uint32_t k : ids) ASSERT_LT(k, 4u) << "a Gaussian of keyframe " << k << " outlived its run's last checkpoint";
+}
+
 // A checkpoint written behind training: the folder, copied at any moment after it committed while
 // training goes on, resumes to exactly its keyframes, with no Gaussian of a later keyframe.
 TEST(MapperCheckpoint, ACheckpointWrittenBehindResumesToItsOwnMoment) {

@@ -54,6 +54,9 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   // budget, so eviction starts only at the pool's full capacity (which the stop never reaches:
   // one keyframe adds far less than the headroom).
   if (config_.mapper.in_core_only) rc.budget_gaussians = pool_capacity(config_.residency);
+  // Closing without a checkpoint (an error ended the run) must leave the folder at the last one:
+  // writing the map of now would pair it with an older keyframe list.
+  rc.flush_on_close = false;
   residency_ = std::make_unique<Residency>(*store_, backend_->pool(), rc);
   culler_ = std::make_unique<FrustumCuller>(store_->chunk_size(), config_.culling);
   keyframe_store_ = std::make_unique<KeyframeStore>(folder / "keyframes", config_.keyframes);

@@ -24,7 +24,10 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
 
 Residency::~Residency() {
   try {
-    flush();
+    if (config_.flush_on_close)
+      flush();
+    else
+      finish_checkpoint();
   } catch (const std::exception& e) {
     log::error("residency: could not write the modified chunks on shutdown: ", e.what());
   }

@@ -44,6 +44,9 @@ struct ResidencyConfig {
   // Pool slots beyond the budget (a fraction of it), used only while a loop correction raises the
   // budget so that all affected chunks are moved in one batch.
   double pool_headroom = 0.25;
+  // false: the destructor writes nothing (only a checkpoint in flight is finished), for a caller
+  // that commits consistent states itself, e.g. the mapper's checkpoints with their keyframe list.
+  bool flush_on_close = true;
 };
 
 struct PinResult {
@@ -60,7 +63,7 @@ class Residency {
  public:
   // The pool must hold at least the budget; the pool is used only through this object.
   Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfig& config = {});
-  ~Residency();  // flush(); errors are logged
+  ~Residency();  // flush() (see flush_on_close); errors are logged
   Residency(const Residency&) = delete;
   Residency& operator=(const Residency&) = delete;
 

@@ -59,7 +59,7 @@ ChunkStore::ChunkStore(fs::path folder, const ChunkStoreConfig& config)
 
 ChunkStore::~ChunkStore() {
   try {
-    commit();
+    if (config_.adopt_uncommitted) commit();
   } catch (const std::exception& e) {
     log::error(folder_.string(), ": could not write the manifest on close: ", e.what());
   }

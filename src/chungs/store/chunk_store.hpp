@@ -74,7 +74,9 @@ class ChunkStore {
   // Opens (or creates) the map folder. Throws Error naming the file on a corrupt chunk file or
   // manifest, a chunk file whose header names another chunk, or a folder open elsewhere.
   explicit ChunkStore(std::filesystem::path folder, const ChunkStoreConfig& config = {});
-  ~ChunkStore();  // commits a changed manifest (errors are logged: destructors must not throw)
+  // Commits a changed manifest (errors are logged: destructors must not throw); with
+  // adopt_uncommitted = false it does not, since the caller commits what belongs together.
+  ~ChunkStore();
   ChunkStore(const ChunkStore&) = delete;
   ChunkStore& operator=(const ChunkStore&) = delete;
 
