@@ -10,10 +10,6 @@ void append_n(V& dst, const V& src, size_t i, size_t n) {
   dst.insert(dst.end(), src.begin() + i * n, src.begin() + (i + 1) * n);
 }
 template <typename V>
-void assign_n(V& dst, const V& src, size_t begin, size_t n, size_t width) {
-  dst.assign(src.begin() + begin * width, src.begin() + (begin + n) * width);
-}
-template <typename V>
 void move_last_to(V& v, size_t i, size_t n) {
   size_t last = v.size() / n - 1;
   if (i != last)
@@ -36,14 +32,6 @@ void GaussianParams::append(const GaussianParams& o, size_t i) {
   append_n(rotation, o.rotation, i, 4);
   append_n(opacity, o.opacity, i, 1);
   append_n(sh, o.sh, i, kShFloats);
-}
-
-void GaussianParams::assign_range(const GaussianParams& o, size_t begin, size_t n) {
-  assign_n(mean, o.mean, begin, n, 3);
-  assign_n(log_scale, o.log_scale, begin, n, 3);
-  assign_n(rotation, o.rotation, begin, n, 4);
-  assign_n(opacity, o.opacity, begin, n, 1);
-  assign_n(sh, o.sh, begin, n, kShFloats);
 }
 
 void GaussianParams::swap_remove(size_t i) {
@@ -72,18 +60,6 @@ void GaussianBlock::append(const GaussianBlock& o, size_t i) {
   append_n(created_by_keyframe, o.created_by_keyframe, i, 1);
   append_n(created_at_step, o.created_at_step, i, 1);
   append_n(lr_position_factor, o.lr_position_factor, i, 1);
-}
-
-void GaussianBlock::assign_range(const GaussianBlock& o, size_t begin, size_t n) {
-  if (begin + n > o.size()) fail("GaussianBlock::assign_range: Gaussians ", begin, "..", begin + n, " of ", o.size());
-  sh_degree = o.sh_degree;
-  params.assign_range(o.params, begin, n);
-  adam_m.assign_range(o.adam_m, begin, n);
-  adam_v.assign_range(o.adam_v, begin, n);
-  assign_n(adam_steps, o.adam_steps, begin, n, 1);
-  assign_n(created_by_keyframe, o.created_by_keyframe, begin, n, 1);
-  assign_n(created_at_step, o.created_at_step, begin, n, 1);
-  assign_n(lr_position_factor, o.lr_position_factor, begin, n, 1);
 }
 
 void GaussianBlock::swap_remove(size_t i) {

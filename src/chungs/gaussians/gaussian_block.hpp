@@ -29,7 +29,6 @@ struct GaussianParams {
   void clear() { resize(0); }
   void append(const GaussianParams& o, size_t i);  // copies Gaussian i of o to the end
   void swap_remove(size_t i);                      // moves the last Gaussian into i
-  void assign_range(const GaussianParams& o, size_t begin, size_t n);  // Gaussians begin.. of o
 };
 
 struct GaussianBlock {
@@ -45,8 +44,6 @@ struct GaussianBlock {
   void resize(size_t n);
   void append(const GaussianBlock& o, size_t i);
   void swap_remove(size_t i);
-  // Becomes a copy of Gaussians [begin, begin + n) of o (sh_degree included); throws past its end.
-  void assign_range(const GaussianBlock& o, size_t begin, size_t n);
   // Throws Error when the arrays disagree in size (corrupt input) or sh_degree is out of range.
   void validate(const char* what) const;
 };

@@ -147,11 +147,7 @@ class Residency {
   // The chunk's content for a checkpoint in flight that still needs it (else null): gathered
   // now and handed to the writer. Must run before anything changes the chunk's slots.
   std::shared_ptr<const GaussianBlock> copy_out(ChunkId id);
-  // The same for several chunks (those the checkpoint no longer needs are skipped), gathered a
-  // group at a time: one device round trip per group instead of one per chunk.
-  void copy_out(std::span<const ChunkId> ids);
   size_t checkpoint_memory_limit() const;
-  std::vector<ChunkId> next_checkpoint_group(size_t gaussians) const;  // about that many, at least one
 
   ChunkStore& store_;
   GaussianPool& pool_;

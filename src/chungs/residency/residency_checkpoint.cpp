@@ -13,16 +13,6 @@ double ns_since(std::chrono::steady_clock::time_point t) {
 
 size_t Residency::checkpoint_memory_limit() const { return std::max<size_t>(budget_ / 32, 10'000); }
 
-std::vector<ChunkId> Residency::next_checkpoint_group(size_t gaussians) const {
-  std::vector<ChunkId> ids;
-  size_t n = 0;
-  for (auto it = checkpoint_todo_.begin(); it != checkpoint_todo_.end() && (ids.empty() || n < gaussians); ++it) {
-    ids.push_back(*it);
-    n += resident_.at(*it).slots.size();
-  }
-  return ids;
-}
-
 void Residency::begin_checkpoint(std::function<void()> before_commit, std::function<void()> after_commit) {
   finish_checkpoint();
   IoCounters& c = store_.counters();
@@ -50,46 +40,16 @@ std::shared_ptr<const GaussianBlock> Residency::copy_out(ChunkId id) {
   return block;
 }
 
-void Residency::copy_out(std::span<const ChunkId> ids) {
-  if (!checkpoint_) return;
-  ScopedTimer t(store_.counters().checkpoint_ns);
-  const size_t group = checkpoint_memory_limit() / 4;
-  std::vector<ChunkId> picked;
-  std::vector<uint32_t> slots;
-  auto gather_group = [&] {
-    if (picked.empty()) return;
-    GaussianBlock all;
-    pool_.gather(slots, all);
-    size_t at = 0;
-    for (ChunkId id : picked) {
-      const size_t n = resident_.at(id).slots.size();
-      auto block = std::make_shared<GaussianBlock>();
-      block->assign_range(all, at, n);
-      at += n;
-      checkpoint_->put(id, std::move(block));
-    }
-    picked.clear();
-    slots.clear();
-  };
-  bool any = false;
-  for (ChunkId id : ids) {
-    if (!checkpoint_todo_.erase(id)) continue;
-    any = true;
-    const auto& s = resident_.at(id).slots;
-    if (!slots.empty() && slots.size() + s.size() > group) gather_group();
-    picked.push_back(id);
-    slots.insert(slots.end(), s.begin(), s.end());
-  }
-  gather_group();
-  if (any && checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
-}
-
 void Residency::advance_checkpoint() {
   if (!checkpoint_) return;
   if (!checkpoint_todo_.empty()) {
     // A portion per call spreads the gathers over many steps; the bound keeps host memory flat.
     const size_t limit = checkpoint_memory_limit();
-    if (checkpoint_->queued_gaussians() < limit) copy_out(next_checkpoint_group(limit / 4));
+    size_t copied = 0;
+    while (!checkpoint_todo_.empty() && copied < limit / 4 && checkpoint_->queued_gaussians() < limit) {
+      const ChunkId id = *checkpoint_todo_.begin();
+      copied += copy_out(id)->size() + 1;
+    }
   }
   if (checkpoint_->finished()) {
     store_.counters().checkpoint_behind_ns += uint64_t(ns_since(checkpoint_started_));
@@ -107,7 +67,7 @@ void Residency::finish_checkpoint() {
     try {
       while (!checkpoint_todo_.empty()) {
         checkpoint_->wait_below(limit);
-        copy_out(next_checkpoint_group(limit / 4));
+        copy_out(*checkpoint_todo_.begin());
       }
       checkpoint_->wait();
     } catch (...) {
