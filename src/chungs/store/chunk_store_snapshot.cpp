@@ -20,14 +20,20 @@ bool ChunkStore::snapshot_pending() const {
 }
 
 void ChunkStore::save_to_snapshot(ChunkId id, const GaussianBlock& block) {
-  if (!snapshot_pending()) fail(folder_.string(), ": save_to_snapshot of ", chunk_name(id), " without a snapshot");
-  if (block.size() == 0) {
-    std::lock_guard lock(mutex_);
+  auto no_snapshot = [&] { fail(folder_.string(), ": save_to_snapshot of ", chunk_name(id), " without a snapshot"); };
+  if (!snapshot_pending()) no_snapshot();
+  std::optional<std::pair<uint64_t, ChunkFileInfo>> written;
+  if (block.size() > 0) written = write_generation(id, block);
+  std::lock_guard lock(mutex_);
+  if (!snapshot_) {  // abandoned while this one was written (another writer failed)
+    if (written) delete_file({id, written->first, false});
+    no_snapshot();
+  }
+  if (!written) {
     snapshot_->chunks.erase(id);
     return;
   }
-  const auto [generation, info] = write_generation(id, block);
-  std::lock_guard lock(mutex_);
+  const auto& [generation, info] = *written;
   held_.insert({id, generation});
   if (config_.durable) unsynced_.insert({id, generation});
   snapshot_->chunks[id] = {info.count, info.file_bytes, info.payload_checksum, generation};
