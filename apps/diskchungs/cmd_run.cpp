@@ -25,7 +25,8 @@ const Command cmd{
       auto a = std::make_shared<RunArgs>();
       app.add_option("--dataset", a->o.dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch)")
           ->required();
-      app.add_option("--poses", a->o.poses, "gt (ground truth), a TUM/KITTI trajectory file, or track (the visual tracker)")
+      app.add_option("--poses", a->o.poses,
+                     "gt (ground truth), a TUM/KITTI trajectory file, or track (the visual tracker)")
           ->capture_default_str();
       app.add_option("--out", a->o.out, "map folder (created)")->required();
       app.add_flag("--resume", a->o.resume, "continue the run in --out from its last checkpoint");
@@ -78,12 +79,14 @@ const Command cmd{
           return 0;
         }
         if (r.contains("tracking") && r["tracking"].contains("ate"))
-          std::printf("tracking: ATE rmse %.4f m over a %.1f m path, %zu loop closures, %zu lost frames\n",
-                      r["tracking"]["ate"]["rmse"].get<double>(), r["tracking"]["gt_path_length_m"].get<double>(),
-                      r["tracking"]["loop_closures"].get<size_t>(), r["tracking"]["lost_frames"].get<size_t>());
+          std::printf(
+              "tracking: ATE rmse %.4f m over a %.1f m path, %zu loop closures, %zu lost frames\n",
+              r["tracking"]["ate"]["rmse"].get<double>(), r["tracking"]["gt_path_length_m"].get<double>(),
+              r["tracking"]["loop_closures"].get<size_t>(), r["tracking"]["lost_frames"].get<size_t>());
         if (r.contains("held_out")) {
-          std::printf("held-out PSNR %.3f dB  SSIM %.4f  (%zu frames)", r["held_out"]["mean_psnr"].get<double>(),
-                      r["held_out"]["mean_ssim"].get<double>(), r["held_out"]["count"].get<size_t>());
+          std::printf("held-out PSNR %.3f dB  SSIM %.4f  (%zu frames)",
+                      r["held_out"]["mean_psnr"].get<double>(), r["held_out"]["mean_ssim"].get<double>(),
+                      r["held_out"]["count"].get<size_t>());
           if (r.contains("keyframes_eval"))
             std::printf("; keyframes PSNR %.3f dB", r["keyframes_eval"]["mean_psnr"].get<double>());
           std::printf("; ");
@@ -91,6 +94,23 @@ const Command cmd{
         std::printf("%.1f s, %.3f FPS on %s; report %s\n", r["time"]["mapping_s"].get<double>(),
                     r["time"]["processing_fps"].get<double>(), r["device"].get<std::string>().c_str(),
                     (a->o.out / "report.json").string().c_str());
+        if (r["memory"].contains("after_budget")) {
+          // Flat memory is the point of the chunked map: say how level it stayed once the budget was full.
+          const auto& f = r["memory"]["after_budget"];
+          auto line = [&](const char* what, const nlohmann::json& m) {
+            const double settled = m["settled_after_s"].get<double>();
+            std::printf(
+                "%s after the budget was reached: plateau %.0f MB, +%.1f %% / -%.1f %%, %.0f %% of samples "
+                "within %.0f %%",
+                what, m["plateau_mb"].get<double>(), 100 * m["max_above"].get<double>(),
+                100 * m["max_below"].get<double>(), 100 * m["within_share"].get<double>(),
+                100 * f["tolerance"].get<double>());
+            if (settled >= 0) std::printf(", all from %.0f s on", settled);
+            std::printf("\n");
+          };
+          line("host RSS", f["rss"]);
+          if (f.contains("vram")) line("VRAM", f["vram"]);
+        }
         if (r.contains("stopped")) {
           std::fprintf(stderr, "stopped early at frame %zu: %s (%zu Gaussians)\n",
                        r["stopped"]["frame"].get<size_t>(), r["stopped"]["reason"].get<std::string>().c_str(),

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <map>
 
+#include "allocator.hpp"
 #include "chungs/common/log.hpp"
 #include "command.hpp"
 
@@ -22,6 +23,7 @@ std::vector<const Command*>& commands() {
 
 int main(int argc, char** argv) {
   using namespace chungs;
+  app::limit_allocator_arenas();
   CLI::App cli{"DiskChunGS: Gaussian-splatting SLAM with out-of-core chunked maps"};
   cli.require_subcommand(1);
   bool quiet = false, verbose = false;

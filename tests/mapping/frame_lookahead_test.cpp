@@ -1,6 +1,7 @@
 // Frames read ahead of the mapper: order kept, loads started before they are asked for (and not
 // before the frame arrives under real-time pacing), nothing pulled ahead of a live feed, load
-// errors reaching the caller, and a stop that does not wait for frames due later.
+// errors reaching the caller, a stop that does not wait for frames due later, and loads kept on a
+// fixed set of threads however long the run.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -140,6 +141,32 @@ TEST(FrameLookahead, StoppingDoesNotWaitForFramesDueLater) {
     EXPECT_FALSE(e->has_frame());
   }
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+}
+
+// Counts the threads that ever ran a load: a thread_local is constructed once per thread, even when
+// a new thread reuses an ended one's id.
+std::atomic<int> g_load_threads{0};
+struct LoadThreadMark {
+  LoadThreadMark() { ++g_load_threads; }
+};
+
+TEST(FrameLookahead, LoadsRunOnAFixedSetOfThreadsHoweverManyFrames) {
+  g_load_threads = 0;
+  CountingFeed feed(200);
+  FrameLookahead ahead(feed, 2, [&](size_t i) {
+    thread_local LoadThreadMark mark;
+    (void)mark;
+    return frame_marked(i);
+  });
+  size_t loads = 0;
+  while (auto e = ahead.next())
+    if (e->has_frame()) {
+      e->frame.get();
+      ++loads;
+    }
+  EXPECT_EQ(loads, 100u);
+  EXPECT_GE(g_load_threads.load(), 1);
+  EXPECT_LE(g_load_threads.load(), 3);  // depth + 1, not one per frame
 }
 
 }  // namespace

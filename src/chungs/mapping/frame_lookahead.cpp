@@ -9,12 +9,33 @@
 namespace chungs {
 
 FrameLookahead::FrameLookahead(FrameFeed& feed, size_t depth, Load load, SecondsUntil seconds_until)
-    : feed_(feed), depth_(depth), load_(std::move(load)), until_(std::move(seconds_until)) {}
+    : feed_(feed), depth_(depth), load_(std::move(load)), until_(std::move(seconds_until)) {
+  for (size_t k = 0; k <= depth_; ++k) workers_.emplace_back([this] { work(); });
+}
 
 FrameLookahead::~FrameLookahead() {
   stop_ = true;
-  for (auto& e : ahead_)
-    if (e.frame.valid()) e.frame.wait();
+  {
+    std::lock_guard lock(mutex_);
+    closing_ = true;
+    tasks_.clear();  // their futures report a broken promise, which nobody reads any more
+  }
+  wake_.notify_all();
+  for (auto& w : workers_) w.join();
+}
+
+void FrameLookahead::work() {
+  for (;;) {
+    std::packaged_task<MappingFrame()> task;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [&] { return closing_ || !tasks_.empty(); });
+      if (tasks_.empty()) return;
+      task = std::move(tasks_.front());
+      tasks_.pop_front();
+    }
+    task();  // a load's exception is stored in its future
+  }
 }
 
 void FrameLookahead::fill(size_t target) {
@@ -27,9 +48,7 @@ void FrameLookahead::fill(size_t target) {
     Entry e{std::move(*item), {}};
     if (e.item.keyframe && e.item.pose) {
       const size_t i = e.item.frame;
-      // std::async (not a fixed pool): at most `depth` loads run at once, and each takes tens of
-      // milliseconds, so a thread per frame costs nothing measurable.
-      e.frame = std::async(std::launch::async, [this, i] {
+      std::packaged_task<MappingFrame()> task([this, i] {
         // Sleeps in short slices so that a destructor (an error on the mapper's side) need not
         // wait for a frame due seconds from now.
         for (double s; until_ && !stop_ && (s = until_(i)) > 0;)
@@ -37,6 +56,12 @@ void FrameLookahead::fill(size_t target) {
         if (stop_) fail("frame ", i, ": not loaded (the run stopped)");
         return load_(i);
       });
+      e.frame = task.get_future();
+      {
+        std::lock_guard lock(mutex_);
+        tasks_.push_back(std::move(task));
+      }
+      wake_.notify_one();
     }
     ahead_.push_back(std::move(e));
   }

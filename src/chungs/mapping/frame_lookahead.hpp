@@ -1,13 +1,20 @@
 // Frames ahead of the mapper: items are pulled from the feed a few frames early and each keyframe's
-// images and depth are loaded (decoded or rendered, stereo-matched) on a thread of its own, so that
-// this work overlaps the optimiser instead of stopping it. Under real-time pacing a frame's load
-// starts no earlier than the moment the frame arrives: a camera cannot deliver it sooner.
+// images and depth are loaded (decoded or rendered, stereo-matched) by a small fixed set of worker
+// threads, so that this work overlaps the optimiser instead of stopping it. Under real-time pacing
+// a frame's load starts no earlier than the moment the frame arrives: a camera cannot deliver it
+// sooner. The workers live as long as the lookahead: a thread per frame would leave per-thread
+// state of the libraries it calls behind at every frame (OpenCV's thread-local buffers are kept
+// after the thread ends: ~650 bytes a frame, without bound over a long drive).
 #pragma once
 #include <atomic>
+#include <condition_variable>
 #include <deque>
 #include <functional>
 #include <future>
+#include <mutex>
 #include <optional>
+#include <thread>
+#include <vector>
 
 #include "chungs/mapping/frame_feed.hpp"
 #include "chungs/mapping/frame_source.hpp"
@@ -29,7 +36,8 @@ class FrameLookahead {
   // blocks on a live source; the handed-out keyframe still loads while the caller steps).
   // seconds_until may be empty (every frame is available at once).
   FrameLookahead(FrameFeed& feed, size_t depth, Load load, SecondsUntil seconds_until = {});
-  // Stops waiting for arrivals, waits for loads still running; their results (and errors) are dropped.
+  // Stops waiting for arrivals, waits for loads still running; their results (and errors) are
+  // dropped, loads not yet started are not run.
   ~FrameLookahead();
   FrameLookahead(const FrameLookahead&) = delete;
   FrameLookahead& operator=(const FrameLookahead&) = delete;
@@ -41,6 +49,7 @@ class FrameLookahead {
 
  private:
   void fill(size_t target);
+  void work();
   FrameFeed& feed_;
   size_t depth_;
   Load load_;
@@ -48,6 +57,11 @@ class FrameLookahead {
   std::atomic<bool> stop_{false};
   std::deque<Entry> ahead_;
   bool feed_done_ = false;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<std::packaged_task<MappingFrame()>> tasks_;
+  bool closing_ = false;
+  std::vector<std::thread> workers_;  // depth + 1: the handed-out keyframe loads beside `depth` ahead
 };
 
 }  // namespace chungs

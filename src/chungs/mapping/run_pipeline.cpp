@@ -10,6 +10,7 @@
 #include "chungs/mapping/frame_feed.hpp"
 #include "chungs/mapping/frame_lookahead.hpp"
 #include "chungs/mapping/frame_source.hpp"
+#include "chungs/mapping/memory_flatness.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/pose_updates.hpp"
 #include "chungs/mapping/timeline.hpp"
@@ -80,7 +81,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
          "and mapping on given poses has none; use an RGB-D or stereo dataset");
   const bool tracked = o.poses == "track";
   if (tracked && o.resume)
-    fail(o.out.string(), ": --resume continues runs on given poses only; for a tracked run write the "
+    fail(o.out.string(),
+         ": --resume continues runs on given poses only; for a tracked run write the "
          "trajectory with `diskchungs track` and map it with --poses FILE");
   const size_t n = o.max_frames ? std::min(o.max_frames, dataset->size()) : dataset->size();
   // Given poses are read before the map folder is touched, so a bad file changes nothing.
@@ -110,10 +112,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const auto t0 = Clock::now();
   auto seconds = [&] { return carried_seconds + since(t0); };
   auto state = [&](size_t next_frame, bool finished) {
-    return nlohmann::json{{"dataset", o.dataset},          {"poses", o.poses},
-                          {"next_frame", next_frame},      {"frames", n},
-                          {"finished", finished},          {"seconds", seconds()},
-                          {"timeline", to_json(timeline)}};
+    return nlohmann::json{
+        {"dataset", o.dataset}, {"poses", o.poses},     {"next_frame", next_frame},     {"frames", n},
+        {"finished", finished}, {"seconds", seconds()}, {"timeline", to_json(timeline)}};
   };
   // Frame i arrives (anytime pacing) at its dataset time divided by the speed factor.
   const double stamp0 = n ? dataset->timestamp(0) : 0;
@@ -130,10 +131,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   auto arrival = [&](size_t i) { return (dataset->timestamp(i) - stamp0) / mc.speed; };
 
   std::unique_ptr<FrameFeed> feed =
-      tracked ? make_tracker_feed(*dataset, n, mc, o.tracker)
-              : make_given_pose_feed(given, start, n, mc,
-                                     mapper.keyframes().empty() ? std::nullopt
-                                                                : std::optional(mapper.keyframes().back().pose));
+      tracked
+          ? make_tracker_feed(*dataset, n, mc, o.tracker)
+          : make_given_pose_feed(
+                given, start, n, mc,
+                mapper.keyframes().empty() ? std::nullopt : std::optional(mapper.keyframes().back().pose));
   PoseUpdateApplier updates(mapper, mc);
   std::optional<size_t> stopped_at;  // in-core comparison: the frame at which the map outgrew memory
   Progress progress("mapping", (long long)(n - std::min(start, n)));
@@ -179,7 +181,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (mc.in_core_only && mapper.total_gaussians() > cfg.residency.budget_gaussians) {
       stopped_at = i;
       log::warn("frame ", i, ": the map (", mapper.total_gaussians(), " Gaussians) outgrew the budget of ",
-                cfg.residency.budget_gaussians, " and mapper.in_core_only keeps every chunk in memory: stopping");
+                cfg.residency.budget_gaussians,
+                " and mapper.in_core_only keeps every chunk in memory: stopping");
       break;
     }
   }
@@ -229,10 +232,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["pose_updates"] = updates.report();
   report["keyframes"] = mapper.keyframes().size();
   report["iterations"] = mapper.iterations();
-  report["time"] = {{"mapping_s", map_seconds},
-                    {"processing_fps", map_seconds > 0 ? double(done) / map_seconds : 0},
-                    // Everything the optimiser thread lost to I/O (chunks, checkpoints, keyframes).
-                    {"io_wait_share", map_seconds > 0 ? mapper.optimiser_io_wait_ms() / 1000.0 / map_seconds : 0}};
+  report["time"] = {
+      {"mapping_s", map_seconds},
+      {"processing_fps", map_seconds > 0 ? double(done) / map_seconds : 0},
+      // Everything the optimiser thread lost to I/O (chunks, checkpoints, keyframes).
+      {"io_wait_share", map_seconds > 0 ? mapper.optimiser_io_wait_ms() / 1000.0 / map_seconds : 0}};
   {
     // Distance covered, for drives: the intake rate in km/h is what the paper's settings name.
     const double path_m = traj.path_length();
@@ -261,6 +265,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     report["memory"]["vram_used_mb_end"] = dm->used_mb;
     report["memory"]["vram_total_mb"] = dm->total_mb;
   }
+  // Once the budget is reached, memory should stay level however far the map grows.
+  if (const auto flat = memory_flatness(timeline, mapper.budget()))
+    report["memory"]["after_budget"] = flat->to_json();
   report["chunk_io"] = {
       {"loads", io.loads},
       {"saves", io.saves},
