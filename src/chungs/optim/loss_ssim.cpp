@@ -70,8 +70,16 @@ double ssim_loss_term(const Image<T>& pred, const Image<T>& target, Image<T>* gr
   const size_t plane = size_t(W) * H, n = plane * C;
   if (n == 0) return 1.0;
 
+  // Scratch planes kept from one call to the next on each thread: allocated afresh at every step they
+  // were page-faulted in again each time (a third of a CPU mapping run's time went to the kernel).
+  // (References, so that the parallel loops below see this thread's planes, not their own.)
+  struct Scratch {
+    std::vector<T> in, mom, tmp, g, bg;
+  };
+  thread_local Scratch scratch;
+  auto &in = scratch.in, &mom = scratch.mom, &tmp = scratch.tmp, &g = scratch.g, &bg = scratch.bg;
   // Five planes per channel: x, y, x^2, y^2, xy (planar, channel-major), blurred into the moments.
-  std::vector<T> in(5 * n), mom, tmp;
+  in.resize(5 * n);
   for (int c = 0; c < C; ++c)
     for (size_t i = 0; i < plane; ++i) {
       const T x = pred.data()[i * C + c], y = target.data()[i * C + c];
@@ -82,7 +90,6 @@ double ssim_loss_term(const Image<T>& pred, const Image<T>& target, Image<T>* gr
 
   // SSIM map and, for the backward, dS/d(mu_x), dS/d(E[x^2]), dS/d(E[xy]) scaled by weight / n.
   double sum = 0;
-  std::vector<T> g;
   if (grad) g.assign(3 * n, T(0));
   const T up = T(weight / double(n));
 #pragma omp parallel for reduction(+ : sum) schedule(static)
@@ -100,7 +107,6 @@ double ssim_loss_term(const Image<T>& pred, const Image<T>& target, Image<T>* gr
     }
   }
   if (grad) {
-    std::vector<T> bg;
     blur_planes(g, bg, tmp, W, H, 3 * C);
     for (int c = 0; c < C; ++c)
       for (size_t i = 0; i < plane; ++i) {
