@@ -6,11 +6,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <thread>
 
 #include "chungs/common/log.hpp"
+#include "chungs/common/text_file.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "chungs/mapping/run_pipeline.hpp"
 #include "synthetic_sequence.hpp"
@@ -77,6 +79,22 @@ TEST(MappingRun, ResidentGaussiansNeverExceedTheBudget) {
   EXPECT_LE(peak, 1000u);
   EXPECT_GT(total, 2u * 1000u);
   EXPECT_GT(r["chunk_io"]["loads"].get<uint64_t>(), 0u);
+
+  // The timeline ends where the report does: after the final checkpoint, whose wait the plot's
+  // I/O share must include.
+  const auto rows = read_text_table(dir / "map" / "timeline.csv", true);
+  ASSERT_GE(rows.size(), 2u);
+  const std::vector<std::string>& header = rows.front().tokens;
+  auto column = [&](const std::string& name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    EXPECT_NE(it, header.end()) << name;
+    return it == header.end() ? -1.0 : rows.back().number_at(size_t(it - header.begin()));
+  };
+  const double mapping_s = r["time"]["mapping_s"], wait_ms = r["time"]["io_wait_ms"];
+  EXPECT_NEAR(column("seconds"), mapping_s, 1e-4 * mapping_s);
+  EXPECT_NEAR(column("io_wait_ms"), wait_ms, 1e-4 * wait_ms + 1e-3);
+  EXPECT_GT(wait_ms, 0.0);
+  EXPECT_NEAR(r["time"]["io_wait_share"].get<double>(), wait_ms / 1000.0 / mapping_s, 1e-9);
 }
 
 TEST(MappingRun, InCoreComparisonStopsWhereTheMapOutgrowsTheBudget) {
