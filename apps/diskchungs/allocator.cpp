@@ -3,8 +3,8 @@
 // many threads. glibc malloc gives each thread that allocates concurrently an arena of its own (up
 // to 8 per core) and frees a block back into the arena it came from; over a long drive the arenas
 // fragment independently and host memory creeps up although what is live stays bounded. Two arenas
-// keep RSS level (10 km drive on an H100, 72 km/h intake: every sample after the budget was reached
-// within 5 % of the plateau, at no cost in speed; bench/README.md). MALLOC_ARENA_MAX or
+// keep RSS level (10 km drives on an H100: at most +4.9 % above the plateau once the budget was
+// reached, where the default arenas dipped to -21 %, at no cost in speed; bench/README.md). MALLOC_ARENA_MAX or
 // GLIBC_TUNABLES in the environment still decide where set.
 #include "allocator.hpp"
 

@@ -51,7 +51,9 @@ TEST(FrameLookahead, HandsOutEveryItemInOrderWithItsOwnFrame) {
   while (auto e = ahead.next()) {
     EXPECT_EQ(e->item.frame, expected);
     EXPECT_EQ(e->has_frame(), expected % 2 == 1);
-    if (e->has_frame()) EXPECT_EQ(e->frame.get().frame.index, expected);
+    if (e->has_frame()) {
+      EXPECT_EQ(e->frame.get().frame.index, expected);
+    }
     ++expected;
   }
   EXPECT_EQ(expected, 9u);

@@ -17,7 +17,6 @@ FrameLookahead::~FrameLookahead() {
   stop_ = true;
   {
     std::lock_guard lock(mutex_);
-    closing_ = true;
     tasks_.clear();  // their futures report a broken promise, which nobody reads any more
   }
   wake_.notify_all();
@@ -29,7 +28,7 @@ void FrameLookahead::work() {
     std::packaged_task<MappingFrame()> task;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return closing_ || !tasks_.empty(); });
+      wake_.wait(lock, [&] { return stop_ || !tasks_.empty(); });
       if (tasks_.empty()) return;
       task = std::move(tasks_.front());
       tasks_.pop_front();

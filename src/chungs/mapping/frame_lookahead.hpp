@@ -60,7 +60,6 @@ class FrameLookahead {
   std::mutex mutex_;
   std::condition_variable wake_;
   std::deque<std::packaged_task<MappingFrame()>> tasks_;
-  bool closing_ = false;
   std::vector<std::thread> workers_;  // depth + 1: the handed-out keyframe loads beside `depth` ahead
 };
 
