@@ -94,6 +94,19 @@ const Command cmd{
         std::printf("%.1f s, %.3f FPS on %s; report %s\n", r["time"]["mapping_s"].get<double>(),
                     r["time"]["processing_fps"].get<double>(), r["device"].get<std::string>().c_str(),
                     (a->o.out / "report.json").string().c_str());
+        if (r.contains("pacing")) {
+          // A run that starves the optimiser says so here, before anyone looks at the renders.
+          const auto& p = r["pacing"];
+          std::printf("pacing: %.1f steps per keyframe (lowest minute %.1f, floor %d), %llu keyframes dropped, "
+                      "checkpoints %.2f %% of the time, I/O wait %.2f %%",
+                      p["steps_per_keyframe_mean"].get<double>(), p["steps_per_keyframe_lowest_minute"].get<double>(),
+                      p["min_steps_per_keyframe"].get<int>(), p["dropped_keyframes"].get<unsigned long long>(),
+                      100 * p["checkpoint_share"].get<double>(), 100 * r["time"]["io_wait_share"].get<double>());
+          if (p["path_m"].get<double>() > 0)
+            std::printf("; per 100 m: %.0f Gaussians sampled, %.0f pruned", p["sampled_per_100m"].get<double>(),
+                        p["pruned_per_100m"].get<double>());
+          std::printf("\n");
+        }
         if (r["memory"].contains("after_budget")) {
           // Flat memory is the point of the chunked map: say how level it stayed once the budget was full.
           const auto& f = r["memory"]["after_budget"];

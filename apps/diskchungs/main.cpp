@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   std::map<CLI::App*, app::Action> actions;
   for (const auto* c : cmds) {
     CLI::App* sub = cli.add_subcommand(c->name, c->help);
+    sub->fallthrough();  // -q / -v also after the subcommand, where users type them
     actions[sub] = c->setup(*sub);
   }
   try {

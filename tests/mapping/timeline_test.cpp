@@ -1,5 +1,5 @@
 // The timeline survives a checkpoint (JSON in run_state) and reads the shorter samples of maps saved
-// before the I/O and VRAM columns existed; the CSV has one column per field, VRAM last.
+// before the I/O, VRAM and pacing columns existed; the CSV has one column per field, VRAM last.
 #include "chungs/mapping/timeline.hpp"
 
 #include <gtest/gtest.h>
@@ -33,6 +33,11 @@ TEST(Timeline, RoundTripsThroughJsonWithEveryField) {
     t.wait_ms = u(rng);
     t.disk_mb = u(rng);
     t.vram_mb = u(rng);
+    t.sampled = uint64_t(u(rng)) * 1000;
+    t.pruned = uint64_t(u(rng)) * 500;
+    t.dropped = uint64_t(u(rng));
+    t.checkpoint_ms = u(rng);
+    t.path_m = u(rng);
   }
   const auto out = timeline_from_json(to_json(in));
   ASSERT_EQ(out.size(), in.size());
@@ -44,13 +49,19 @@ TEST(Timeline, RoundTripsThroughJsonWithEveryField) {
     EXPECT_DOUBLE_EQ(out[i].wait_ms, in[i].wait_ms);
     EXPECT_DOUBLE_EQ(out[i].disk_mb, in[i].disk_mb);
     EXPECT_DOUBLE_EQ(out[i].vram_mb, in[i].vram_mb);
+    EXPECT_EQ(out[i].sampled, in[i].sampled);
+    EXPECT_EQ(out[i].pruned, in[i].pruned);
+    EXPECT_EQ(out[i].dropped, in[i].dropped);
+    EXPECT_DOUBLE_EQ(out[i].checkpoint_ms, in[i].checkpoint_ms);
+    EXPECT_DOUBLE_EQ(out[i].path_m, in[i].path_m);
   }
   std::istringstream csv(timeline_csv(in));
   std::string header, row;
   std::getline(csv, header);
   std::getline(csv, row);
-  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 15);
-  EXPECT_EQ(std::count(row.begin(), row.end(), ','), 15);
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 20);
+  EXPECT_EQ(std::count(row.begin(), row.end(), ','), 20);
+  EXPECT_NE(header.find("dropped_keyframes"), std::string::npos);
   EXPECT_NE(header.find("io_wait_ms"), std::string::npos);
   // A GPU test and scripts find VRAM as the last column.
   const std::string last = ",vram_used_mb";
@@ -58,7 +69,7 @@ TEST(Timeline, RoundTripsThroughJsonWithEveryField) {
   EXPECT_NEAR(std::stod(row.substr(row.rfind(',') + 1)), in[0].vram_mb, 1e-5 * in[0].vram_mb);  // 6 digits
 }
 
-TEST(Timeline, ReadsOlderElevenAndFifteenFieldSamplesAndRejectsOthers) {
+TEST(Timeline, ReadsOlderElevenFifteenAndSixteenFieldSamplesAndRejectsOthers) {
   const nlohmann::json old = nlohmann::json::parse("[[1.5, 3, 2, 60, 100, 200, 4, 50.0, 1, 2, 3.5]]");
   const auto t = timeline_from_json(old);
   ASSERT_EQ(t.size(), 1u);
@@ -70,6 +81,12 @@ TEST(Timeline, ReadsOlderElevenAndFifteenFieldSamplesAndRejectsOthers) {
   ASSERT_EQ(v.size(), 1u);
   EXPECT_EQ(v[0].disk_mb, 123.25);
   EXPECT_EQ(v[0].vram_mb, 0.0);
+  const auto w = timeline_from_json(
+      nlohmann::json::parse("[[1.5, 3, 2, 60, 100, 200, 4, 50.0, 1, 2, 3.5, 7.0, 8.0, 9.5, 123.25, 640.5]]"));
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0].vram_mb, 640.5);
+  EXPECT_EQ(w[0].sampled, 0u);
+  EXPECT_EQ(w[0].path_m, 0.0);
   EXPECT_THROW(timeline_from_json(nlohmann::json::parse("[[1, 2, 3]]")), Error);
 }
 

@@ -96,16 +96,22 @@ void fields(V& v, MapperConfig& c) {
   v("iterations_per_keyframe", c.iterations_per_keyframe, "fixed pacing: optimisation steps per keyframe");
   v("final_iterations", c.final_iterations, "refinement steps after the last frame");
   v("speed", c.speed, "anytime pacing: frames arrive at the dataset rate times this");
-  v("keyframe_every", c.keyframe_every, "every k-th training frame becomes a keyframe");
-  v("keyframe_translation", c.keyframe_translation, "metres of motion that also make a keyframe (0: off)");
-  v("keyframe_rotation_deg", c.keyframe_rotation_deg, "degrees of rotation that also make a keyframe (0: off)");
+  v("keyframe_every", c.keyframe_every, "every k-th training frame becomes a keyframe (0: off); or when ...");
+  v("keyframe_translation", c.keyframe_translation, "... the camera moved this many metres (0: off), or ...");
+  v("keyframe_parallax", c.keyframe_parallax,
+    "... moved this share of the last keyframe's median depth (0: off), or ...");
+  v("keyframe_rotation_deg", c.keyframe_rotation_deg, "... turned this many degrees (0: off)");
+  v("min_steps_per_keyframe", c.min_steps_per_keyframe,
+    "anytime pacing: least steps per keyframe; keyframes a later arrived one supersedes are dropped");
   v("holdout_every", c.holdout_every, "frame i is held out (never trained) when i % n == n - 1; 0: none");
   v("frame_lookahead", c.frame_lookahead,
     "frames read ahead; keyframes are loaded and depth computed on their own threads (0: current frame only)");
   v("resolution", c.resolution, "image scale factor for mapping (1 = full resolution)");
   v("depth", c.depth, "auto | sensor | stereo | none");
-  v("checkpoint_every", c.checkpoint_every, "keyframes between checkpoints (resume point) ...");
-  v("checkpoint_seconds", c.checkpoint_seconds, "... or, when > 0, seconds between checkpoints instead");
+  v("checkpoint_seconds", c.checkpoint_seconds, "seconds between checkpoints (resume points; 0: off) ...");
+  v("checkpoint_every", c.checkpoint_every, "... or keyframes between them (0: off) ...");
+  v("checkpoint_max_share", c.checkpoint_max_share,
+    "... but the optimiser time checkpoints cost stays below this share of the run (0: no bound)");
   v("seed", c.seed, "random seed (sampling, keyframe picks)");
   v("eval_keyframe_stride", c.eval_keyframe_stride, "score every n-th keyframe at the end (paper protocol); 0: off");
   v("max_saved_renders", c.max_saved_renders, "held-out renders written as PNG at most");
@@ -125,6 +131,8 @@ void fields(V& v, SamplerConfig& c) {
   v("max_scale_fraction", c.max_scale_fraction, "");
   v("min_per_chunk", c.min_per_chunk, "chunks receiving fewer new Gaussians get none");
   v("max_per_keyframe", c.max_per_keyframe, "cap on new Gaussians per keyframe (0: none)");
+  v("new_per_step", c.new_per_step,
+    "new Gaussians per keyframe at most this many per 100 k pixels per step keyframes got lately (0: no cap)");
   v("stride", c.stride, "sample every n-th pixel per axis");
   v("fill_depth", c.fill_depth, "metres given to sampled pixels without depth (sky); 0: skip them");
 }

@@ -23,12 +23,17 @@ class GivenPoseFeed : public FrameFeed {
     if (!item.pose || is_held_out(item.frame, config_.holdout_every)) return item;
     const SE3& pose = *item.pose;
     ++since_keyframe_;
-    bool key = !last_kf_ || since_keyframe_ >= size_t(config_.keyframe_every);
-    if (last_kf_ && config_.keyframe_translation > 0 && (pose.t - last_kf_->t).norm() >= config_.keyframe_translation)
-      key = true;
-    if (last_kf_ && config_.keyframe_rotation_deg > 0 &&
-        (last_kf_->inverse() * pose).angle() * 180.0 / M_PI >= config_.keyframe_rotation_deg)
-      key = true;
+    bool key = !last_kf_;
+    if (last_kf_) {
+      const double moved = (pose.t - last_kf_->t).norm();
+      const MapperConfig& c = config_;
+      key = (c.keyframe_every > 0 && since_keyframe_ >= size_t(c.keyframe_every)) ||
+            (c.keyframe_translation > 0 && moved >= c.keyframe_translation) ||
+            // Until a keyframe's depth is known any motion counts: the view's scale is unknown.
+            (c.keyframe_parallax > 0 && moved >= c.keyframe_parallax * scene_depth_ && moved > 0) ||
+            (c.keyframe_rotation_deg > 0 &&
+             (last_kf_->inverse() * pose).angle() * 180.0 / M_PI >= c.keyframe_rotation_deg);
+    }
     if (key) {
       item.keyframe = true;
       since_keyframe_ = 0;
@@ -37,6 +42,9 @@ class GivenPoseFeed : public FrameFeed {
     return item;
   }
 
+  void set_scene_depth(double median_m) override {
+    if (median_m > 0 && std::isfinite(median_m)) scene_depth_ = median_m;
+  }
   std::vector<std::optional<SE3>> final_poses() override { return poses_; }
   nlohmann::json report() const override { return nlohmann::json::object(); }
 
@@ -46,6 +54,7 @@ class GivenPoseFeed : public FrameFeed {
   MapperConfig config_;
   std::optional<SE3> last_kf_;
   size_t since_keyframe_ = 0;
+  double scene_depth_ = 0;  // median depth of the latest keyframe whose depth is known
 };
 
 }  // namespace

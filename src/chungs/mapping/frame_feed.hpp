@@ -33,12 +33,14 @@ class FrameFeed {
  public:
   virtual ~FrameFeed() = default;
   virtual std::optional<FeedItem> next() = 0;  // none after the last frame
+  // The median depth (m) of a keyframe just loaded: the scale that keyframe_parallax refers to.
+  virtual void set_scene_depth(double /*median_m*/) {}
   // Every frame's final pose (after all corrections), for evaluation; call after the last item.
   virtual std::vector<std::optional<SE3>> final_poses() = 0;
   virtual nlohmann::json report() const = 0;  // about the source (tracking: ATE, timings)
 };
 
-// Frames [start, n) with the given poses; keyframes by MapperConfig's every-k / motion rule,
+// Frames [start, n) with the given poses; keyframes by MapperConfig's keyframe rules,
 // counted from `last_keyframe` (the pose of the map's latest keyframe when resuming).
 std::unique_ptr<FrameFeed> make_given_pose_feed(std::vector<std::optional<SE3>> poses, size_t start, size_t n,
                                                 const MapperConfig& config, std::optional<SE3> last_keyframe);

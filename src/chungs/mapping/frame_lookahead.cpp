@@ -79,4 +79,11 @@ bool FrameLookahead::ready(const Entry& e) {
   return !e.frame.valid() || e.frame.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
 }
 
+bool FrameLookahead::later_keyframe_arrived() const {
+  if (!until_) return false;
+  for (const Entry& e : ahead_)
+    if (e.has_frame() && until_(e.item.frame) <= 0) return true;
+  return false;
+}
+
 }  // namespace chungs

@@ -1,5 +1,6 @@
 #include "chungs/mapping/frame_source.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "chungs/geometry/trajectory.hpp"
@@ -64,6 +65,19 @@ ImageF scale_depth(const ImageF& depth, int width, int height) {
   return out;
 }
 
+double median_valid_depth(const ImageF& depth) {
+  std::vector<float> v;
+  v.reserve(depth.pixels());
+  for (size_t i = 0; i < depth.pixels(); ++i) {
+    const float d = depth.data()[i];
+    if (d > 0 && std::isfinite(d)) v.push_back(d);
+  }
+  if (v.empty()) return 0;
+  auto mid = v.begin() + long(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
 MappingFrame load_mapping_frame(const Dataset& dataset, size_t i, double resolution, DepthMode mode,
                                 StereoDepthConfig stereo, bool want_depth) {
   MappingFrame m;
@@ -77,7 +91,10 @@ MappingFrame load_mapping_frame(const Dataset& dataset, size_t i, double resolut
     stereo.num_disparities = std::max(16, int(std::ceil(stereo.num_disparities * resolution / 16.0)) * 16);
     stereo.block_size = std::max(3, int(stereo.block_size * resolution) | 1);
   }
-  if (want_depth) m.depth = frame_depth(f, mode, stereo);
+  if (want_depth) {
+    m.depth = frame_depth(f, mode, stereo);
+    if (m.depth) m.median_depth = median_valid_depth(*m.depth);
+  }
   return m;
 }
 

@@ -24,7 +24,11 @@ ImageF scale_depth(const ImageF& depth, int width, int height);
 struct MappingFrame {
   Frame frame;                  // images and camera at the mapping resolution
   std::optional<ImageF> depth;  // metres, 0 invalid
+  double median_depth = 0;      // of the valid depth pixels (0: no depth)
 };
+
+// Median of the finite positive values (0 when there are none).
+double median_valid_depth(const ImageF& depth);
 
 // Loads frame i, scales it and computes its depth by the mode (stereo runs at the scaled size with
 // the disparity range scaled alike).

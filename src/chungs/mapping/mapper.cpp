@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "chungs/common/log.hpp"
 #include "chungs/store/atomic_file.hpp"
@@ -76,6 +77,7 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   if (resume && fs::exists(folder / "run_state.json")) {
     resumed_state_ = read_json_file(folder / "run_state.json");
     iterations_ = resumed_state_.value("iterations", uint64_t(0));
+    steps_at_last_keyframe_ = iterations_;
     if (resumed_state_.contains("keyframe_chunks"))
       keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
     if (resumed_state_.contains("rng")) {
@@ -106,7 +108,7 @@ uint64_t Mapper::total_gaussians() const {
   return n;
 }
 
-std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose) {
+std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out) {
   culler_->set_chunks_from(residency_->catalogue(), residency_->catalogue_version());
   std::vector<ChunkId> ids = culler_->cull(camera, pose);
   const double s = store_->chunk_size();
@@ -117,14 +119,31 @@ std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pos
   }
   std::sort(by_dist.begin(), by_dist.end());
   std::vector<ChunkId> out;
-  uint64_t total = 0;
+  uint64_t total = 0, needed = 0;
   for (auto [d, id] : by_dist) {
     const uint64_t n = residency_->count(id);
-    if (total + n > residency_->budget()) continue;  // the farthest chunks give way
+    needed += n;
+    if (total + n > residency_->budget()) {  // the farthest chunks give way
+      if (left_out) left_out->push_back(id);
+      continue;
+    }
     total += n;
     out.push_back(id);
   }
+  if (needed > residency_->budget()) note_view_over_budget(needed);
   return out;
+}
+
+void Mapper::note_view_over_budget(uint64_t needed) {
+  ++views_over_budget_;
+  // Said once, and again whenever a view needs a quarter more than any before it.
+  if (needed > largest_view_ * 5 / 4) {
+    log::warn("the budget of ", residency_->budget(), " Gaussians is below what one view needs (", needed,
+              " in its visible chunks): the farthest chunks are left out of renders; a budget of at least ",
+              needed, " (--budget) keeps whole views");
+    largest_view_ = needed;
+  }
+  largest_view_ = std::max(largest_view_, needed);
 }
 
 namespace {
@@ -166,14 +185,20 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   SampleStats stats;
   if (depth) {
     const ImageF target = to_rgb_float(color);
+    std::vector<ChunkId> left_out;
+    const std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out);
     // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
-    const ImageF prob =
-        with_pinned_slots(*residency_, visible_chunks(camera, pose), slots_, [&](const std::vector<uint32_t>& slots) {
-          return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler,
-                                                target);
-        });
-    auto batches = sample_gaussians(config_.sampler, target, *depth, prob, camera, pose, store_->chunk_size(),
-                                    id, uint32_t(iterations_), rng_, &stats);
+    const ImageF prob = with_pinned_slots(*residency_, shown, slots_, [&](const std::vector<uint32_t>& slots) {
+      return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler, target);
+    });
+    // What the render lacks only because chunks stayed on disk is not sampled again; nor is any
+    // other chunk of the map the render did not draw (beyond the far plane).
+    std::unordered_set<ChunkId> exclude;
+    for (const auto& [id, count] : residency_->catalogue())
+      if (count > 0) exclude.insert(id);
+    for (ChunkId id : shown) exclude.erase(id);
+    auto batches = sample_gaussians(config_.sampler, target, *depth, prob, camera, pose, store_->chunk_size(), id,
+                                    uint32_t(iterations_), rng_, &stats, &exclude, new_gaussian_cap(color));
     for (auto& b : batches) {
       const PinResult res = residency_->add(b.id, b.block);
       if (!res.ok)
@@ -181,7 +206,9 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
       else
         keyframe_chunks_.add(id, b.id);
     }
+    sampled_total_ += stats.kept;
   }
+  steps_at_last_keyframe_ = iterations_;
   KeyframeRecord rec;
   rec.id = id;
   rec.frame = frame;
@@ -197,6 +224,16 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   rec.uses = selector_.usage(id).uses;
   keyframes_.push_back(rec);
   return stats;
+}
+
+uint64_t Mapper::new_gaussian_cap(const Image8& image) {
+  if (keyframes_.empty()) return 0;  // the first keyframe fills an empty map
+  const double steps = double(iterations_ - steps_at_last_keyframe_);
+  steps_per_keyframe_ = steps_per_keyframe_ < 0 ? steps : 0.75 * steps_per_keyframe_ + 0.25 * steps;
+  const double rate = config_.sampler.new_per_step;
+  if (!(rate > 0)) return 0;
+  const double cap = rate * (double(image.pixels()) / 1e5) * std::max(steps_per_keyframe_, 1.0);
+  return std::max<uint64_t>(config_.sampler.min_per_chunk, uint64_t(cap));
 }
 
 StepStats Mapper::step() {

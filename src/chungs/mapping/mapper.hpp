@@ -83,14 +83,24 @@ class Mapper {
   // keyframe reads it waited for (keyframe writes run behind; their flush is part of a checkpoint).
   double optimiser_io_wait_ms() const;
   uint64_t pruned_total() const { return pruned_total_; }
+  uint64_t sampled_total() const { return sampled_total_; }  // Gaussians the sampler added (this process)
+  // Steps since the latest keyframe was added.
+  uint64_t steps_since_keyframe() const { return iterations_ - steps_at_last_keyframe_; }
+  uint64_t views_over_budget() const { return views_over_budget_; }  // views whose chunks exceed the budget
+  uint64_t largest_view() const { return largest_view_; }  // Gaussians of the largest such view
   const std::filesystem::path& folder() const { return folder_; }
   const Config& config() const { return config_; }
   const std::string& device() const { return device_; }  // "cpu" or "cuda"
   std::optional<DeviceMemory> device_memory() const { return backend_->device_memory(); }
 
  private:
-  // Visible chunks of a view, nearest first, trimmed so that they fit the budget.
-  std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose);
+  // Visible chunks of a view, nearest first, trimmed so that they fit the budget; the ones trimmed
+  // go to left_out.
+  std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out = nullptr);
+  void note_view_over_budget(uint64_t needed);  // warns when a view needs more than the budget
+  // New Gaussians a keyframe may add: what the optimiser trained per keyframe lately (see
+  // SamplerConfig::new_per_step); 0 for no cap.
+  uint64_t new_gaussian_cap(const Image8& image);
   StepStats step_keyframe(uint32_t keyframe);  // one optimisation step on the given keyframe
   std::filesystem::path folder_;
   Config config_;
@@ -103,7 +113,9 @@ class Mapper {
   KeyframeSelector selector_;
   std::vector<KeyframeRecord> keyframes_;
   std::mt19937_64 rng_;
-  uint64_t iterations_ = 0, pruned_total_ = 0;
+  uint64_t iterations_ = 0, pruned_total_ = 0, sampled_total_ = 0;
+  uint64_t steps_at_last_keyframe_ = 0, views_over_budget_ = 0, largest_view_ = 0;
+  double steps_per_keyframe_ = -1;  // smoothed steps the keyframes got (-1: none measured yet)
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
   KeyframeRecord* mutable_keyframe(uint32_t id) {

@@ -1,5 +1,7 @@
 #include "chungs/mapping/mapper_config.hpp"
 
+#include <cmath>
+
 #include "chungs/common/error.hpp"
 
 namespace chungs {
@@ -11,9 +13,14 @@ void MapperConfig::validate() const {
     fail("mapper: iterations_per_keyframe must be >= 0, got ", iterations_per_keyframe);
   if (final_iterations < 0) fail("mapper: final_iterations must be >= 0, got ", final_iterations);
   if (!(speed > 0)) fail("mapper: speed must be > 0, got ", speed);
-  if (keyframe_every < 1) fail("mapper: keyframe_every must be >= 1, got ", keyframe_every);
-  if (keyframe_translation < 0 || keyframe_rotation_deg < 0)
-    fail("mapper: keyframe motion thresholds must be >= 0");
+  if (keyframe_every < 0) fail("mapper: keyframe_every must be >= 0, got ", keyframe_every);
+  if (!(keyframe_translation >= 0) || !(keyframe_parallax >= 0) || !(keyframe_rotation_deg >= 0))
+    fail("mapper: keyframe_translation, keyframe_parallax and keyframe_rotation_deg must be >= 0");
+  if (keyframe_every == 0 && keyframe_translation == 0 && keyframe_parallax == 0 && keyframe_rotation_deg == 0)
+    fail("mapper: no keyframe rule is on (keyframe_every, keyframe_translation, keyframe_parallax, "
+         "keyframe_rotation_deg are all 0)");
+  if (min_steps_per_keyframe < 0)
+    fail("mapper: min_steps_per_keyframe must be >= 0, got ", min_steps_per_keyframe);
   if (holdout_every < 0 || holdout_every == 1)
     fail("mapper: holdout_every must be 0 or >= 2, got ", holdout_every);
   if (frame_lookahead < 0 || frame_lookahead > 64)
@@ -21,8 +28,11 @@ void MapperConfig::validate() const {
   if (!(resolution > 0 && resolution <= 1)) fail("mapper: resolution must be in (0, 1], got ", resolution);
   if (depth != "auto" && depth != "sensor" && depth != "stereo" && depth != "none")
     fail("mapper: depth must be auto, sensor, stereo or none, got '", depth, "'");
-  if (checkpoint_every < 1) fail("mapper: checkpoint_every must be >= 1, got ", checkpoint_every);
-  if (!(checkpoint_seconds >= 0)) fail("mapper: checkpoint_seconds must be >= 0, got ", checkpoint_seconds);
+  if (checkpoint_every < 0) fail("mapper: checkpoint_every must be >= 0, got ", checkpoint_every);
+  if (!(checkpoint_seconds >= 0) || !std::isfinite(checkpoint_seconds))
+    fail("mapper: checkpoint_seconds must be >= 0, got ", checkpoint_seconds);
+  if (!(checkpoint_max_share >= 0 && checkpoint_max_share <= 1))
+    fail("mapper: checkpoint_max_share must be in [0, 1], got ", checkpoint_max_share);
   if (device != "auto" && device != "cuda" && device != "cpu")
     fail("mapper: device must be auto, cuda or cpu, got '", device, "'");
   if (loop_refine_iterations < 0) fail("mapper: loop_refine_iterations must be >= 0, got ", loop_refine_iterations);

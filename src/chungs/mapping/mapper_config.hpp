@@ -11,17 +11,27 @@ struct MapperConfig {
   int iterations_per_keyframe = 30;
   int final_iterations = 0;         // refinement steps after the last frame
   double speed = 1.0;               // anytime: frames arrive at the dataset rate times this
-  int keyframe_every = 1;           // every k-th training frame is a keyframe ...
-  double keyframe_translation = 0;  // ... or (when > 0) once the camera moved this far (m) ...
-  double keyframe_rotation_deg = 0; // ... or turned this much since the last keyframe
+  // A training frame becomes a keyframe when any rule that is on (> 0) fires; the first always does.
+  // By default the view must have changed: moved by a share of the scene's depth (parallax) or
+  // turned. Every frame a keyframe floods a real-time intake with ingestion work.
+  int keyframe_every = 0;           // every k-th training frame (0: off)
+  double keyframe_translation = 0;  // metres moved since the last keyframe (0: off)
+  double keyframe_parallax = 0.1;   // metres moved / median depth of the last keyframe (0: off)
+  double keyframe_rotation_deg = 5; // degrees turned since the last keyframe (0: off)
+  int min_steps_per_keyframe = 10;  // anytime: steps each keyframe gets at least; when the intake runs
+                                    // ahead, keyframes that a later arrived one supersedes are dropped
   int holdout_every = 8;            // frame i is never trained on when i % n == n - 1 (0: none)
   int frame_lookahead = 4;          // frames read ahead, each keyframe loaded (and its depth computed) on
                                     // its own thread while the map trains (0: only the current frame)
   double resolution = 1.0;          // images (and intrinsics) scaled by this before mapping
   std::string depth = "auto";       // auto | sensor | stereo | none
-  int checkpoint_every = 5;         // keyframes between checkpoints (flush chunks, save state) ...
-  double checkpoint_seconds = 0;    // ... or, when > 0, seconds between them: every checkpoint rewrites
-                                    // each modified chunk, so long runs checkpoint by time
+  // A checkpoint (the resume point) is due every checkpoint_seconds, or every checkpoint_every
+  // keyframes (0: off), but never before the optimiser time the last one cost is at most
+  // checkpoint_max_share of the time since it began (0: no such bound): its cost grows with the
+  // chunks modified meanwhile, so the cadence adapts to the map and the disk.
+  int checkpoint_every = 0;
+  double checkpoint_seconds = 60;
+  double checkpoint_max_share = 0.01;
   uint64_t seed = 1;
   int eval_keyframe_stride = 1;     // paper protocol: score every n-th keyframe at the end (0: off)
   int max_saved_renders = 64;       // held-out renders written as PNG at most

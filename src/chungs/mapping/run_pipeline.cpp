@@ -11,6 +11,7 @@
 #include "chungs/mapping/frame_lookahead.hpp"
 #include "chungs/mapping/frame_source.hpp"
 #include "chungs/mapping/memory_flatness.hpp"
+#include "chungs/mapping/pacing_summary.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/pose_updates.hpp"
 #include "chungs/mapping/timeline.hpp"
@@ -121,12 +122,22 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   // The folder walk grows with the map (one file per chunk and keyframe), so it runs at most every
   // couple of seconds rather than at every keyframe.
   double disk_mb = 0, disk_measured_at = -1e9;
+  const TimelineSample base = timeline.empty() ? TimelineSample() : timeline.back();
+  uint64_t sampled = 0, dropped = 0;
+  double path_m = 0;
   auto record = [&](uint64_t frame) {
     if (seconds() - disk_measured_at >= 2.0) {
       disk_mb = double(disk_usage(o.out).bytes) / 1048576.0;
       disk_measured_at = seconds();
     }
-    timeline.push_back(sample_now(mapper, seconds(), frame, disk_mb));
+    TimelineSample t = sample_now(mapper, seconds(), frame, disk_mb);
+    // Counters of this process continue those of the run it resumed.
+    t.sampled = base.sampled + sampled;
+    t.pruned = base.pruned + mapper.pruned_total();
+    t.dropped = base.dropped + dropped;
+    t.checkpoint_ms = base.checkpoint_ms + mapper.io_stats().checkpoint_ms;
+    t.path_m = base.path_m + path_m;
+    timeline.push_back(t);
   };
   auto arrival = [&](size_t i) { return (dataset->timestamp(i) - stamp0) / mc.speed; };
 
@@ -140,40 +151,67 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   std::optional<size_t> stopped_at;  // in-core comparison: the frame at which the map outgrew memory
   Progress progress("mapping", (long long)(n - std::min(start, n)));
   size_t keyframes_since_checkpoint = 0;
-  double last_checkpoint = seconds();
-  uint64_t sampled = 0;
+  double last_checkpoint = seconds(), checkpoint_ms_at_last = 0;
   // The tracker's feed blocks until the tracker has a frame, so nothing is pulled ahead of it.
   FrameLookahead ahead(
       *feed, tracked ? 0 : size_t(mc.frame_lookahead),
       [&](size_t i) { return load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo); },
       mc.pacing == "anytime" ? FrameLookahead::SecondsUntil([&](size_t i) { return arrival(i) - seconds(); })
                              : FrameLookahead::SecondsUntil());
+  const bool anytime = mc.pacing == "anytime";
+  std::optional<SE3> last_pose;
+  auto checkpoint_due = [&] {
+    const double elapsed = seconds() - last_checkpoint;
+    const bool due = (mc.checkpoint_seconds > 0 && elapsed >= mc.checkpoint_seconds) ||
+                     (mc.checkpoint_every > 0 && keyframes_since_checkpoint >= size_t(mc.checkpoint_every));
+    // The last checkpoint's cost to the optimiser (its copies continue after it began) bounds the cadence.
+    const double cost_s = (mapper.io_stats().checkpoint_ms - checkpoint_ms_at_last) / 1000.0;
+    return due && !(mc.checkpoint_max_share > 0 && cost_s > mc.checkpoint_max_share * elapsed);
+  };
   while (auto entry = ahead.next()) {
     progress.step();
     const FeedItem* item = &entry->item;
     const size_t i = item->frame;
+    if (item->pose) {
+      if (last_pose) path_m += (item->pose->t - last_pose->t).norm();
+      last_pose = item->pose;
+    }
+    bool added = false;
     if (entry->has_frame()) {
-      // Real time: the map trains until the frame has arrived and its depth is computed.
-      if (mc.pacing == "anytime" && !mapper.keyframes().empty())
-        while (!FrameLookahead::ready(*entry)) mapper.step();
-      const MappingFrame m = entry->frame.get();
-      const SampleStats ss =
-          mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose);
-      updates.added(item->keyframe_id, mapper.keyframes().back().id);
-      sampled += ss.kept;
-      log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
-                 " without depth) in ", ss.chunks, " chunks");
-      if (mc.pacing == "fixed")
-        for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
+      bool drop = false;
+      if (anytime && !mapper.keyframes().empty()) {
+        // Real time: the latest keyframe gets its floor of steps whatever the intake does ...
+        while (mapper.steps_since_keyframe() < uint64_t(mc.min_steps_per_keyframe)) mapper.step();
+        // ... and a keyframe that a later arrived one supersedes is dropped, not queued behind.
+        drop = ahead.later_keyframe_arrived();
+        // Otherwise the map trains until the frame has arrived and its depth is computed.
+        if (!drop)
+          while (!FrameLookahead::ready(*entry)) mapper.step();
+      }
+      if (drop) {
+        ++dropped;
+        log::debug("frame ", i, ": dropped (a later keyframe has already arrived)");
+      } else {
+        const MappingFrame m = entry->frame.get();
+        feed->set_scene_depth(m.median_depth);
+        const SampleStats ss =
+            mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose);
+        updates.added(item->keyframe_id, mapper.keyframes().back().id);
+        sampled += ss.kept;
+        added = true;
+        log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
+                   " without depth, ", ss.excluded, " in chunks left out of the render, ", ss.capped,
+                   " over the cap) in ", ss.chunks, " chunks");
+        if (mc.pacing == "fixed")
+          for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
+      }
     }
     const PoseUpdateApplier::Applied applied = updates.apply(item->updates);
-    const bool added = item->keyframe && item->pose;
     if (!added && !applied.keyframes_moved) continue;
     record(i);
     if (added) ++keyframes_since_checkpoint;
-    const bool due = mc.checkpoint_seconds > 0 ? seconds() - last_checkpoint >= mc.checkpoint_seconds
-                                               : keyframes_since_checkpoint >= size_t(mc.checkpoint_every);
-    if (due || applied.loop) {
+    if (checkpoint_due() || applied.loop) {
+      checkpoint_ms_at_last = mapper.io_stats().checkpoint_ms;
       mapper.checkpoint(state(i + 1, false), /*behind=*/true);
       keyframes_since_checkpoint = 0;
       last_checkpoint = seconds();
@@ -236,6 +274,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   if (tracked) report["tracking"] = feed->report();
   report["pose_updates"] = updates.report();
   report["keyframes"] = mapper.keyframes().size();
+  {
+    // Whether the optimiser kept up: the figures a starving run shows first.
+    nlohmann::json pj = pacing_summary(timeline).to_json();
+    pj["min_steps_per_keyframe"] = mc.min_steps_per_keyframe;
+    pj["views_over_budget"] = mapper.views_over_budget();
+    if (mapper.views_over_budget()) pj["largest_view_gaussians"] = mapper.largest_view();
+    report["pacing"] = pj;
+  }
   report["iterations"] = mapper.iterations();
   report["time"] = {
       {"mapping_s", map_seconds},

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <unordered_map>
 
 #include "chungs/mapping/log_probability.hpp"
 
@@ -14,6 +15,7 @@ void SamplerConfig::validate() const {
   if (!(init_opacity > 0 && init_opacity < 1)) fail("sampler: init_opacity must be in (0, 1), got ", init_opacity);
   if (!(min_scale_px > 0)) fail("sampler: min_scale_px must be > 0, got ", min_scale_px);
   if (!(max_scale_fraction > 0)) fail("sampler: max_scale_fraction must be > 0, got ", max_scale_fraction);
+  if (!(new_per_step >= 0) || !std::isfinite(new_per_step)) fail("sampler: new_per_step must be >= 0, got ", new_per_step);
   if (stride < 1) fail("sampler: stride must be >= 1, got ", stride);
   if (!(fill_depth >= 0)) fail("sampler: fill_depth must be >= 0, got ", fill_depth);
 }
@@ -43,16 +45,20 @@ ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, co
 std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
-                                         std::mt19937_64& rng, SampleStats* stats) {
+                                         std::mt19937_64& rng, SampleStats* stats,
+                                         const std::unordered_set<ChunkId>* exclude, uint64_t max_new) {
   config.validate();
   if (!depth.same_size(image) || !probability.same_size(image) || depth.channels() != 1)
     fail("sampler: image ", image.width(), "x", image.height(), ", depth ", depth.width(), "x", depth.height(),
          " and probability ", probability.width(), "x", probability.height(), " must have the same size");
   SampleStats st;
+  if (config.max_per_keyframe && (max_new == 0 || config.max_per_keyframe < max_new)) max_new = config.max_per_keyframe;
   std::uniform_real_distribution<double> U(0, 1);
   struct Pick {
     int x, y;
     float p, z;
+    Eigen::Vector3d pw;
+    ChunkId id;
   };
   std::vector<Pick> picks;
   const int s = config.stride;
@@ -68,24 +74,40 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
         if (!(config.fill_depth > 0)) continue;
         z = float(config.fill_depth);
       }
-      picks.push_back({x, y, p, z});
+      const Eigen::Vector3d pw = pose * camera.unproject(Eigen::Vector2d(x, y), z);
+      const ChunkId id = chunk_id_of(pw, chunk_size);
+      // The map holds this place in a chunk the render left out: what looks missing is on disk.
+      if (exclude && exclude->count(id)) {
+        ++st.excluded;
+        continue;
+      }
+      picks.push_back({x, y, p, z, pw, id});
     }
-  if (config.max_per_keyframe && picks.size() > config.max_per_keyframe) {
+  // Stray points (chunks that would get only a few) go before the cap, so a cap thins every chunk
+  // alike instead of pushing them all under the threshold.
+  {
+    std::unordered_map<ChunkId, uint64_t> per_chunk;
+    for (const Pick& pk : picks) ++per_chunk[pk.id];
+    const auto small = [&](const Pick& pk) { return per_chunk[pk.id] < config.min_per_chunk; };
+    const auto end = std::remove_if(picks.begin(), picks.end(), small);
+    st.dropped_small_chunks = uint64_t(picks.end() - end);
+    picks.erase(end, picks.end());
+  }
+  if (max_new && picks.size() > max_new) {
     std::shuffle(picks.begin(), picks.end(), rng);
-    picks.resize(config.max_per_keyframe);
+    st.capped = picks.size() - max_new;
+    picks.resize(max_new);
   }
   const double max_px = config.max_scale_fraction * image.width();
   const int ch = image.channels();
   std::map<ChunkId, GaussianBlock> by_chunk;
   for (const Pick& pk : picks) {
     const double z = pk.z;
-    const Eigen::Vector3d pw = pose * camera.unproject(Eigen::Vector2d(pk.x, pk.y), z);
-    const ChunkId id = chunk_id_of(pw, chunk_size);
-    GaussianBlock& b = by_chunk[id];
+    GaussianBlock& b = by_chunk[pk.id];
     const size_t i = b.size();
     b.resize(i + 1);
     auto& q = b.params;
-    for (int k = 0; k < 3; ++k) q.mean[3 * i + k] = float(pw[k]);
+    for (int k = 0; k < 3; ++k) q.mean[3 * i + k] = float(pk.pw[k]);
     const double px = std::clamp(double(s) / std::sqrt(double(pk.p)), config.min_scale_px, max_px);
     const float ls = float(std::log(px * z / camera.fx));
     for (int k = 0; k < 3; ++k) q.log_scale[3 * i + k] = ls;
@@ -98,10 +120,6 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   }
   std::vector<ChunkBatch> out;
   for (auto& [id, block] : by_chunk) {
-    if (block.size() < config.min_per_chunk) {
-      st.dropped_small_chunks += block.size();
-      continue;
-    }
     st.kept += block.size();
     out.push_back({id, std::move(block)});
   }

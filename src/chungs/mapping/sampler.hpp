@@ -7,6 +7,7 @@
 #pragma once
 #include <cstdint>
 #include <random>
+#include <unordered_set>
 #include <vector>
 
 #include "chungs/gaussians/gaussian_block.hpp"
@@ -25,6 +26,10 @@ struct SamplerConfig {
   double max_scale_fraction = 0.1;
   uint64_t min_per_chunk = 100;    // chunks receiving fewer new Gaussians get none
   uint64_t max_per_keyframe = 0;   // 0: no cap; else a uniform random subset of this size
+  // The mapper caps a keyframe's new Gaussians at this many per 100 k pixels per optimisation step
+  // that keyframes got lately (0: no cap): with few steps per keyframe (a fast intake) new
+  // Gaussians would pile up untrained.
+  double new_per_step = 150;
   int stride = 1;                  // consider every stride-th pixel per axis (coarse maps, tests)
   // Pixels without depth (sky, beyond the stereo range) get this depth in metres (0: skipped), so
   // the far field is drawn instead of showing the background.
@@ -37,6 +42,8 @@ struct SampleStats {
   uint64_t no_depth = 0;    // ... without valid depth
   uint64_t kept = 0;        // Gaussians returned
   uint64_t dropped_small_chunks = 0;
+  uint64_t excluded = 0;  // ... whose point lies in a chunk the render left out (held on disk)
+  uint64_t capped = 0;    // ... beyond the cap on new Gaussians
   size_t chunks = 0;
 };
 
@@ -51,11 +58,16 @@ ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, co
                             const ImageF* render_alpha);
 
 // Samples Gaussians for a keyframe. image: float colour (1 or 3 channels, [0,1]); depth: metres,
-// 0 invalid, same size. Returns batches by chunk in ascending id order.
+// 0 invalid, same size. Points falling in a chunk of `exclude` are not taken (the map holds that
+// place but the render that set the probability left it out); of the rest at most max_new (0: no
+// cap; config.max_per_keyframe caps too), a uniform random subset. Returns batches by chunk in
+// ascending id order.
 std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
-                                         std::mt19937_64& rng, SampleStats* stats = nullptr);
+                                         std::mt19937_64& rng, SampleStats* stats = nullptr,
+                                         const std::unordered_set<ChunkId>* exclude = nullptr,
+                                         uint64_t max_new = 0);
 
 // SH DC coefficient for a colour value c in [0, 1] (renders as 0.5 + C0 * dc).
 float sh_dc_of_colour(float c);

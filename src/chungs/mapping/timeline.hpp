@@ -18,15 +18,21 @@ struct TimelineSample {
   double wait_ms = 0;  // time the optimiser was blocked on chunk I/O (loads, full queues, checkpoints)
   double disk_mb = 0;  // the map folder's size on disk
   double vram_mb = 0;  // device memory in use (0 on a CPU run)
+  // Whether the optimiser kept up with the intake (cumulative since the run began).
+  uint64_t sampled = 0, pruned = 0;  // Gaussians added by the sampler, removed by pruning
+  uint64_t dropped = 0;              // keyframes dropped because a later one had already arrived
+  double checkpoint_ms = 0;          // optimiser time spent on checkpoints (part of wait_ms)
+  double path_m = 0;                 // distance the camera travelled
 };
 
 std::string timeline_csv(const std::vector<TimelineSample>& samples);
 nlohmann::json to_json(const std::vector<TimelineSample>& samples);
 std::vector<TimelineSample> timeline_from_json(const nlohmann::json& j);
 
-// Three stacked panels against time (minutes for runs over three minutes, else seconds):
-// Gaussians (total, resident, on disk, budget), memory (host RSS, VRAM when sampled) and chunk I/O
-// (cumulative loads and saves, map folder size on a right axis, the optimiser's I/O wait share).
+// Four stacked panels against time (minutes for runs over three minutes, else seconds):
+// Gaussians (total, resident, on disk, budget), memory (host RSS, VRAM when sampled), chunk I/O
+// (cumulative loads and saves, map folder size on a right axis, the optimiser's I/O wait share) and
+// the steps each keyframe got (with the keyframes dropped and the checkpoints' share of the time).
 void write_timeline_plot(const std::filesystem::path& file, const std::vector<TimelineSample>& samples,
                          uint64_t budget);
 
@@ -36,7 +42,7 @@ struct TimelinePlotBox {
 };
 struct TimelinePlotLayout {
   int width = 0, height = 0;
-  TimelinePlotBox gaussians, memory, io;
+  TimelinePlotBox gaussians, memory, io, steps;
 };
 TimelinePlotLayout timeline_plot_layout();
 

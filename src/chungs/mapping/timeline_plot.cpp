@@ -1,4 +1,4 @@
-// memory.png: three panels against time sharing one x axis, drawn on a bitmap with its own font so
+// memory.png: four panels against time sharing one x axis, drawn on a bitmap with its own font so
 // the mapper needs no plotting library.
 #include <algorithm>
 #include <array>
@@ -9,6 +9,7 @@
 #include <string>
 
 #include "chungs/image/image_io.hpp"
+#include "chungs/mapping/pacing_summary.hpp"
 #include "chungs/mapping/timeline.hpp"
 
 namespace chungs {
@@ -37,7 +38,7 @@ constexpr int kScale = 2, kAdvance = 4 * kScale, kTextH = 5 * kScale;
 using Rgb = std::array<uint8_t, 3>;
 const Rgb kBlack{0, 0, 0}, kGrid{232, 232, 232}, kBudget{150, 150, 150}, kTotal{30, 80, 220},
     kResident{220, 40, 40}, kOnDisk{240, 140, 0}, kRss{20, 150, 60}, kVram{140, 50, 180}, kLoads{0, 160, 170},
-    kSaves{220, 60, 170}, kDisk{170, 140, 0};
+    kSaves{220, 60, 170}, kDisk{170, 140, 0}, kSteps{60, 60, 60};
 
 struct Canvas {
   Image8 img;
@@ -204,8 +205,9 @@ double vram(const TimelineSample& s) { return s.vram_mb; }
 double loads(const TimelineSample& s) { return double(s.loads); }
 double saves(const TimelineSample& s) { return double(s.saves); }
 double disk(const TimelineSample& s) { return s.disk_mb; }
+double steps(const TimelineSample& s) { return double(s.iterations); }
 
-constexpr int kW = 1000, kH = 760, kL = 90, kR = 90, kTop = 52, kPlotH = 174, kGap = 68;
+constexpr int kW = 1000, kH = 1002, kL = 90, kR = 90, kTop = 52, kPlotH = 174, kGap = 68;
 
 }  // namespace
 
@@ -213,8 +215,8 @@ TimelinePlotLayout timeline_plot_layout() {
   TimelinePlotLayout l;
   l.width = kW;
   l.height = kH;
-  TimelinePlotBox* boxes[3] = {&l.gaussians, &l.memory, &l.io};
-  for (int i = 0; i < 3; ++i) {
+  TimelinePlotBox* boxes[4] = {&l.gaussians, &l.memory, &l.io, &l.steps};
+  for (int i = 0; i < 4; ++i) {
     const int y0 = kTop + i * (kPlotH + kGap);
     *boxes[i] = {kL, y0, kW - kR, y0 + kPlotH};
   }
@@ -285,7 +287,7 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
   Panel io{
       cv,      samples, lay.io, ax, t_div, axis_for(max_io / iu.div), iu.div, axis_for(max_disk / disk_div),
       disk_div};
-  io.frame(true, true);
+  io.frame(false, true);
   std::string title = "CHUNKS LOADED/SAVED" + (iu.name.empty() ? std::string() : " (" + iu.name + ")");
   if (!samples.empty() && samples.back().seconds > 0) {
     char buf[96];
@@ -301,8 +303,30 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
   io.legend(kSaves, "CHUNK SAVES");
   io.legend(kDisk, "MAP FOLDER ON DISK (RIGHT AXIS)");
 
+  // Steps per keyframe: whether the optimiser kept up with the intake. One point per keyframe (the
+  // `iterations` field of these derived samples holds the steps it got).
+  const PacingSummary pace = pacing_summary(samples);
+  std::vector<TimelineSample> per_kf;
+  double max_steps = 1;
+  for (const auto& [t, n] : pace.per_keyframe) {
+    TimelineSample d;
+    d.seconds = t;
+    d.iterations = n;
+    per_kf.push_back(d);
+    max_steps = std::max(max_steps, double(n));
+  }
+  Panel st{cv, per_kf, lay.steps, ax, t_div, axis_for(max_steps), 1};
+  st.frame(true, false);
+  char buf[160], ck[64];
+  std::snprintf(buf, sizeof buf, "STEPS PER KEYFRAME: MEAN %.1f, LOWEST MINUTE %.1f   %llu KEYFRAMES DROPPED",
+                pace.steps_mean, pace.steps_lowest_minute, (unsigned long long)pace.dropped);
+  std::snprintf(ck, sizeof ck, "CHECKPOINTS %.2f%% OF THE TIME", 100.0 * pace.checkpoint_share);
+  st.title(buf, ck);
+  st.curve(false, steps, kSteps, 2);
+  st.legend(kSteps, "STEPS EACH KEYFRAME GOT");
+
   const std::string xl = minutes ? "TIME (MIN)" : "TIME (S)";
-  cv.text((lay.io.x0 + lay.io.x1 - Canvas::width(xl)) / 2, lay.io.y1 + 32, xl, kBlack);
+  cv.text((lay.steps.x0 + lay.steps.x1 - Canvas::width(xl)) / 2, lay.steps.y1 + 32, xl, kBlack);
   write_png(file, cv.img);
 }
 

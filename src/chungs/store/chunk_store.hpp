@@ -54,8 +54,9 @@ struct ChunkStoreConfig {
   bool adopt_uncommitted = true;
   // Smaller chunk files (chunk_codec.hpp); memory keeps float32. Each save uses the current
   // setting, files of either kind read back.
-  bool half_moments = false;  // Adam moments as binary16: 724 -> 488 bytes per Gaussian
-  bool half_sh_rest = false;  // SH beyond DC as binary16 too: -> 398 bytes per Gaussian
+  // Half precision by default: 45 % smaller files, no measured loss of quality (bench/README).
+  bool half_moments = true;   // Adam moments as binary16: 724 -> 488 bytes per Gaussian
+  bool half_sh_rest = true;   // SH beyond DC as binary16 too: -> 398 bytes per Gaussian
 };
 
 // What opening had to repair. A clean close leaves all zeros.
