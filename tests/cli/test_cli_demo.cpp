@@ -1,4 +1,5 @@
-// `diskchungs demo` end to end on a short room sequence, then `diskchungs render` on the map it made.
+// `diskchungs demo` end to end on a short room sequence, then `diskchungs render` on the map it made;
+// and the default demo, a street under a budget below its map, on a short route.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -16,7 +17,7 @@ namespace {
 struct DemoRun {
   chungs::test::TempDir dir;
   chungs::test::CliResult result;
-  DemoRun() { result = run_cli("-q demo --frames 16 --final-iterations 30 --out " + dir.path().string()); }
+  DemoRun() { result = run_cli("-q demo --scene room --frames 16 --final-iterations 30 --out " + dir.path().string()); }
 };
 
 DemoRun& demo() {
@@ -57,10 +58,28 @@ TEST(CliDemo, RefusesToReplaceAFolderItDidNotMake) {
   chungs::test::TempDir dir;
   fs::create_directories(dir / "room");
   std::ofstream(dir / "room/notes.txt") << "mine";
-  auto r = run_cli("-q demo --frames 8 --final-iterations 0 --out " + dir.path().string());
+  auto r = run_cli("-q demo --scene room --frames 8 --final-iterations 0 --out " + dir.path().string());
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.out.find("room"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::exists(dir / "room/notes.txt"));
+}
+
+TEST(CliDemo, TheStreetOutgrowsItsBudgetAndLoadsChunksBack) {
+  chungs::test::TempDir dir;
+  auto r = run_cli("-q demo --length-m 150 --budget 1500 --final-iterations 20 --out " + dir.path().string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = read_json(dir / "map/report.json");
+  EXPECT_GT(j["gaussians"]["total"].get<double>(), 1.5 * 1500) << r.out;
+  EXPECT_LE(j["gaussians"]["peak_resident"].get<uint64_t>(), 1500u);
+  EXPECT_GT(j["chunk_io"]["loads"].get<uint64_t>(), 0u) << r.out;
+  EXPECT_GT(j["held_out"]["count"].get<int>(), 10);
+  EXPECT_TRUE(fs::exists(dir / "map.ply"));
+  EXPECT_NE(r.out.find("loaded back from disk"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("x the budget"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "room"));
+  auto bad = run_cli("-q demo --scene garden --out " + (dir / "x").string());
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.out.find("garden"), std::string::npos) << bad.out;
 }
 
 TEST(CliRender, ScoresADatasetAgainstItsImages) {

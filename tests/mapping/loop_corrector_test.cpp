@@ -73,6 +73,7 @@ struct TestMap {
 
   TestMap(const GaussianBlock& all, size_t budget) {
     ChunkStoreConfig sc;
+    sc.half_moments = sc.half_sh_rest = false;  // these tests compare exact round trips
     sc.chunk_size = kChunk;
     sc.durable = false;
     store = std::make_unique<ChunkStore>(dir.path(), sc);

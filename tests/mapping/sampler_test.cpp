@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <random>
+#include <unordered_set>
 
 #include "chungs/mapping/log_probability.hpp"
 #include "chungs/mapping/sampler.hpp"
@@ -120,6 +121,41 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
   auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
   EXPECT_EQ(st.dropped_small_chunks, 10u);
   for (const auto& b : batches) EXPECT_GE(b.block.size(), 20u);
+}
+
+TEST(Sampler, SkipsPointsInExcludedChunksAndCapsTheRestEvenly) {
+  // Left half at 5 m, right half at 25 m: two chunks of 10 m along the optical axis (a narrow view
+  // keeps each half inside one chunk sideways).
+  const Camera cam(80, 20, 600, 600, 39.5, 9.5);
+  ImageF img = random_image(80, 20, 3, 4), depth(80, 20, 1, 5.f), prob(80, 20, 1, 1.f);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 40; x < 80; ++x) depth(x, y) = 25.f;
+  SamplerConfig c;
+  c.min_per_chunk = 50;
+  const ChunkId near = chunk_id_of(Eigen::Vector3d(0, 0, 5), 10.0), far = chunk_id_of(Eigen::Vector3d(0, 0, 25), 10.0);
+  ASSERT_NE(near, far);
+  std::mt19937_64 rng(11);
+  SampleStats st;
+  const std::unordered_set<ChunkId> exclude{far};
+  auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &st, &exclude);
+  EXPECT_EQ(st.excluded, 800u);  // every pixel of the far half
+  ASSERT_FALSE(batches.empty());
+  for (const auto& b : batches) EXPECT_NE(b.id, far);
+  // A cap of 300 thins both halves alike; neither chunk falls to min_per_chunk and vanishes.
+  SampleStats capped;
+  auto thin = sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &capped, nullptr, 300);
+  EXPECT_EQ(capped.kept, 300u);
+  EXPECT_EQ(capped.capped, 1300u);
+  ASSERT_EQ(thin.size(), 2u);
+  for (const auto& b : thin) {
+    EXPECT_GT(b.block.size(), 110u);
+    EXPECT_LT(b.block.size(), 190u);
+  }
+  // config.max_per_keyframe caps as well, the smaller cap winning.
+  c.max_per_keyframe = 120;
+  SampleStats both;
+  sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &both, nullptr, 300);
+  EXPECT_EQ(both.kept, 120u);
 }
 
 }  // namespace

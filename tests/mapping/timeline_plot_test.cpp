@@ -16,7 +16,8 @@ namespace {
 // The plot's colours (curves are drawn without anti-aliasing, so they match exactly).
 using Rgb = std::array<int, 3>;
 const Rgb kTotal{30, 80, 220}, kResident{220, 40, 40}, kOnDisk{240, 140, 0}, kBudget{150, 150, 150},
-    kRss{20, 150, 60}, kVram{140, 50, 180}, kLoads{0, 160, 170}, kSaves{220, 60, 170}, kDisk{170, 140, 0};
+    kRss{20, 150, 60}, kVram{140, 50, 180}, kLoads{0, 160, 170}, kSaves{220, 60, 170}, kDisk{170, 140, 0},
+    kSteps{60, 60, 60};
 
 bool is(const Image8& img, int x, int y, const Rgb& c) {
   return img(x, y, 0) == c[0] && img(x, y, 1) == c[1] && img(x, y, 2) == c[2];
@@ -52,6 +53,7 @@ std::vector<TimelineSample> long_run(bool with_vram) {
     t.saves = uint64_t(14000 * evicting * evicting + 300 * f);
     t.disk_mb = 3072 * f;
     t.wait_ms = 0.04 * t.seconds * 1000;
+    t.iterations = uint64_t(i) * 20 + (i > 1500 ? uint64_t(i - 1500) * 10 : 0);  // 20, later 30 per keyframe
     s.push_back(t);
   }
   return s;
@@ -64,18 +66,40 @@ TEST(TimelinePlot, DrawsEachCurveInItsOwnPanel) {
   const TimelinePlotLayout lay = timeline_plot_layout();
   ASSERT_EQ(img.width(), lay.width);
   ASSERT_EQ(img.height(), lay.height);
-  const std::vector<TimelinePlotBox> panels = {lay.gaussians, lay.memory, lay.io};
-  const std::vector<std::pair<Rgb, int>> curves = {{kTotal, 0},  {kResident, 0}, {kOnDisk, 0},
-                                                   {kBudget, 0}, {kRss, 1},      {kVram, 1},
-                                                   {kLoads, 2},  {kSaves, 2},    {kDisk, 2}};
+  const std::vector<TimelinePlotBox> panels = {lay.gaussians, lay.memory, lay.io, lay.steps};
+  const std::vector<std::pair<Rgb, int>> curves = {{kTotal, 0},  {kResident, 0}, {kOnDisk, 0}, {kBudget, 0},
+                                                   {kRss, 1},    {kVram, 1},     {kLoads, 2},  {kSaves, 2},
+                                                   {kDisk, 2},   {kSteps, 3}};
   for (size_t c = 0; c < curves.size(); ++c)
-    for (int p = 0; p < 3; ++p) {
+    for (int p = 0; p < 4; ++p) {
       const int n = count(img, panels[size_t(p)], curves[c].first);
       if (p == curves[c].second)
         EXPECT_GT(n, 100) << "curve " << c << " missing from panel " << p;
       else
         EXPECT_EQ(n, 0) << "curve " << c << " drawn in panel " << p;
     }
+}
+
+TEST(TimelinePlot, StepsPerKeyframeStepUpWhereTheRunGaveMore) {
+  test::TempDir dir;
+  write_timeline_plot(dir / "m.png", long_run(false), 1500000);
+  const Image8 img = read_image8(dir / "m.png");
+  const TimelinePlotBox b = timeline_plot_layout().steps;
+  // The curve's row in the first and last tenth: 20 then 30 steps, on an axis from 0 to 35.
+  auto mean_row = [&](int x0, int x1) {
+    double sum = 0;
+    int n = 0;
+    for (int x = x0; x < x1; ++x)
+      for (int y = b.y0 + 1; y < b.y1; ++y)
+        if (is(img, x, y, kSteps)) sum += y, ++n;
+    return n ? sum / n : -1.0;
+  };
+  const int w = b.x1 - b.x0;
+  const double early = mean_row(b.x0 + 2, b.x0 + w / 10), late = mean_row(b.x1 - w / 10, b.x1 - 2);
+  ASSERT_GT(early, 0);
+  ASSERT_GT(late, 0);
+  EXPECT_NEAR(b.y1 - early, (b.y1 - b.y0) * 20.0 / 35.0, 3.0);
+  EXPECT_NEAR(b.y1 - late, (b.y1 - b.y0) * 30.0 / 35.0, 3.0);
 }
 
 TEST(TimelinePlot, RunWithoutVramDrawsNoVramColour) {

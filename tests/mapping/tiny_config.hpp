@@ -19,6 +19,9 @@ inline Config tiny_mapping_config() {
   c.mapper.iterations_per_keyframe = 12;
   c.mapper.final_iterations = 60;
   c.mapper.checkpoint_every = 2;
+  c.mapper.checkpoint_max_share = 0;  // checkpoints where the tests expect them, whatever they cost
+  c.mapper.keyframe_every = 1;        // the tiny sequences move too little for the parallax rule
+  c.sampler.new_per_step = 0;         // tiny images sample fewer than any cap worth testing here
   c.mapper.eval_keyframe_stride = 0;
   c.mapper.max_saved_renders = 0;
   c.residency.budget_gaussians = 200'000;

@@ -23,6 +23,7 @@ struct Rig {
   // Chunks 0..sizes.size()-1 on disk with the given counts, then a residency over them.
   Rig(std::vector<size_t> sizes, size_t budget, bool async = false, double hysteresis = 0.0) {
     ChunkStoreConfig sc;
+    sc.half_moments = sc.half_sh_rest = false;  // these tests compare exact round trips
     sc.durable = false;
     store = std::make_unique<ChunkStore>(dir.path(), sc);
     for (size_t i = 0; i < sizes.size(); ++i) store->save(cid(int(i)), test::random_block(sizes[i], i + 1));

@@ -14,6 +14,7 @@ namespace fs = std::filesystem;
 namespace {
 ChunkStoreConfig fast_config() {
   ChunkStoreConfig c;
+  c.half_moments = c.half_sh_rest = false;  // these tests compare exact round trips
   c.durable = false;  // kill-safety is tested in crash_test.cpp; here flushes only cost time
   return c;
 }

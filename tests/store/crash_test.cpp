@@ -41,6 +41,7 @@ struct Record {
                              int write_fd, uint32_t seed) {
   try {
     ChunkStoreConfig cfg;
+    cfg.half_moments = cfg.half_sh_rest = false;  // these tests compare exact round trips
     cfg.durable = durable;
     cfg.compress = seed % 3 == 0;
     ChunkStore store(dir, cfg);
@@ -100,6 +101,7 @@ TEST(ChunkStoreCrash, EveryChunkIsOldOrNewAfterSigkillAtRandomMoments) {
       ASSERT_NO_THROW(Manifest::read(dir / "manifest.txt"));
     }
     ChunkStoreConfig cfg;
+    cfg.half_moments = cfg.half_sh_rest = false;  // these tests compare exact round trips
     cfg.durable = false;
     cfg.verify_on_open = true;  // every payload checksum
     ChunkStore store(dir.path(), cfg);

@@ -285,6 +285,7 @@ TEST(ChunkFileHalf, StoreWritesHalfFilesWhenAskedAndReadsThemWithTheSettingOff) 
   ChunkStoreConfig c;
   c.durable = false;
   c.verify_on_open = true;
+  c.half_moments = c.half_sh_rest = false;
   ChunkStore s(dir.path(), c);
   const GaussianBlock r = s.load(id);
   EXPECT_EQ(r.params.mean, b.params.mean);

@@ -315,7 +315,8 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
     per_kf.push_back(d);
     max_steps = std::max(max_steps, double(n));
   }
-  Panel st{cv, per_kf, lay.steps, ax, t_div, axis_for(max_steps), 1};
+  // Headroom above the largest value, so a constant count (fixed pacing) does not hide in the frame.
+  Panel st{cv, per_kf, lay.steps, ax, t_div, axis_for(max_steps * 1.15), 1};
   st.frame(true, false);
   char buf[160], ck[64];
   std::snprintf(buf, sizeof buf, "STEPS PER KEYFRAME: MEAN %.1f, LOWEST MINUTE %.1f   %llu KEYFRAMES DROPPED",
