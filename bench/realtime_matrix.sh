@@ -1,0 +1,119 @@
+#!/usr/bin/env bash
+# The real-time benchmark of bench/README.md ("Real-time mapping with the defaults"), on a lent GPU
+# machine. Every run uses the defaults (no configuration file); only the flags the cells name.
+#   bench/realtime_matrix.sh start      start all runs one group after another, detached from the
+#                                       command-time limit; returns at once
+#   bench/realtime_matrix.sh wait SECS  wait until all runs ended or SECS passed; print progress
+#   bench/realtime_matrix.sh collect    summary.json (one row per run) and results.tgz (reports,
+#                                       timelines, memory plots, logs) into $OUT
+# Runs, in order: the real KITTI excerpt at its real rate (10 Hz, full resolution; given and tracked
+# poses); the 2 km street at 620x188 x {fixed 30 steps per keyframe, anytime 36 km/h, anytime 72
+# km/h} x {default budget, 300 000, 100 000} (the three budgets of a pacing side by side on the one
+# GPU, so they share it alike); then the 10 km drive at 72 km/h.
+# Env: BUNDLE (default .gpu/rt, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/rt`), DATA (a
+# folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1.
+set -uo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+bundle=${BUNDLE:-$root/.gpu/rt}
+data=${DATA:-$root/.gpu/data}
+work=${WORK:-/tmp/rt}
+seed=${SEED:-3}
+export LD_LIBRARY_PATH=$bundle/lib
+bin=$bundle/bin/diskchungs
+
+cell() {  # cell NAME ARGS...: one mapping run in $work/NAME
+  local name=$1
+  shift
+  mkdir -p "$work/$name"
+  echo "$*" >"$work/$name/args"
+  "$bin" run --poses gt --out "$work/$name/map" --device cuda "$@" >"$work/$name/log" 2>&1
+  echo $? >"$work/$name/exit"
+}
+
+street() { echo "synth-street:length=$1,width=620,height=188,seed=$seed"; }
+
+all() {
+  "$bin" info >"$work/info.txt" 2>&1
+  nvidia-smi >"$work/nvidia-smi.txt" 2>&1
+  cell kitti_anytime --dataset "kitti:$data/kitti_seq1" --pacing anytime
+  cell kitti_anytime_track --dataset "kitti:$data/kitti_seq1" --pacing anytime --poses track
+  for pacing in fixed a36 a72; do
+    case $pacing in
+    fixed) args=() ;;
+    a36) args=(--pacing anytime) ;;
+    a72) args=(--pacing anytime --speed 2) ;;
+    esac
+    cell "${pacing}_default" --dataset "$(street 2000)" "${args[@]}" &
+    cell "${pacing}_b300k" --dataset "$(street 2000)" "${args[@]}" --budget 300000 &
+    cell "${pacing}_b100k" --dataset "$(street 2000)" "${args[@]}" --budget 100000 &
+    wait
+  done
+  [[ ${SKIP_DRIVE:-0} == 1 ]] || cell drive10k_a72 --dataset "$(street 10000)" --pacing anytime --speed 2
+  touch "$work/done"
+}
+
+case ${1:?usage: realtime_matrix.sh start | wait SECONDS | collect | all} in
+start)
+  [[ -x $bin ]] || { echo "realtime_matrix: no bundle at $bundle" >&2; exit 1; }
+  rm -rf "$work" && mkdir -p "$work"
+  setsid bash "${BASH_SOURCE[0]}" all </dev/null >"$work/runner.log" 2>&1 &
+  sleep 3
+  echo "started in $work"
+  ;;
+all) all ;;
+wait)
+  end=$((SECONDS + ${2:?seconds}))
+  while [[ ! -f $work/done && $SECONDS -lt $end ]]; do sleep 5; done
+  for d in "$work"/*/; do
+    n=$(basename "$d")
+    if [[ -f $d/exit ]]; then echo "$n: exit $(cat "$d/exit")"; else
+      echo "$n: running: $(tail -c 300 "$d/log" | tr '\r' '\n' | tail -n 1)"; fi
+  done
+  [[ -f $work/done ]] && echo "all done"
+  ;;
+collect)
+  out=${OUT:?OUT}
+  python3 - "$work" "$out/summary.json" <<'PY'
+import json, os, sys
+work, dst = sys.argv[1], sys.argv[2]
+rows = {}
+for n in sorted(os.listdir(work)):
+    rp = os.path.join(work, n, "map", "report.json")
+    if not os.path.isfile(rp):
+        continue
+    r = json.load(open(rp))
+    p, t, g = r.get("pacing", {}), r["time"], r["gaussians"]
+    row = {"args": open(os.path.join(work, n, "args")).read().strip(),
+           "exit": open(os.path.join(work, n, "exit")).read().strip() if os.path.exists(os.path.join(work, n, "exit")) else None,
+           "psnr_held_out": r.get("held_out", {}).get("mean_psnr"),
+           "ssim_held_out": r.get("held_out", {}).get("mean_ssim"),
+           "psnr_keyframes": r.get("keyframes_eval", {}).get("mean_psnr"),
+           "io_wait_share": t.get("io_wait_share"), "fps": t.get("processing_fps"),
+           "mapping_s": t.get("mapping_s"), "intake_kmh": t.get("intake_kmh"),
+           "keyframes": r.get("keyframes"), "iterations": r.get("iterations"),
+           "total": g.get("total"), "peak_resident": g.get("peak_resident"), "budget": g.get("budget"),
+           "chunks": g.get("chunks"), "loads": r["chunk_io"]["loads"], "saves": r["chunk_io"]["saves"],
+           "disk_gb": r["disk"]["bytes"] / 1e9}
+    row.update({"pacing_" + k: v for k, v in p.items()})
+    if "tracking" in r and "ate" in r["tracking"]:
+        row["ate_rmse"] = r["tracking"]["ate"]["rmse"]
+    ab = r.get("memory", {}).get("after_budget")
+    if ab:
+        for k in ("rss", "vram"):
+            if k in ab:
+                row[k + "_flat"] = {x: ab[k][x] for x in ("plateau_mb", "max_above", "max_below", "within_share", "settled_after_s")}
+    rows[n] = row
+json.dump(rows, open(dst, "w"), indent=1)
+for n, row in rows.items():
+    print(n, {k: row[k] for k in ("psnr_held_out", "io_wait_share", "fps", "total", "pacing_steps_per_keyframe_mean", "pacing_dropped_keyframes")})
+PY
+  (cd "$work" && tar czf "$out/results.tgz" --exclude='*/map/chunks' --exclude='*/map/keyframes' \
+    --exclude='*/map/renders' --exclude='*/map/checkpoint-*' ./*/log ./*/args ./*/exit ./*/map/report.json \
+    ./*/map/timeline.csv ./*/map/memory.png ./*.txt 2>/dev/null)
+  # A few held-out renders of each default-budget run, to look at.
+  (cd "$work" && find . -path './*_default/map/renders/*' -name '*.png' | sort | awk 'NR % 8 == 1' | head -n 40 |
+    tar czf "$out/renders.tgz" -T - 2>/dev/null)
+  ls -la "$out"
+  ;;
+*) echo "realtime_matrix: unknown verb $1" >&2; exit 2 ;;
+esac
