@@ -119,6 +119,38 @@ TEST(FrameLookahead, ALoadStartsOnlyOnceItsFrameHasArrived) {
   EXPECT_GE(loaded_at.load(), 0.3);
 }
 
+TEST(FrameLookahead, AKeyframeIsStaleOnlyOnceALaterOneHasArrivedAndLoaded) {
+  CountingFeed feed(8);  // keyframes 1, 3, 5, 7
+  std::atomic<bool> slow{true};
+  std::atomic<double> clock{0};
+  // Frame i arrives at i seconds of a clock the test moves; frame 3's load waits while `slow`.
+  FrameLookahead ahead(
+      feed, 4,
+      [&](size_t i) {
+        while (i == 3 && slow) std::this_thread::sleep_for(1ms);
+        return frame_marked(i);
+      },
+      [&](size_t i) { return double(i) - clock.load(); });
+  EXPECT_FALSE(ahead.later_keyframe_ready());
+  ahead.next();            // frame 0; 1..4 queued
+  auto e1 = ahead.next();  // frame 1; 2..5 queued
+  ASSERT_TRUE(e1 && e1->has_frame());
+  EXPECT_FALSE(ahead.later_keyframe_ready());  // frame 3 has not arrived
+  clock = 3.5;                                 // frame 3 arrived, its load is still running
+  std::this_thread::sleep_for(20ms);
+  EXPECT_FALSE(ahead.later_keyframe_ready());
+  slow = false;  // loaded: the mapper, still on frame 1, is behind
+  for (int k = 0; k < 200 && !ahead.later_keyframe_ready(); ++k) std::this_thread::sleep_for(5ms);
+  EXPECT_TRUE(ahead.later_keyframe_ready());
+  // Without arrival times (fixed pacing) nothing is ever stale.
+  CountingFeed other(4);
+  FrameLookahead fixed(other, 2, frame_marked);
+  fixed.next();
+  fixed.next();
+  std::this_thread::sleep_for(10ms);
+  EXPECT_FALSE(fixed.later_keyframe_ready());
+}
+
 TEST(FrameLookahead, ALoadErrorReachesTheCallerForItsFrame) {
   CountingFeed feed(4);
   FrameLookahead ahead(feed, 2, [](size_t i) -> MappingFrame {

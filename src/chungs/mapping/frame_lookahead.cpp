@@ -79,10 +79,12 @@ bool FrameLookahead::ready(const Entry& e) {
   return !e.frame.valid() || e.frame.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
 }
 
-bool FrameLookahead::later_keyframe_arrived() const {
+bool FrameLookahead::later_keyframe_ready() const {
   if (!until_) return false;
+  // Loaded, not only arrived: loads run side by side from arrival, so a later frame that has only
+  // arrived says nothing about the mapper, one already loaded says it fell behind.
   for (const Entry& e : ahead_)
-    if (e.has_frame() && until_(e.item.frame) <= 0) return true;
+    if (e.has_frame() && until_(e.item.frame) <= 0 && ready(e)) return true;
   return false;
 }
 

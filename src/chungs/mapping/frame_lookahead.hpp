@@ -46,9 +46,9 @@ class FrameLookahead {
   std::optional<Entry> next();
   // True when entry's frame is loaded (or its load failed): get() will not block.
   static bool ready(const Entry& e);
-  // Real-time pacing: true when a keyframe behind the last one handed out has already arrived, so
-  // that one is stale (the mapper fell behind the intake). False without arrival times.
-  bool later_keyframe_arrived() const;
+  // Real-time pacing: true when a keyframe behind the last one handed out has already arrived and
+  // been loaded, so that one is stale (the mapper fell behind the intake). False without arrival times.
+  bool later_keyframe_ready() const;
 
  private:
   void fill(size_t target);

@@ -19,7 +19,7 @@ struct MapperConfig {
   double keyframe_parallax = 0.1;   // metres moved / median depth of the last keyframe (0: off)
   double keyframe_rotation_deg = 5; // degrees turned since the last keyframe (0: off)
   int min_steps_per_keyframe = 10;  // anytime: steps each keyframe gets at least; when the intake runs
-                                    // ahead, keyframes that a later arrived one supersedes are dropped
+                                    // ahead, a keyframe that a later loaded one supersedes is dropped
   int holdout_every = 8;            // frame i is never trained on when i % n == n - 1 (0: none)
   int frame_lookahead = 4;          // frames read ahead, each keyframe loaded (and its depth computed) on
                                     // its own thread while the map trains (0: only the current frame)

@@ -182,15 +182,15 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       if (anytime && !mapper.keyframes().empty()) {
         // Real time: the latest keyframe gets its floor of steps whatever the intake does ...
         while (mapper.steps_since_keyframe() < uint64_t(mc.min_steps_per_keyframe)) mapper.step();
-        // ... and a keyframe that a later arrived one supersedes is dropped, not queued behind.
-        drop = ahead.later_keyframe_arrived();
+        // ... and a keyframe that a later loaded one supersedes is dropped, not queued behind.
+        drop = ahead.later_keyframe_ready();
         // Otherwise the map trains until the frame has arrived and its depth is computed.
         if (!drop)
           while (!FrameLookahead::ready(*entry)) mapper.step();
       }
       if (drop) {
         ++dropped;
-        log::debug("frame ", i, ": dropped (a later keyframe has already arrived)");
+        log::debug("frame ", i, ": dropped (a later keyframe has already arrived and been loaded)");
       } else {
         const MappingFrame m = entry->frame.get();
         feed->set_scene_depth(m.median_depth);

@@ -20,7 +20,7 @@ struct TimelineSample {
   double vram_mb = 0;  // device memory in use (0 on a CPU run)
   // Whether the optimiser kept up with the intake (cumulative since the run began).
   uint64_t sampled = 0, pruned = 0;  // Gaussians added by the sampler, removed by pruning
-  uint64_t dropped = 0;              // keyframes dropped because a later one had already arrived
+  uint64_t dropped = 0;              // keyframes dropped because a later one was already loaded
   double checkpoint_ms = 0;          // optimiser time spent on checkpoints (part of wait_ms)
   double path_m = 0;                 // distance the camera travelled
 };
