@@ -24,8 +24,7 @@ start)
   [[ -x $bundle/bin/diskchungs ]] || { echo "gpu_drive: no bundle at $bundle" >&2; exit 1; }
   rm -rf "$dir" && mkdir -p "$dir"
   cat >"$dir/c.yaml" <<YAML
-mapper: {checkpoint_seconds: 60, eval_keyframe_stride: 20, pacing: anytime, speed: $speed}
-store: {half_moments: true, half_sh_rest: true}
+mapper: {eval_keyframe_stride: 20, pacing: anytime, speed: $speed}
 YAML
   export LD_LIBRARY_PATH=$bundle/lib
   "$bundle/bin/diskchungs" info >"$dir/info.txt" 2>&1

@@ -62,7 +62,9 @@ enum class Loss { Truncate, Delete, Mixed };
     std::map<std::string, FileEvent> seen;
     events = &seen;
     set_file_event_hook(record);
-    auto* store = new ChunkStore(dir);  // never destroyed: power goes before any close
+    ChunkStoreConfig exact;
+    exact.half_moments = exact.half_sh_rest = false;  // the reader compares exact round trips
+    auto* store = new ChunkStore(dir, exact);  // never destroyed: power goes before any close
     for (const Op& op : plan(seed)) {
       if (op.chunk < 0)
         store->commit();
