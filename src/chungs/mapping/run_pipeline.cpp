@@ -123,7 +123,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   // couple of seconds rather than at every keyframe.
   double disk_mb = 0, disk_measured_at = -1e9;
   const TimelineSample base = timeline.empty() ? TimelineSample() : timeline.back();
-  uint64_t sampled = 0, dropped = 0;
+  uint64_t dropped = 0;
   double path_m = 0;
   auto record = [&](uint64_t frame) {
     if (seconds() - disk_measured_at >= 2.0) {
@@ -132,7 +132,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     }
     TimelineSample t = sample_now(mapper, seconds(), frame, disk_mb);
     // Counters of this process continue those of the run it resumed.
-    t.sampled = base.sampled + sampled;
+    t.sampled = base.sampled + mapper.sampled_total();
     t.pruned = base.pruned + mapper.pruned_total();
     t.dropped = base.dropped + dropped;
     t.checkpoint_ms = base.checkpoint_ms + mapper.io_stats().checkpoint_ms;
@@ -197,7 +197,6 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         const SampleStats ss =
             mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose);
         updates.added(item->keyframe_id, mapper.keyframes().back().id);
-        sampled += ss.kept;
         added = true;
         log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
                    " without depth, ", ss.excluded, " in chunks left out of the render, ", ss.capped,
