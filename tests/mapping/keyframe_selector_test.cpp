@@ -23,6 +23,22 @@ TEST(KeyframeSelector, PicksOnlyInTheLatestKeyframesCell) {
   EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{2, 3}));
 }
 
+TEST(KeyframeSelector, AWindowNarrowsTheCellUntilTheNextKeyframe) {
+  KeyframeSelector s;
+  for (uint32_t i = 0; i < 6; ++i) s.add(i, {10.0 * i, 0, 0});
+  s.restrict_to({4, 3});
+  EXPECT_TRUE(s.restricted());
+  EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{3, 4, 5})) << "the latest keyframe is always one";
+  std::mt19937_64 rng(3);
+  for (int i = 0; i < 60; ++i) {
+    const uint32_t id = s.pick(rng);
+    EXPECT_TRUE(id >= 3) << id;
+  }
+  s.add(6, {60, 0, 0});
+  EXPECT_FALSE(s.restricted());
+  EXPECT_EQ(s.candidates().size(), 7u);
+}
+
 TEST(KeyframeSelector, SpendsUsesThenRefillsWithALossBonus) {
   KeyframeSelectorConfig c;
   c.new_uses = 2;

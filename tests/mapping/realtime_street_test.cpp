@@ -1,9 +1,9 @@
 // The real-time matrix of bench/realtime_matrix.sh in test size, on the CPU: a short synthetic street
 // at 310x94 with the default mapping settings (the outdoor preset, as `run` applies it), fixed and
-// real-time pacing, with and without a budget below what one view needs. Asserts the properties
-// the benchmark checks, not timings: a budget does not make the map grow (what lies on disk is not
-// sampled again), every keyframe gets its floor of steps, and a real-time intake does not flood the
-// map with Gaussians it never trains.
+// real-time pacing, with the default budget, a third of the map and less than one view needs.
+// Asserts the properties the benchmark checks, not timings: a budget does not make the map grow
+// (what lies on disk is not sampled again) nor make steps load chunks, every keyframe gets its floor
+// of steps, and a real-time intake does not flood the map with Gaussians it never trains.
 #include <gtest/gtest.h>
 
 #include "chungs/common/log.hpp"
@@ -51,22 +51,33 @@ Cell map_street(const std::string& pacing, double speed, size_t budget) {
   return cell;
 }
 
-TEST(RealtimeStreet, BudgetBelowOneViewDoesNotGrowTheMapAndAnytimeKeepsItsFloor) {
+TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFloor) {
   const Cell fixed = map_street("fixed", 1, 0), fixed_small = map_street("fixed", 1, 3000);
   const Cell fast = map_street("anytime", 2, 0), fast_small = map_street("anytime", 2, 3000);
-  for (const Cell* c : {&fixed, &fixed_small, &fast, &fast_small})
+  const Cell fixed_tiny = map_street("fixed", 1, 1200);
+  for (const Cell* c : {&fixed, &fixed_small, &fast, &fast_small, &fixed_tiny})
     std::printf("total %llu, steps/kf %.1f (min after 1st minute %lld), dropped %llu, views over budget %llu, "
-                "held-out %.2f dB\n",
+                "held-out %.2f dB, chunk loads %llu in %llu steps, saves %llu\n",
                 (unsigned long long)c->total(), c->pacing()["steps_per_keyframe_mean"].get<double>(),
                 (long long)c->pacing()["steps_per_keyframe_min_after_first_minute"].get<int64_t>(),
                 (unsigned long long)c->pacing()["dropped_keyframes"].get<uint64_t>(),
                 (unsigned long long)c->pacing()["views_over_budget"].get<uint64_t>(),
-                c->report["held_out"]["mean_psnr"].get<double>());
-  // The small budget is below what one view needs: the farthest chunks stay out of each render,
-  // and their screen area is not sampled again.
-  EXPECT_GT(fixed_small.pacing()["views_over_budget"].get<uint64_t>(), 10u);
-  EXPECT_LE(fixed_small.report["gaussians"]["peak_resident"].get<uint64_t>(), 3000u);
-  EXPECT_LT(double(fixed_small.total()), 1.25 * double(fixed.total()));
+                c->report["held_out"]["mean_psnr"].get<double>(),
+                (unsigned long long)c->report["chunk_io"]["loads"].get<uint64_t>(),
+                (unsigned long long)c->report["iterations"].get<uint64_t>(),
+                (unsigned long long)c->report["chunk_io"]["saves"].get<uint64_t>());
+  // A third of the map: the steps train on the keyframes whose chunks fit together, so they do not
+  // load chunks at every step (the whole 200 m cell, as before the training window: ~2 per step).
+  for (const Cell* c : {&fixed_small, &fast_small}) {
+    EXPECT_LE(c->report["gaussians"]["peak_resident"].get<uint64_t>(), 3000u);
+    EXPECT_LT(double(c->report["chunk_io"]["loads"].get<uint64_t>()),
+              0.5 * double(c->report["iterations"].get<uint64_t>()));
+  }
+  // Below what one view needs: the farthest chunks stay out of each render, and their screen area
+  // is not sampled again.
+  EXPECT_GT(fixed_tiny.pacing()["views_over_budget"].get<uint64_t>(), 10u);
+  EXPECT_LE(fixed_tiny.report["gaussians"]["peak_resident"].get<uint64_t>(), 1200u);
+  for (const Cell* c : {&fixed_small, &fixed_tiny}) EXPECT_LT(double(c->total()), 1.25 * double(fixed.total()));
   EXPECT_LT(double(fast_small.total()), 1.25 * double(fast.total()));
   // Fixed pacing: exactly its steps per keyframe.
   EXPECT_DOUBLE_EQ(fixed.pacing()["steps_per_keyframe_mean"].get<double>(), 10.0);

@@ -154,3 +154,56 @@ TEST(ResidencyCheckpoint, AFailedCheckpointKeepsThePreviousOneAndReachesTheCalle
   res.finish_checkpoint();
   expect_same_maps(committed_map(dir.path(), copy.path() / "2"), at_moment);
 }
+
+namespace {
+size_t chunk_files(const fs::path& folder) {
+  size_t n = 0;
+  for (const auto& e : fs::directory_iterator(folder / "chunks"))
+    if (e.path().extension() == ".chunk") ++n;
+  return n;
+}
+}  // namespace
+
+TEST(ResidencyCheckpoint, WritesOnlyWhatChangedSinceTheLastOne) {
+  for (bool async : {false, true}) {
+    SCOPED_TRACE(async ? "background I/O" : "synchronous I/O");
+    test::TempDir dir, copy;
+    ChunkStore store(dir.path(), rollback_config());
+    CpuGaussianPool pool(4000);
+    ResidencyConfig rc;
+    rc.budget_gaussians = 4000;
+    rc.async_io = async;
+    Residency res(store, pool, rc);
+    for (int x = 0; x < 8; ++x) ASSERT_TRUE(res.add(cid(x), test::random_block(200 + 10 * x, x + 1)).ok);
+    res.flush();  // every chunk has a live file that the checkpoints below supersede
+    for (int x = 0; x < 8; ++x) train(res, pool, cid(x), 0.25f);
+    auto saves = [&] { return store.counters().saves.load(); };
+
+    const uint64_t s0 = saves();
+    res.begin_checkpoint([] {}, [] {});
+    train(res, pool, cid(6), 0.5f);  // changed after its copy: stays modified
+    res.finish_checkpoint();
+    EXPECT_EQ(saves() - s0, 8u);
+    for (int x = 0; x < 8; ++x) EXPECT_EQ(res.is_dirty(cid(x)), x == 6) << x;
+
+    train(res, pool, cid(2), 1.0f);
+    const auto at_moment = live_map(res, pool);
+    const uint64_t s1 = saves();
+    res.begin_checkpoint([] {}, [] {});
+    res.finish_checkpoint();
+    EXPECT_EQ(saves() - s1, 2u) << "only the two chunks changed since the last checkpoint";
+    expect_same_maps(committed_map(dir.path(), copy.path() / "1"), at_moment);
+
+    // An adopted chunk is evicted without a write and reads back as it was.
+    const uint64_t s2 = saves(), clean = store.counters().evictions_clean.load();
+    res.evict(cid(3));
+    EXPECT_EQ(store.counters().evictions_clean.load(), clean + 1);
+    EXPECT_EQ(saves(), s2);
+    expect_same_maps(live_map(res, pool), at_moment);
+
+    // The live files the checkpoints replaced are gone: one file per chunk once committed.
+    res.flush();
+    EXPECT_EQ(chunk_files(dir.path()), 8u);
+    expect_same_maps(committed_map(dir.path(), copy.path() / "2"), at_moment);
+  }
+}

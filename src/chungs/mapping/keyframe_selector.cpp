@@ -12,6 +12,8 @@ void KeyframeSelectorConfig::validate() const {
   if (new_uses < 1) fail("keyframe selector: new_uses must be >= 1, got ", new_uses);
   if (!(top_loss_fraction >= 0 && top_loss_fraction <= 1))
     fail("keyframe selector: top_loss_fraction must be in [0, 1], got ", top_loss_fraction);
+  if (!(budget_share > 0 && budget_share <= 1))
+    fail("keyframe selector: budget_share must be in (0, 1], got ", budget_share);
 }
 
 KeyframeSelector::KeyframeSelector(const KeyframeSelectorConfig& config) : config_(config) { config_.validate(); }
@@ -26,6 +28,12 @@ void KeyframeSelector::add(uint32_t id, const Eigen::Vector3d& position, int use
   if (!keyframes_.count(id)) order_.push_back(id);
   keyframes_[id] = {id, position, uses < 0 ? config_.new_uses : uses, last_loss};
   latest_ = id;
+  window_.clear();
+}
+
+void KeyframeSelector::restrict_to(std::vector<uint32_t> ids) {
+  std::sort(ids.begin(), ids.end());
+  window_ = std::move(ids);
 }
 
 std::vector<uint32_t> KeyframeSelector::candidates() const {
@@ -33,7 +41,9 @@ std::vector<uint32_t> KeyframeSelector::candidates() const {
   if (keyframes_.empty()) return out;
   const Cell c = cell_of(keyframes_.at(latest_).position);
   for (const auto& [id, k] : keyframes_)
-    if (cell_of(k.position) == c) out.push_back(id);
+    if (cell_of(k.position) == c &&
+        (window_.empty() || id == latest_ || std::binary_search(window_.begin(), window_.end(), id)))
+      out.push_back(id);
   std::sort(out.begin(), out.end());
   return out;
 }

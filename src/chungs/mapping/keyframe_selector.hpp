@@ -4,6 +4,8 @@
 // Within the cell, CaRtGS's usage rule: a new keyframe has `new_uses` remaining uses; when no
 // candidate has any left, every candidate gets +1 and the top quarter by last loss another +1; the
 // pick is random, weighted by remaining uses, and costs the picked keyframe one use.
+// The mapper may narrow the cell to a window (restrict_to): the keyframes nearest the latest whose
+// chunks fit the memory budget together, so that a small budget does not make every step load.
 #pragma once
 #include <Eigen/Core>
 #include <cstdint>
@@ -17,6 +19,9 @@ struct KeyframeSelectorConfig {
   double cell_size = 200.0;       // metres
   int new_uses = 8;
   double top_loss_fraction = 0.25;
+  // The keyframes trained on together may need at most this share of the budget (their chunks'
+  // Gaussians): the rest leaves room for new Gaussians and eviction's hysteresis.
+  double budget_share = 0.85;
   void validate() const;
 };
 
@@ -37,7 +42,12 @@ class KeyframeSelector {
   void report_loss(uint32_t id, double loss);
   // Returns the use that pick() took from `id` (a pick made ahead of time and then not trained on).
   void give_back(uint32_t id);
-  std::vector<uint32_t> candidates() const;  // keyframes in the latest keyframe's cell, ascending
+  // Keyframes in the latest keyframe's cell (within the window, if one is set), ascending.
+  std::vector<uint32_t> candidates() const;
+  // Narrows the candidates to these keyframes until the next add(); empty: the whole cell. The
+  // latest keyframe is always a candidate.
+  void restrict_to(std::vector<uint32_t> ids);
+  bool restricted() const { return !window_.empty(); }
   const KeyframeUsage& usage(uint32_t id) const;
   size_t size() const { return keyframes_.size(); }
   const KeyframeSelectorConfig& config() const { return config_; }
@@ -53,6 +63,7 @@ class KeyframeSelector {
   std::unordered_map<uint32_t, KeyframeUsage> keyframes_;
   std::vector<uint32_t> order_;  // insertion order
   uint32_t latest_ = 0;
+  std::vector<uint32_t> window_;  // sorted; empty: no window
 };
 
 }  // namespace chungs

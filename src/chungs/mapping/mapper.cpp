@@ -73,6 +73,7 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     // Keyframes stored after the last checkpoint are dropped: their frames are processed again.
     for (uint64_t id : keyframe_store_->ids())
       if (std::find(known.begin(), known.end(), id) == known.end()) keyframe_store_->erase(id);
+    update_training_window();
   }
   if (resume && fs::exists(folder / "run_state.json")) {
     resumed_state_ = read_json_file(folder / "run_state.json");
@@ -223,6 +224,7 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   }
   rec.uses = selector_.usage(id).uses;
   keyframes_.push_back(rec);
+  update_training_window();
   return stats;
 }
 

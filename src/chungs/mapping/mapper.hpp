@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -102,6 +103,9 @@ class Mapper {
   // SamplerConfig::new_per_step); 0 for no cap.
   uint64_t new_gaussian_cap(const Image8& image);
   StepStats step_keyframe(uint32_t keyframe);  // one optimisation step on the given keyframe
+  // Narrows the selector's candidates to the keyframes whose views fit the budget together
+  // (training_window.hpp); after every change of the keyframes or their poses.
+  void update_training_window();
   std::filesystem::path folder_;
   Config config_;
   std::unique_ptr<ChunkStore> store_;
@@ -125,6 +129,7 @@ class Mapper {
   void recover_checkpoint_files();
   std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
+  std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views
   bool loop_batch_allowed_ = true;
 };
 

@@ -59,6 +59,8 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
     const KeyframeRecord& latest = keyframes_.back();
     const KeyframeUsage u = selector_.usage(latest.id);
     selector_.add(latest.id, latest.pose.t, u.uses, u.last_loss);
+    view_chunks_.clear();  // the views moved
+    update_training_window();
   }
 
   const auto t0 = std::chrono::steady_clock::now();

@@ -204,6 +204,7 @@ void Residency::load(ChunkId id) {
 void Residency::evict_entry(ChunkId id) {
   Resident& e = resident_.at(id);
   const size_t n = e.slots.size();
+  checkpoint_clean_.erase(id);  // written behind now, or already clean
   if (e.dirty) {
     std::shared_ptr<const GaussianBlock> block = copy_out(id);  // one copy serves both
     if (!block) {
@@ -268,6 +269,7 @@ PinResult Residency::add(ChunkId id, const GaussianBlock& block) {
   }
   e.slots.insert(e.slots.end(), fresh.begin(), fresh.end());
   e.dirty = true;
+  checkpoint_clean_.erase(id);
   touch(e, id);
   resident_gaussians_ += block.size();
   peak_resident_ = std::max(peak_resident_, resident_gaussians_);
@@ -294,12 +296,16 @@ void Residency::remove_slots(ChunkId id, std::span<const uint32_t> slots) {
   pool_.release(gone);
   e.slots = std::move(kept);
   e.dirty = true;
+  checkpoint_clean_.erase(id);
   resident_gaussians_ -= gone.size();
   catalogue_[id] -= gone.size();
   if (e.pins > 0) pinned_gaussians_ -= gone.size();
 }
 
-void Residency::mark_dirty(ChunkId id) { resident_entry(id, "mark_dirty").dirty = true; }
+void Residency::mark_dirty(ChunkId id) {
+  resident_entry(id, "mark_dirty").dirty = true;
+  checkpoint_clean_.erase(id);
+}
 
 void Residency::mark_dirty(std::span<const ChunkId> ids) {
   for (ChunkId id : ids) mark_dirty(id);

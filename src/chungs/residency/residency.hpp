@@ -95,9 +95,11 @@ class Residency {
   // Each modified chunk is copied out of the pool just before the caller could change it (pin,
   // add, remove_slots, eviction); advance_checkpoint() between steps copies the rest out a little
   // at a time, so host memory holds at most ~1/32 of the budget of them. `before_commit` and
-  // `after_commit` run on a writer thread around the manifest commit. Chunks stay marked modified
-  // (the live map's files are not the checkpoint's), so a later eviction writes them again. One
-  // still in flight is finished first. Time the caller is blocked counts as checkpoint time.
+  // `after_commit` run on a writer thread around the manifest commit. Once it is committed, a
+  // chunk not changed since it was copied out takes the checkpoint's file as its live file and is
+  // clean again, so the next checkpoint (the final one included) and its eviction write only what
+  // changed since. One still in flight is finished first. Time the caller is blocked counts as
+  // checkpoint time.
   void begin_checkpoint(std::function<void()> before_commit, std::function<void()> after_commit);
   // Copies out a portion; collects a finished checkpoint (rethrowing its failure).
   void advance_checkpoint();
@@ -148,6 +150,8 @@ class Residency {
   // now and handed to the writer. Must run before anything changes the chunk's slots.
   std::shared_ptr<const GaussianBlock> copy_out(ChunkId id);
   size_t checkpoint_memory_limit() const;
+  // A committed checkpoint: chunks unchanged since their copy take its files as their live ones.
+  void adopt_checkpoint();
 
   ChunkStore& store_;
   GaussianPool& pool_;
@@ -161,6 +165,7 @@ class Residency {
   std::unique_ptr<IoWorker> io_;
   std::unique_ptr<CheckpointWriter> checkpoint_;  // in flight (begin_checkpoint)
   std::unordered_set<ChunkId> checkpoint_todo_;   // modified at its moment, not yet copied out
+  std::unordered_set<ChunkId> checkpoint_clean_;  // copied out and not changed since
   std::function<void()> checkpoint_before_, checkpoint_after_;
   std::chrono::steady_clock::time_point checkpoint_started_;
 };

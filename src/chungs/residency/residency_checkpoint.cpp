@@ -25,6 +25,7 @@ void Residency::begin_checkpoint(std::function<void()> before_commit, std::funct
   checkpoint_before_ = std::move(before_commit);
   checkpoint_after_ = std::move(after_commit);
   checkpoint_todo_.clear();
+  checkpoint_clean_.clear();
   for (const auto& [id, e] : resident_)
     if (e.dirty) checkpoint_todo_.insert(id);
   if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
@@ -36,6 +37,7 @@ std::shared_ptr<const GaussianBlock> Residency::copy_out(ChunkId id) {
   auto block = std::make_shared<GaussianBlock>();
   pool_.gather(resident_.at(id).slots, *block);
   checkpoint_->put(id, block);
+  checkpoint_clean_.insert(id);
   if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
   return block;
 }
@@ -55,8 +57,22 @@ void Residency::advance_checkpoint() {
     store_.counters().checkpoint_behind_ns += uint64_t(ns_since(checkpoint_started_));
     auto done = std::move(checkpoint_);
     checkpoint_todo_.clear();
-    done->rethrow();
+    try {
+      done->rethrow();
+    } catch (...) {
+      checkpoint_clean_.clear();
+      throw;
+    }
+    adopt_checkpoint();
   }
+}
+
+void Residency::adopt_checkpoint() {
+  for (ChunkId id : checkpoint_clean_) {
+    const auto it = resident_.find(id);
+    if (it != resident_.end() && store_.adopt_committed(id)) it->second.dirty = false;
+  }
+  checkpoint_clean_.clear();
 }
 
 void Residency::finish_checkpoint() {
@@ -73,11 +89,13 @@ void Residency::finish_checkpoint() {
     } catch (...) {
       checkpoint_.reset();
       checkpoint_todo_.clear();
+      checkpoint_clean_.clear();
       throw;
     }
   }
   store_.counters().checkpoint_behind_ns += uint64_t(ns_since(checkpoint_started_));
   checkpoint_.reset();
+  adopt_checkpoint();
 }
 
 }  // namespace chungs

@@ -213,7 +213,7 @@ void ChunkStore::remove(ChunkId id) {
 
 bool ChunkStore::is_committed(ChunkId id, uint64_t generation) const {
   auto it = committed_.find(id);
-  return it != committed_.end() && it->second == generation;
+  return it != committed_.end() && it->second.generation == generation;
 }
 
 bool ChunkStore::is_held(ChunkId id, uint64_t generation) const { return held_.count({id, generation}) > 0; }
@@ -316,7 +316,7 @@ void ChunkStore::commit_manifest(const Manifest& snapshot, const std::vector<std
     std::lock_guard lock(mutex_);
     committing_ = false;
     committed_.clear();
-    for (const auto& [id, e] : snapshot.chunks) committed_[id] = e.generation;
+    committed_ = snapshot.chunks;
     std::erase_if(retired_, [&](const Retired& r) {
       if (!deletable_after(r, snapshot)) return false;
       doomed.push_back(r);

@@ -121,6 +121,12 @@ class ChunkStore {
   // The durability barrier for the snapshot's map; the live map stays uncommitted.
   void commit_snapshot();
   void abandon_snapshot();  // releases the held files (after a failure; the last commit stands)
+  // After a snapshot's commit, for a chunk the caller has not changed since it handed over the
+  // snapshot's content: the committed file becomes the live one too (the previous live file is
+  // retired), so the chunk need not be written again by the next snapshot or by an eviction.
+  // False (nothing changed) when the committed map does not name the chunk, when it already is
+  // the live file, or while a snapshot is pending.
+  bool adopt_committed(ChunkId id);
 
   IoCounters& counters() const { return counters_; }
 
@@ -163,7 +169,7 @@ class ChunkStore {
   bool committing_ = false;  // a commit() is between snapshot and manifest
   uint64_t next_generation_ = 1;
   std::set<uint64_t> writing_;                       // generations being written (not yet in manifest_)
-  std::map<ChunkId, uint64_t> committed_;            // generations the manifest on disk names
+  std::map<ChunkId, ManifestEntry> committed_;       // entries the manifest on disk names
   std::set<std::pair<ChunkId, uint64_t>> unsynced_;  // chunk files written since the last barrier
   std::vector<Retired> retired_;                     // waiting for a commit before deletion
   std::optional<Manifest> snapshot_;                 // pending snapshot (begin_snapshot)

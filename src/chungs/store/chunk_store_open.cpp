@@ -102,7 +102,7 @@ void ChunkStore::reconcile(bool have_manifest) {
       ++report_.orphans;
     }
     if (keep && config_.durable && (!named || *keep != named->generation)) unsynced_.insert({id, *keep});
-    if (named) committed_[id] = named->generation;
+    if (named) committed_[id] = *named;
     const auto c = chosen.find(id);
     if (!named && c != chosen.end())
       ++report_.entries_adopted;

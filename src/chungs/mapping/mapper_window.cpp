@@ -1,0 +1,37 @@
+// Mapper::update_training_window: narrows the selector's cell to the keyframes whose chunks fit
+// the budget together (training_window.hpp).
+#include <unordered_set>
+
+#include "chungs/mapping/mapper.hpp"
+#include "chungs/mapping/training_window.hpp"
+
+namespace chungs {
+
+void Mapper::update_training_window() {
+  if (keyframes_.empty()) return;
+  const std::vector<uint32_t> cell = selector_.candidates();  // add() cleared the window
+  // Only the cell's keyframes are remembered, so this cache stays as small as the cell.
+  const std::unordered_set<uint32_t> in_cell(cell.begin(), cell.end());
+  std::erase_if(view_chunks_, [&](const auto& kv) { return !in_cell.count(kv.first); });
+  const Eigen::Vector3d at = keyframes_.back().pose.t;
+  std::vector<WindowKeyframe> keyframes;
+  keyframes.reserve(cell.size());
+  for (uint32_t id : cell) {
+    const KeyframeRecord* k = find_keyframe(id);
+    if (!k) continue;
+    auto it = view_chunks_.find(id);
+    // A view's chunks as of when it was first a candidate: chunks sampled later in front of it come
+    // from newer keyframes, which lie nearer the latest one and so enter the window first.
+    if (it == view_chunks_.end()) {
+      culler_->set_chunks_from(residency_->catalogue(), residency_->catalogue_version());
+      it = view_chunks_.emplace(id, culler_->cull(k->camera, k->pose)).first;
+    }
+    keyframes.push_back({id, (k->pose.t - at).norm(), &it->second});
+  }
+  const uint64_t room = uint64_t(double(residency_->budget()) * config_.selector.budget_share);
+  std::vector<uint32_t> window =
+      fit_training_window(std::move(keyframes), [&](ChunkId c) { return residency_->count(c); }, room);
+  if (window.size() < cell.size()) selector_.restrict_to(std::move(window));
+}
+
+}  // namespace chungs
