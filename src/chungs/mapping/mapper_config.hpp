@@ -28,9 +28,10 @@ struct MapperConfig {
   // A checkpoint (the resume point) is due every checkpoint_seconds, or every checkpoint_every
   // keyframes (0: off), but never before the optimiser time the last one cost is at most
   // checkpoint_max_share of the time since it began (0: no such bound): its cost grows with the
-  // chunks modified meanwhile, so the cadence adapts to the map and the disk.
+  // chunks modified meanwhile, so the cadence adapts to the map and the disk. Each writes only
+  // what changed since the last, so a short cadence also keeps the final one (which waits) short.
   int checkpoint_every = 0;
-  double checkpoint_seconds = 60;
+  double checkpoint_seconds = 30;
   double checkpoint_max_share = 0.01;
   uint64_t seed = 1;
   int eval_keyframe_stride = 1;     // paper protocol: score every n-th keyframe at the end (0: off)
