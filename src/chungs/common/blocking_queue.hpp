@@ -1,6 +1,8 @@
 // BlockingQueue: hands items from one producer thread to one consumer thread, in order. The
 // producer ends the stream with close(), or with fail() to pass its exception to the consumer,
-// which then sees it rethrown by pop() once the items queued before it are taken.
+// which then sees it rethrown by pop() once the items queued before it are taken. With a capacity,
+// push() waits while that many items are queued; a consumer that stops early calls close(), which
+// releases a waiting producer (push() then drops the item and returns false).
 #pragma once
 #include <condition_variable>
 #include <deque>
@@ -13,12 +15,16 @@ namespace chungs {
 template <class T>
 class BlockingQueue {
  public:
-  void push(T item) {
+  explicit BlockingQueue(size_t capacity = 0) : capacity_(capacity) {}
+  bool push(T item) {
     {
-      std::lock_guard lock(mutex_);
+      std::unique_lock lock(mutex_);
+      room_.wait(lock, [&] { return capacity_ == 0 || items_.size() < capacity_ || closed_; });
+      if (closed_) return false;
       items_.push_back(std::move(item));
     }
     ready_.notify_one();
+    return true;
   }
   void close() {
     {
@@ -26,6 +32,7 @@ class BlockingQueue {
       closed_ = true;
     }
     ready_.notify_all();
+    room_.notify_all();
   }
   void fail(std::exception_ptr error) {
     {
@@ -34,6 +41,7 @@ class BlockingQueue {
       closed_ = true;
     }
     ready_.notify_all();
+    room_.notify_all();
   }
   // The next item; none once the queue is closed and drained. Rethrows the producer's failure.
   std::optional<T> pop() {
@@ -42,6 +50,8 @@ class BlockingQueue {
     if (!items_.empty()) {
       T item = std::move(items_.front());
       items_.pop_front();
+      lock.unlock();
+      room_.notify_one();
       return item;
     }
     if (error_) std::rethrow_exception(error_);
@@ -54,8 +64,9 @@ class BlockingQueue {
 
  private:
   mutable std::mutex mutex_;
-  std::condition_variable ready_;
+  std::condition_variable ready_, room_;
   std::deque<T> items_;
+  size_t capacity_;
   bool closed_ = false;
   std::exception_ptr error_;
 };
