@@ -9,7 +9,7 @@
 # Runs, in order: the real KITTI excerpt at its real rate (10 Hz, full resolution; given and tracked
 # poses); the 2 km street at 620x188 x {anytime 72 km/h, anytime 36 km/h, fixed 30 steps per
 # keyframe} x {default budget, 300 000, 100 000} (the three budgets of a pacing side by side on the one
-# GPU, so they share it alike); then the 10 km drive at 72 km/h.
+# GPU, so they share it alike); the 10 km drive at 72 km/h runs alone, after KITTI.
 # Env: BUNDLE (default .gpu/rt, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/rt`), DATA (a
 # folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1.
 set -uo pipefail
@@ -39,6 +39,8 @@ all() {
   nvidia-smi >"$work/nvidia-smi.txt" 2>&1
   cell kitti_anytime --dataset "kitti:$data/kitti_seq1" --pacing anytime
   cell kitti_anytime_track --dataset "kitti:$data/kitti_seq1" --pacing anytime --poses track
+  # Alone on the GPU (its VRAM figures are device-wide), before the groups.
+  [[ ${SKIP_DRIVE:-0} == 1 ]] || cell drive10k_a72 --dataset "$(street 10000)" --pacing anytime --speed 2
   # The fast intakes first: the slowest group (fixed pacing) last.
   for pacing in a72 a36 fixed; do
     case $pacing in
@@ -51,7 +53,6 @@ all() {
     cell "${pacing}_b100k" --dataset "$(street 2000)" "${args[@]}" --budget 100000 &
     wait
   done
-  [[ ${SKIP_DRIVE:-0} == 1 ]] || cell drive10k_a72 --dataset "$(street 10000)" --pacing anytime --speed 2
   touch "$work/done"
 }
 
@@ -116,8 +117,8 @@ PY
   (cd "$work" && tar czf "$out/results.tgz" --exclude='*/map/chunks' --exclude='*/map/keyframes' \
     --exclude='*/map/renders' --exclude='*/map/checkpoint-*' ./*/log ./*/args ./*/exit ./*/map/report.json \
     ./*/map/timeline.csv ./*/map/memory.png ./*.txt 2>/dev/null)
-  # A few held-out renders of each default-budget run, to look at.
-  (cd "$work" && find . -path './*_default/map/renders/*' -name '*.png' | sort | awk 'NR % 8 == 1' | head -n 40 |
+  # A few held-out renders of each default-budget run and the drive, to look at.
+  (cd "$work" && find . \( -path './*_default/map/renders/*' -o -path './drive*/map/renders/*' \) -name '*.png' | sort | awk 'NR % 8 == 1' | head -n 40 |
     tar czf "$out/renders.tgz" -T - 2>/dev/null)
   ls -la "$out"
   ;;

@@ -1,4 +1,4 @@
-// Long random sequences of insert / modify / prune / pin / unpin / evict / prefetch / reopen
+// Long random sequences of insert / modify / prune / pin / unpin / evict / prefetch / checkpoint / reopen
 // against a plain in-memory model of the map. Every Gaussian carries a unique tag (its
 // created_at_step) so that loss, duplication, or any changed bit is caught wherever it lives:
 // in the pool, in the write-behind queue, or on disk.
@@ -104,6 +104,9 @@ class World {
     auto ids = resident();
     if (ids.empty()) return;
     const ChunkId id = ids[rng_() % ids.size()];
+    // As an optimiser step does: pinned while it changes (a checkpoint in flight copies it first).
+    const ChunkId one_id[] = {id};
+    if (!res_->pin(one_id).ok) return;
     GaussianBlock& s = pool_->storage();
     std::vector<uint32_t> changed;
     for (uint32_t slot : res_->slots(id)) {
@@ -118,6 +121,11 @@ class World {
     pool_->gather(changed, g);
     for (size_t i = 0; i < g.size(); ++i) model_[id][g.created_at_step[i]] = one(g, i);
     res_->mark_dirty(id);
+    res_->unpin(one_id);
+  }
+  // Checkpoints written behind: after each, chunks unchanged since their copy count as written.
+  void checkpoint() {
+    if (!res_->checkpoint_in_flight()) res_->begin_checkpoint([] {}, [] {});
   }
 
   void prune() {
@@ -206,10 +214,12 @@ class World {
       if (op < 22) insert();
       else if (op < 37) modify();
       else if (op < 45) prune();
-      else if (op < 65) pin();
-      else if (op < 82) unpin();
-      else if (op < 88) evict();
-      else if (op < 96) prefetch();
+      else if (op < 63) pin();
+      else if (op < 80) unpin();
+      else if (op < 86) evict();
+      else if (op < 92) prefetch();
+      else if (op < 94) checkpoint();
+      else if (op < 97) res_->advance_checkpoint();
       else if (op < 98) res_->set_budget(kBudget);
       else reopen();
       if (::testing::Test::HasFatalFailure()) return;
@@ -235,6 +245,7 @@ class World {
     total_.pool_loads += s.pool_loads, total_.prefetch_hits += s.prefetch_hits;
     total_.write_behind_hits += s.write_behind_hits, total_.sync_loads += s.sync_loads, total_.waits += s.waits;
     total_.evictions_clean += s.evictions_clean, total_.evictions_dirty += s.evictions_dirty;
+    total_.checkpoints += s.checkpoints, total_.checkpoints_behind += s.checkpoints_behind;
   }
 
  private:
@@ -276,5 +287,6 @@ TEST(Residency, NeverExceedsBudgetNorLosesAGaussianWithBackgroundIo) {
     w.run(2500);
     if (HasFatalFailure()) return;
     std::printf("[ async    ] seed %u: %s\n", seed, w.stats().summary().c_str());
+    EXPECT_GT(w.stats().checkpoints_behind, 10u);
   }
 }

@@ -10,6 +10,10 @@ void append_n(V& dst, const V& src, size_t i, size_t n) {
   dst.insert(dst.end(), src.begin() + i * n, src.begin() + (i + 1) * n);
 }
 template <typename V>
+void append_range_n(V& dst, const V& src, size_t first, size_t count, size_t n) {
+  dst.insert(dst.end(), src.begin() + first * n, src.begin() + (first + count) * n);
+}
+template <typename V>
 void move_last_to(V& v, size_t i, size_t n) {
   size_t last = v.size() / n - 1;
   if (i != last)
@@ -32,6 +36,14 @@ void GaussianParams::append(const GaussianParams& o, size_t i) {
   append_n(rotation, o.rotation, i, 4);
   append_n(opacity, o.opacity, i, 1);
   append_n(sh, o.sh, i, kShFloats);
+}
+
+void GaussianParams::append_range(const GaussianParams& o, size_t first, size_t n) {
+  append_range_n(mean, o.mean, first, n, 3);
+  append_range_n(log_scale, o.log_scale, first, n, 3);
+  append_range_n(rotation, o.rotation, first, n, 4);
+  append_range_n(opacity, o.opacity, first, n, 1);
+  append_range_n(sh, o.sh, first, n, kShFloats);
 }
 
 void GaussianParams::swap_remove(size_t i) {
@@ -60,6 +72,16 @@ void GaussianBlock::append(const GaussianBlock& o, size_t i) {
   append_n(created_by_keyframe, o.created_by_keyframe, i, 1);
   append_n(created_at_step, o.created_at_step, i, 1);
   append_n(lr_position_factor, o.lr_position_factor, i, 1);
+}
+
+void GaussianBlock::append_range(const GaussianBlock& o, size_t first, size_t n) {
+  params.append_range(o.params, first, n);
+  adam_m.append_range(o.adam_m, first, n);
+  adam_v.append_range(o.adam_v, first, n);
+  append_range_n(adam_steps, o.adam_steps, first, n, 1);
+  append_range_n(created_by_keyframe, o.created_by_keyframe, first, n, 1);
+  append_range_n(created_at_step, o.created_at_step, first, n, 1);
+  append_range_n(lr_position_factor, o.lr_position_factor, first, n, 1);
 }
 
 void GaussianBlock::swap_remove(size_t i) {

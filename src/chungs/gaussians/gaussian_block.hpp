@@ -28,6 +28,7 @@ struct GaussianParams {
   void resize(size_t n);
   void clear() { resize(0); }
   void append(const GaussianParams& o, size_t i);  // copies Gaussian i of o to the end
+  void append_range(const GaussianParams& o, size_t first, size_t n);  // Gaussians [first, first + n) of o
   void swap_remove(size_t i);                      // moves the last Gaussian into i
 };
 
@@ -43,6 +44,7 @@ struct GaussianBlock {
   size_t size() const { return params.size(); }
   void resize(size_t n);
   void append(const GaussianBlock& o, size_t i);
+  void append_range(const GaussianBlock& o, size_t first, size_t n);
   void swap_remove(size_t i);
   // Throws Error when the arrays disagree in size (corrupt input) or sh_degree is out of range.
   void validate(const char* what) const;

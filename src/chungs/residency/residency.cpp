@@ -113,7 +113,7 @@ PinResult Residency::pin(std::span<const ChunkId> ids) {
     log::warn(r.message);
     return r;
   }
-  for (ChunkId id : want) copy_out(id);  // a pinned chunk may change
+  copy_out_many(want);  // a pinned chunk may change
   if (!make_room(missing, want, &r.evicted))
     fail("residency: internal error: no room for ", missing, " Gaussians although the pinned set fits");
   for (ChunkId id : want) {

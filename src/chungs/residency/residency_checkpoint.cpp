@@ -13,6 +13,16 @@ double ns_since(std::chrono::steady_clock::time_point t) {
 
 size_t Residency::checkpoint_memory_limit() const { return std::max<size_t>(budget_ / 32, 10'000); }
 
+std::vector<ChunkId> Residency::next_portion(size_t gaussians) const {
+  std::vector<ChunkId> out;
+  size_t n = 0;
+  for (auto it = checkpoint_todo_.begin(); it != checkpoint_todo_.end() && (out.empty() || n < gaussians); ++it) {
+    out.push_back(*it);
+    n += resident_.at(*it).slots.size() + 1;
+  }
+  return out;
+}
+
 void Residency::begin_checkpoint(std::function<void()> before_commit, std::function<void()> after_commit) {
   finish_checkpoint();
   IoCounters& c = store_.counters();
@@ -42,16 +52,39 @@ std::shared_ptr<const GaussianBlock> Residency::copy_out(ChunkId id) {
   return block;
 }
 
+void Residency::copy_out_many(std::span<const ChunkId> ids) {
+  if (!checkpoint_) return;
+  std::vector<ChunkId> todo;
+  std::vector<uint32_t> slots;
+  for (ChunkId id : ids)
+    if (checkpoint_todo_.erase(id)) {
+      todo.push_back(id);
+      const auto& s = resident_.at(id).slots;
+      slots.insert(slots.end(), s.begin(), s.end());
+    }
+  if (todo.empty()) return;
+  ScopedTimer t(store_.counters().checkpoint_ns);
+  GaussianBlock all;
+  pool_.gather(slots, all);
+  size_t first = 0;
+  for (ChunkId id : todo) {
+    const size_t n = resident_.at(id).slots.size();
+    auto block = std::make_shared<GaussianBlock>();
+    block->sh_degree = all.sh_degree;
+    block->append_range(all, first, n);
+    first += n;
+    checkpoint_->put(id, std::move(block));
+    checkpoint_clean_.insert(id);
+  }
+  if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
+}
+
 void Residency::advance_checkpoint() {
   if (!checkpoint_) return;
   if (!checkpoint_todo_.empty()) {
     // A portion per call spreads the gathers over many steps; the bound keeps host memory flat.
     const size_t limit = checkpoint_memory_limit();
-    size_t copied = 0;
-    while (!checkpoint_todo_.empty() && copied < limit / 4 && checkpoint_->queued_gaussians() < limit) {
-      const ChunkId id = *checkpoint_todo_.begin();
-      copied += copy_out(id)->size() + 1;
-    }
+    if (checkpoint_->queued_gaussians() < limit) copy_out_many(next_portion(limit / 4));
   }
   if (checkpoint_->finished()) {
     store_.counters().checkpoint_behind_ns += uint64_t(ns_since(checkpoint_started_));
@@ -83,7 +116,7 @@ void Residency::finish_checkpoint() {
     try {
       while (!checkpoint_todo_.empty()) {
         checkpoint_->wait_below(limit);
-        copy_out(*checkpoint_todo_.begin());
+        copy_out_many(next_portion(limit / 4));
       }
       checkpoint_->wait();
     } catch (...) {
