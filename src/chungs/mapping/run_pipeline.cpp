@@ -336,6 +336,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       {"barrier_ms", io.barrier_ms},
       {"bytes_read", io.bytes_read},
       {"bytes_written", io.bytes_written},
+      // Chunks made resident, and how: read ahead in the background, or waited for by the optimiser.
+      {"pool_loads", io.pool_loads},
+      {"prefetch_hits", io.prefetch_hits},
+      {"waited_loads", io.sync_loads},
       {"evictions_clean", io.evictions_clean},
       {"evictions_dirty", io.evictions_dirty},
       {"summary", io.summary()}};
