@@ -142,7 +142,6 @@ void fields(V& v, KeyframeSelectorConfig& c) {
   v("new_uses", c.new_uses, "remaining uses of a new keyframe");
   v("top_loss_fraction", c.top_loss_fraction, "share of candidates by loss that get an extra use");
   v("budget_share", c.budget_share, "most of the budget the keyframes trained on together may need");
-  v("sweep_steps", c.sweep_steps, "steps between moves of the training window's focus (0: around the latest)");
 }
 template <class V>
 void fields(V& v, StereoDepthConfig& c) {

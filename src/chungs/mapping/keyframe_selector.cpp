@@ -14,7 +14,6 @@ void KeyframeSelectorConfig::validate() const {
     fail("keyframe selector: top_loss_fraction must be in [0, 1], got ", top_loss_fraction);
   if (!(budget_share > 0 && budget_share <= 1))
     fail("keyframe selector: budget_share must be in (0, 1], got ", budget_share);
-  if (sweep_steps < 0) fail("keyframe selector: sweep_steps must be >= 0, got ", sweep_steps);
 }
 
 KeyframeSelector::KeyframeSelector(const KeyframeSelectorConfig& config) : config_(config) { config_.validate(); }
@@ -37,22 +36,15 @@ void KeyframeSelector::restrict_to(std::vector<uint32_t> ids) {
   window_ = std::move(ids);
 }
 
-std::vector<uint32_t> KeyframeSelector::cell() const {
+std::vector<uint32_t> KeyframeSelector::candidates() const {
   std::vector<uint32_t> out;
   if (keyframes_.empty()) return out;
   const Cell c = cell_of(keyframes_.at(latest_).position);
   for (const auto& [id, k] : keyframes_)
-    if (cell_of(k.position) == c) out.push_back(id);
+    if (cell_of(k.position) == c &&
+        (window_.empty() || id == latest_ || std::binary_search(window_.begin(), window_.end(), id)))
+      out.push_back(id);
   std::sort(out.begin(), out.end());
-  return out;
-}
-
-std::vector<uint32_t> KeyframeSelector::candidates() const {
-  std::vector<uint32_t> out = cell();
-  if (!window_.empty())
-    std::erase_if(out, [&](uint32_t id) {
-      return id != latest_ && !std::binary_search(window_.begin(), window_.end(), id);
-    });
   return out;
 }
 

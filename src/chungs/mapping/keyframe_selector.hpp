@@ -22,9 +22,6 @@ struct KeyframeSelectorConfig {
   // The keyframes trained on together may need at most this share of the budget (their chunks'
   // Gaussians): the rest leaves room for new Gaussians and eviction's hysteresis.
   double budget_share = 0.85;
-  // Steps between moves of the window's focus by one keyframe (see mapper_window.cpp); 0: the
-  // window stays around the latest keyframe.
-  int sweep_steps = 2;
   void validate() const;
 };
 
@@ -47,10 +44,8 @@ class KeyframeSelector {
   void give_back(uint32_t id);
   // Keyframes in the latest keyframe's cell (within the window, if one is set), ascending.
   std::vector<uint32_t> candidates() const;
-  std::vector<uint32_t> cell() const;  // the latest keyframe's cell, whatever the window
-  uint32_t latest() const { return latest_; }
-  // Narrows the candidates to these keyframes until the next add() or restrict_to(); empty: the
-  // whole cell. The latest keyframe is always a candidate.
+  // Narrows the candidates to these keyframes until the next add(); empty: the whole cell. The
+  // latest keyframe is always a candidate.
   void restrict_to(std::vector<uint32_t> ids);
   bool restricted() const { return !window_.empty(); }
   const KeyframeUsage& usage(uint32_t id) const;

@@ -241,7 +241,6 @@ uint64_t Mapper::new_gaussian_cap(const Image8& image) {
 StepStats Mapper::step() {
   if (keyframes_.empty()) fail("mapper: an optimisation step needs at least one keyframe");
   residency_->advance_checkpoint();
-  sweep_training_window();
   // The keyframe after this one is drawn now and its chunks are read in the background while this
   // step runs, so the next pin finds them in host memory instead of waiting on the disk.
   const uint32_t keyframe = next_pick_ ? *next_pick_ : selector_.pick(rng_);

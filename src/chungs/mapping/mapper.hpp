@@ -104,9 +104,8 @@ class Mapper {
   uint64_t new_gaussian_cap(const Image8& image);
   StepStats step_keyframe(uint32_t keyframe);  // one optimisation step on the given keyframe
   // Narrows the selector's candidates to the keyframes whose views fit the budget together
-  // (training_window.hpp, mapper_window.cpp); after every change of the keyframes or their poses.
+  // (training_window.hpp); after every change of the keyframes or their poses.
   void update_training_window();
-  void sweep_training_window();  // moves the window's focus on (before each step)
   std::filesystem::path folder_;
   Config config_;
   std::unique_ptr<ChunkStore> store_;
@@ -131,9 +130,6 @@ class Mapper {
   std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views
-  uint32_t focus_ = 0;            // the training window's centre keyframe (mapper_window.cpp)
-  int focus_step_ = -1;           // its direction through the cell: towards older (-1) or newer
-  uint64_t focus_moved_at_ = 0;   // iteration of its last move
   bool loop_batch_allowed_ = true;
 };
 
