@@ -11,7 +11,8 @@
 # keyframe} x {default budget, 300 000, 100 000} (the three budgets of a pacing side by side on the one
 # GPU, so they share it alike); the 10 km drive at 72 km/h runs alone, after KITTI.
 # Env: BUNDLE (default .gpu/rt, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/rt`), DATA (a
-# folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1.
+# folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1,
+# SKIP_KITTI=1, PACINGS (default "a72 a36 fixed": the groups of the matrix to run).
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bundle=${BUNDLE:-$root/.gpu/rt}
@@ -37,12 +38,14 @@ street() { echo "synth-street:length=$1,width=620,height=188,seed=$seed"; }
 all() {
   "$bin" info >"$work/info.txt" 2>&1
   nvidia-smi >"$work/nvidia-smi.txt" 2>&1
-  cell kitti_anytime --dataset "kitti:$data/kitti_seq1" --pacing anytime
-  cell kitti_anytime_track --dataset "kitti:$data/kitti_seq1" --pacing anytime --poses track
+  if [[ ${SKIP_KITTI:-0} != 1 ]]; then
+    cell kitti_anytime --dataset "kitti:$data/kitti_seq1" --pacing anytime
+    cell kitti_anytime_track --dataset "kitti:$data/kitti_seq1" --pacing anytime --poses track
+  fi
   # Alone on the GPU (its VRAM figures are device-wide), before the groups.
   [[ ${SKIP_DRIVE:-0} == 1 ]] || cell drive10k_a72 --dataset "$(street 10000)" --pacing anytime --speed 2
   # The fast intakes first: the slowest group (fixed pacing) last.
-  for pacing in a72 a36 fixed; do
+  for pacing in ${PACINGS:-a72 a36 fixed}; do
     case $pacing in
     fixed) args=() ;;
     a36) args=(--pacing anytime) ;;
