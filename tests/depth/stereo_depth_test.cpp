@@ -55,6 +55,26 @@ TEST(StereoDepth, RecoversMetricDepthOfAConstantDisparity) {
   EXPECT_GE(s.valid, 1u);
 }
 
+TEST(StereoDepth, ColumnsWithinTheSearchRangeOfTheLeftEdgeGetDepthToo) {
+  // A search range as wide as most of the image (a small image at the default range): only the
+  // columns whose match lies outside the right image (x < disparity) may go without depth.
+  const Image8 l = texture(96, 48, 11);
+  const Image8 r = shift(l, 10, 10, 0);
+  const double fx = 80, b = 0.5;
+  StereoDepthConfig c;
+  c.num_disparities = 64;
+  const StereoDepth s = stereo_depth(l, r, fx, b, c);
+  size_t valid = 0, right_depth = 0;
+  for (int y = 4; y < 44; ++y)
+    for (int x = 16; x < 64; ++x) {  // all within the 64-pixel range of the left edge
+      if (s.depth(x, y) <= 0) continue;
+      ++valid;
+      if (std::abs(s.depth(x, y) - fx * b / 10) < 0.2) ++right_depth;
+    }
+  EXPECT_GT(valid, size_t(0.6 * 40 * 48));
+  EXPECT_GT(right_depth, size_t(0.95 * double(valid)));
+}
+
 TEST(StereoDepth, SeparatesTwoDepthsAndRejectsOcclusions) {
   const Image8 l = texture(200, 80, 5);
   const Image8 r = shift(l, 20, 8, 100);

@@ -44,17 +44,28 @@ StereoDepth stereo_depth(const Image8& left, const Image8& right, double fx, dou
          right.height(), " images differ in size or are empty");
   if (!(fx > 0) || !(baseline > 0)) fail("stereo depth: need fx > 0 and baseline > 0, got ", fx, " and ", baseline);
   const int num_disp = (config.num_disparities + 15) / 16 * 16;
+  const int w = left.width(), h = left.height();
   cv::Mat l = gray_mat(left), r = gray_mat(right);
   // Right disparities come from matching the mirrored pair: mirrored right becomes the "left".
   cv::Mat lf, rf, dl, dr_flipped, dr;
   cv::flip(l, lf, 1);
   cv::flip(r, rf, 1);
   auto matcher = make_matcher(config, num_disp);
-  matcher->compute(l, r, dl);
-  matcher->compute(rf, lf, dr_flipped);
+  // SGBM leaves the first num_disp columns without disparity (their search range would leave the
+  // image): at 310 pixels wide that was 40 % of every view, at 160 all of it. Both images get that
+  // many blank columns in front, so every real column has its whole range; matches that would
+  // fall in the blank part find no texture there and the left-right check drops them.
+  auto match = [&](const cv::Mat& a, const cv::Mat& b, cv::Mat& out) {
+    cv::Mat pa, pb, d;
+    cv::copyMakeBorder(a, pa, 0, 0, num_disp, 0, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::copyMakeBorder(b, pb, 0, 0, num_disp, 0, cv::BORDER_CONSTANT, cv::Scalar(0));
+    matcher->compute(pa, pb, d);
+    out = d(cv::Rect(num_disp, 0, w, h)).clone();
+  };
+  match(l, r, dl);
+  match(rf, lf, dr_flipped);
   cv::flip(dr_flipped, dr, 1);
 
-  const int w = left.width(), h = left.height();
   StereoDepth out;
   out.depth = ImageF(w, h, 1, 0.f);
   out.confidence = ImageF(w, h, 1, 0.f);
