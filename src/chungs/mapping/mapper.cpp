@@ -1,6 +1,7 @@
 #include "chungs/mapping/mapper.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <unordered_map>
 #include <unordered_set>
@@ -184,6 +185,15 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   const uint32_t id = keyframes_.empty() ? 0 : keyframes_.back().id + 1;
   keyframe_store_->put(id, KeyframeImages{color, depth ? *depth : ImageF()});
   SampleStats stats;
+  if (depth && std::none_of(depth->data(), depth->data() + depth->pixels(),
+                            [](float d) { return d > 0 && std::isfinite(d); })) {
+    // Said once: an empty map with no word of why was what a too small image for the stereo
+    // search range gave before the matcher covered the whole width.
+    if (keyframes_without_depth_++ == 0)
+      log::warn("frame ", frame, ": its depth has no valid pixel, so nothing is sampled from it (a depth file "
+                "without data, or stereo images that do not match); report.json counts such keyframes "
+                "(keyframes_without_depth)");
+  }
   if (depth) {
     const ImageF target = to_rgb_float(color);
     std::vector<ChunkId> left_out;

@@ -87,6 +87,8 @@ class Mapper {
   uint64_t sampled_total() const { return sampled_total_; }  // Gaussians the sampler added (this process)
   // Steps since the latest keyframe was added.
   uint64_t steps_since_keyframe() const { return iterations_ - steps_at_last_keyframe_; }
+  // Keyframes given a depth map without one valid pixel (nothing could be sampled from them).
+  uint64_t keyframes_without_depth() const { return keyframes_without_depth_; }
   uint64_t views_over_budget() const { return views_over_budget_; }  // views whose chunks exceed the budget
   uint64_t largest_view() const { return largest_view_; }  // Gaussians of the largest such view
   const std::filesystem::path& folder() const { return folder_; }
@@ -118,7 +120,7 @@ class Mapper {
   std::vector<KeyframeRecord> keyframes_;
   std::mt19937_64 rng_;
   uint64_t iterations_ = 0, pruned_total_ = 0, sampled_total_ = 0;
-  uint64_t steps_at_last_keyframe_ = 0, views_over_budget_ = 0, largest_view_ = 0;
+  uint64_t steps_at_last_keyframe_ = 0, views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0;
   double steps_per_keyframe_ = -1;  // smoothed steps the keyframes got (-1: none measured yet)
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;

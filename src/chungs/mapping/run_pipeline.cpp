@@ -273,6 +273,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   if (tracked) report["tracking"] = feed->report();
   report["pose_updates"] = updates.report();
   report["keyframes"] = mapper.keyframes().size();
+  report["keyframes_without_depth"] = mapper.keyframes_without_depth();
   {
     // Whether the optimiser kept up: the figures a starving run shows first.
     nlohmann::json pj = pacing_summary(timeline).to_json();
