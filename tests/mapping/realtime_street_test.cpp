@@ -52,9 +52,9 @@ Cell map_street(const std::string& pacing, double speed, size_t budget) {
 }
 
 TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFloor) {
-  const Cell fixed = map_street("fixed", 1, 0), fixed_small = map_street("fixed", 1, 3000);
-  const Cell fast = map_street("anytime", 2, 0), fast_small = map_street("anytime", 2, 3000);
-  const Cell fixed_tiny = map_street("fixed", 1, 1200);
+  const Cell fixed = map_street("fixed", 1, 0), fixed_small = map_street("fixed", 1, 8000);
+  const Cell fast = map_street("anytime", 2, 0), fast_small = map_street("anytime", 2, 8000);
+  const Cell fixed_tiny = map_street("fixed", 1, 3000);
   for (const Cell* c : {&fixed, &fixed_small, &fast, &fast_small, &fixed_tiny})
     std::printf("total %llu, steps/kf %.1f (min after 1st minute %lld), dropped %llu, views over budget %llu, "
                 "held-out %.2f dB, chunk loads %llu in %llu steps, saves %llu\n",
@@ -72,7 +72,7 @@ TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFlo
   // load chunks at every step (the whole 200 m cell, as before the training window: ~2 loads per
   // step, most of them waited for).
   for (const Cell* c : {&fixed_small, &fast_small}) {
-    EXPECT_LE(c->report["gaussians"]["peak_resident"].get<uint64_t>(), 3000u);
+    EXPECT_LE(c->report["gaussians"]["peak_resident"].get<uint64_t>(), 8000u);
     const double steps = double(c->report["iterations"].get<uint64_t>());
     EXPECT_LT(double(c->report["chunk_io"]["loads"].get<uint64_t>()), 0.5 * steps);
     EXPECT_LT(double(c->report["chunk_io"]["waited_loads"].get<uint64_t>()), 0.25 * steps);
@@ -80,7 +80,7 @@ TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFlo
   // Below what one view needs: the farthest chunks stay out of each render, and their screen area
   // is not sampled again.
   EXPECT_GT(fixed_tiny.pacing()["views_over_budget"].get<uint64_t>(), 10u);
-  EXPECT_LE(fixed_tiny.report["gaussians"]["peak_resident"].get<uint64_t>(), 1200u);
+  EXPECT_LE(fixed_tiny.report["gaussians"]["peak_resident"].get<uint64_t>(), 3000u);
   for (const Cell* c : {&fixed_small, &fixed_tiny}) EXPECT_LT(double(c->total()), 1.25 * double(fixed.total()));
   EXPECT_LT(double(fast_small.total()), 1.25 * double(fast.total()));
   // Fixed pacing: exactly its steps per keyframe.
