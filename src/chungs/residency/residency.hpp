@@ -149,8 +149,9 @@ class Residency {
   // The chunk's content for a checkpoint in flight that still needs it (else null): gathered
   // now and handed to the writer. Must run before anything changes the chunk's slots.
   std::shared_ptr<const GaussianBlock> copy_out(ChunkId id);
-  // copy_out of several chunks with one gather from the pool (on a GPU one transfer, not one each).
-  void copy_out_many(std::span<const ChunkId> ids);
+  // copy_out of several chunks with one gather from the pool (on a GPU one transfer, not one
+  // each); the copies handed over, in the order of `ids`, of those the checkpoint still needed.
+  std::vector<std::shared_ptr<const GaussianBlock>> copy_out_many(std::span<const ChunkId> ids);
   // Chunks still to copy out, about `gaussians` of them (at least one chunk while any is left).
   std::vector<ChunkId> next_portion(size_t gaussians) const;
   size_t checkpoint_memory_limit() const;

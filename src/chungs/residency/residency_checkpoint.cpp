@@ -42,18 +42,14 @@ void Residency::begin_checkpoint(std::function<void()> before_commit, std::funct
 }
 
 std::shared_ptr<const GaussianBlock> Residency::copy_out(ChunkId id) {
-  if (!checkpoint_ || !checkpoint_todo_.erase(id)) return nullptr;
-  ScopedTimer t(store_.counters().checkpoint_ns);
-  auto block = std::make_shared<GaussianBlock>();
-  pool_.gather(resident_.at(id).slots, *block);
-  checkpoint_->put(id, block);
-  checkpoint_clean_.insert(id);
-  if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
-  return block;
+  const ChunkId one[] = {id};
+  std::vector<std::shared_ptr<const GaussianBlock>> copied = copy_out_many(one);
+  return copied.empty() ? nullptr : std::move(copied.front());
 }
 
-void Residency::copy_out_many(std::span<const ChunkId> ids) {
-  if (!checkpoint_) return;
+std::vector<std::shared_ptr<const GaussianBlock>> Residency::copy_out_many(std::span<const ChunkId> ids) {
+  std::vector<std::shared_ptr<const GaussianBlock>> copied;
+  if (!checkpoint_) return copied;
   std::vector<ChunkId> todo;
   std::vector<uint32_t> slots;
   for (ChunkId id : ids)
@@ -62,7 +58,7 @@ void Residency::copy_out_many(std::span<const ChunkId> ids) {
       const auto& s = resident_.at(id).slots;
       slots.insert(slots.end(), s.begin(), s.end());
     }
-  if (todo.empty()) return;
+  if (todo.empty()) return copied;
   ScopedTimer t(store_.counters().checkpoint_ns);
   GaussianBlock all;
   pool_.gather(slots, all);
@@ -73,10 +69,12 @@ void Residency::copy_out_many(std::span<const ChunkId> ids) {
     block->sh_degree = all.sh_degree;
     block->append_range(all, first, n);
     first += n;
-    checkpoint_->put(id, std::move(block));
+    checkpoint_->put(id, block);
     checkpoint_clean_.insert(id);
+    copied.push_back(std::move(block));
   }
   if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
+  return copied;
 }
 
 void Residency::advance_checkpoint() {
