@@ -91,6 +91,12 @@ class Mapper {
   uint64_t keyframes_without_depth() const { return keyframes_without_depth_; }
   uint64_t views_over_budget() const { return views_over_budget_; }  // views whose chunks exceed the budget
   uint64_t largest_view() const { return largest_view_; }  // Gaussians of the largest such view
+  // How often the budget narrowed training to a window, and how wide the windows were.
+  struct WindowStats {
+    uint64_t updates = 0, narrowed = 0;
+    double keyframes = 0, cell_keyframes = 0, reach_m = 0;  // sums over the narrowed updates
+  };
+  const WindowStats& window_stats() const { return window_stats_; }
   const std::filesystem::path& folder() const { return folder_; }
   const Config& config() const { return config_; }
   const std::string& device() const { return device_; }  // "cpu" or "cuda"
@@ -121,6 +127,7 @@ class Mapper {
   std::mt19937_64 rng_;
   uint64_t iterations_ = 0, pruned_total_ = 0, sampled_total_ = 0;
   uint64_t steps_at_last_keyframe_ = 0, views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0;
+  WindowStats window_stats_;
   double steps_per_keyframe_ = -1;  // smoothed steps the keyframes got (-1: none measured yet)
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;

@@ -1,5 +1,6 @@
 // Mapper::update_training_window: narrows the selector's cell to the keyframes whose chunks fit
 // the budget together (training_window.hpp).
+#include <algorithm>
 #include <unordered_set>
 
 #include "chungs/mapping/mapper.hpp"
@@ -30,8 +31,19 @@ void Mapper::update_training_window() {
   }
   const uint64_t room = uint64_t(double(residency_->budget()) * config_.selector.budget_share);
   std::vector<uint32_t> window =
-      fit_training_window(std::move(keyframes), [&](ChunkId c) { return residency_->count(c); }, room);
-  if (window.size() < cell.size()) selector_.restrict_to(std::move(window));
+      fit_training_window(keyframes, [&](ChunkId c) { return residency_->count(c); }, room);
+  ++window_stats_.updates;
+  if (window.size() < cell.size()) {
+    const std::unordered_set<uint32_t> in_window(window.begin(), window.end());
+    double reach = 0;
+    for (const WindowKeyframe& k : keyframes)
+      if (in_window.count(k.id)) reach = std::max(reach, k.distance);
+    ++window_stats_.narrowed;
+    window_stats_.keyframes += double(window.size());
+    window_stats_.cell_keyframes += double(cell.size());
+    window_stats_.reach_m += reach;
+    selector_.restrict_to(std::move(window));
+  }
 }
 
 }  // namespace chungs

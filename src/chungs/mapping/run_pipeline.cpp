@@ -280,6 +280,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     pj["min_steps_per_keyframe"] = mc.min_steps_per_keyframe;
     pj["views_over_budget"] = mapper.views_over_budget();
     if (mapper.views_over_budget()) pj["largest_view_gaussians"] = mapper.largest_view();
+    if (const Mapper::WindowStats& w = mapper.window_stats(); w.updates) {
+      // How much of the selection cell the budget left trainable.
+      const double n = double(std::max<uint64_t>(w.narrowed, 1));
+      pj["training_window"] = {{"narrowed_share", double(w.narrowed) / double(w.updates)},
+                               {"mean_keyframes", w.keyframes / n},
+                               {"mean_cell_keyframes", w.cell_keyframes / n},
+                               {"mean_reach_m", w.reach_m / n}};
+    }
     report["pacing"] = pj;
   }
   report["iterations"] = mapper.iterations();

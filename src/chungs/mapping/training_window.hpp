@@ -19,6 +19,7 @@ struct WindowKeyframe {
 
 // Keyframes nearest first, as long as the union of their chunks holds at most `room` Gaussians
 // (`count` gives a chunk's); the nearest is always in. Ties in distance go to the lower id.
+// Returned nearest first.
 std::vector<uint32_t> fit_training_window(std::vector<WindowKeyframe> keyframes,
                                           const std::function<uint64_t(ChunkId)>& count, uint64_t room);
 
