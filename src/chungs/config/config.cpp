@@ -121,6 +121,8 @@ void fields(V& v, MapperConfig& c) {
   v("pose_update_min_translation", c.pose_update_min_translation,
     "m: tracker keyframe moves below this (and below the rotation) are not applied to the map");
   v("pose_update_min_rotation_deg", c.pose_update_min_rotation_deg, "degrees, see pose_update_min_translation");
+  v("gpu_keyframe_cache_mb", c.gpu_keyframe_cache_mb,
+    "MB of VRAM keeping keyframe images for the steps on the GPU (0: upload them every step)");
 }
 template <class V>
 void fields(V& v, SamplerConfig& c) {

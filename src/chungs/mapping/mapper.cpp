@@ -1,6 +1,7 @@
 #include "chungs/mapping/mapper.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <unordered_map>
@@ -12,20 +13,6 @@
 namespace chungs {
 
 namespace fs = std::filesystem;
-
-ImageF to_rgb_float(const Image8& img) { return to_rgb(to_float(img)); }
-
-void inverse_depth_of(const ImageF& depth, ImageF& inv, Image8& mask) {
-  inv = ImageF(depth.width(), depth.height(), 1, 0.f);
-  mask = Image8(depth.width(), depth.height(), 1, 0);
-  for (size_t i = 0; i < depth.pixels(); ++i) {
-    const float d = depth.data()[i];
-    if (d > 0 && std::isfinite(d)) {
-      inv.data()[i] = 1.f / d;
-      mask.data()[i] = 1;
-    }
-  }
-}
 
 namespace {
 
@@ -50,7 +37,8 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   store_ = std::make_unique<ChunkStore>(folder, store_config);
   if (resume) recover_checkpoint_files();
   backend_ =
-      make_optim_backend(device_, pool_capacity(config_.residency), store_->sh_degree(), config_.raster);
+      make_optim_backend(device_, pool_capacity(config_.residency), store_->sh_degree(), config_.raster,
+                         size_t(config_.mapper.gpu_keyframe_cache_mb) << 20);
   ResidencyConfig rc = config_.residency;
   // In-core comparison: nothing may leave memory before the run stops once the map passes the
   // budget, so eviction starts only at the pool's full capacity (which the stop never reaches:
@@ -275,30 +263,39 @@ const KeyframeRecord* Mapper::find_keyframe(uint32_t id) const {
 }
 
 StepStats Mapper::step_keyframe(uint32_t keyframe) {
+  using clock = std::chrono::steady_clock;
+  const auto ms_since = [](clock::time_point t) {
+    return std::chrono::duration<double, std::milli>(clock::now() - t).count();
+  };
+  const auto t0 = clock::now();
   StepStats st;
   st.keyframe = keyframe;
   const KeyframeRecord* found = find_keyframe(keyframe);
   if (!found) fail("mapper: no keyframe ", keyframe, " to train on");
   const KeyframeRecord& kf = *found;
-  const auto images = keyframe_store_->get(kf.id);
-  const ImageF target = to_rgb_float(images->color);
-  ImageF inv;
-  Image8 mask;
-  const bool use_depth = !images->depth.empty() && config_.loss.lambda_depth > 0;
-  if (use_depth) inverse_depth_of(images->depth, inv, mask);
-
   const std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose);
   const PinResult pr = residency_->pin(chunks);
   if (!pr.ok) fail("mapper: cannot make the chunks of keyframe ", kf.id, " resident: ", pr.message);
   try {
     slots_.clear();
     residency_->append_slots(chunks, slots_);
+    const auto t1 = clock::now();
+    step_times_.chunks_ms += ms_since(t0);
     // Pruning runs on the step that completes `every` iterations, as before the backend split.
     const bool prune = config_.prune.every > 0 && (iterations_ + 1) % uint64_t(config_.prune.every) == 0;
-    const StepTargets targets{&target, use_depth ? &inv : nullptr, use_depth ? &mask : nullptr};
+    // Keyframe ids are never reused within a map, so the id names the images.
+    const StepTargets targets{uint64_t(kf.id) + 1, config_.loss.lambda_depth > 0, [&] {
+                                const auto tl = clock::now();
+                                auto images = keyframe_store_->get(kf.id);
+                                ++step_times_.keyframe_loads;
+                                step_times_.keyframe_load_ms += ms_since(tl);
+                                return images;
+                              }};
     const LossTerms terms =
         backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
                        config_.adam, prune ? &config_.prune : nullptr, to_prune_);
+    const auto t2 = clock::now();
+    step_times_.backend_ms += std::chrono::duration<double, std::milli>(t2 - t1).count();
     st.loss = terms.total;
     st.rendered = slots_.size();
     st.chunks = chunks.size();
@@ -326,6 +323,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe) {
   }
   residency_->unpin(chunks);
   selector_.report_loss(kf.id, st.loss);
+  ++step_times_.steps;
+  step_times_.total_ms += ms_since(t0);
   return st;
 }
 

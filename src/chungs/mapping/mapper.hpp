@@ -91,6 +91,13 @@ class Mapper {
   uint64_t keyframes_without_depth() const { return keyframes_without_depth_; }
   uint64_t views_over_budget() const { return views_over_budget_; }  // views whose chunks exceed the budget
   uint64_t largest_view() const { return largest_view_; }  // Gaussians of the largest such view
+  // Where the optimiser thread's step time went (sums; the backend's includes keyframe loads it
+  // asked for, and on the GPU the wait for the device).
+  struct StepTimes {
+    uint64_t steps = 0, keyframe_loads = 0;
+    double total_ms = 0, chunks_ms = 0, keyframe_load_ms = 0, backend_ms = 0;
+  };
+  const StepTimes& step_times() const { return step_times_; }
   // How often the budget narrowed training to a window, and how wide the windows were.
   struct WindowStats {
     uint64_t updates = 0, narrowed = 0;
@@ -128,6 +135,7 @@ class Mapper {
   uint64_t iterations_ = 0, pruned_total_ = 0, sampled_total_ = 0;
   uint64_t steps_at_last_keyframe_ = 0, views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0;
   WindowStats window_stats_;
+  StepTimes step_times_;
   double steps_per_keyframe_ = -1;  // smoothed steps the keyframes got (-1: none measured yet)
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
@@ -141,10 +149,5 @@ class Mapper {
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views
   bool loop_batch_allowed_ = true;
 };
-
-// Float RGB target of an 8-bit image (gray replicated).
-ImageF to_rgb_float(const Image8& img);
-// Inverse depth (1/m, 0 invalid) and its validity mask.
-void inverse_depth_of(const ImageF& depth, ImageF& inv, Image8& mask);
 
 }  // namespace chungs

@@ -35,6 +35,8 @@ void MapperConfig::validate() const {
     fail("mapper: checkpoint_max_share must be in [0, 1], got ", checkpoint_max_share);
   if (device != "auto" && device != "cuda" && device != "cpu")
     fail("mapper: device must be auto, cuda or cpu, got '", device, "'");
+  if (gpu_keyframe_cache_mb < 0 || gpu_keyframe_cache_mb > (1 << 20))
+    fail("mapper: gpu_keyframe_cache_mb must be in [0, 1048576], got ", gpu_keyframe_cache_mb);
   if (loop_refine_iterations < 0) fail("mapper: loop_refine_iterations must be >= 0, got ", loop_refine_iterations);
   if (!(pose_update_min_translation >= 0) || !(pose_update_min_rotation_deg >= 0))
     fail("mapper: pose update thresholds must be >= 0");

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "chungs/mapping/step_targets.hpp"
 #include "chungs/optim/adam.hpp"
 #include "chungs/optim/loss.hpp"
 #include "chungs/optim/prune.hpp"
@@ -21,13 +22,6 @@
 namespace chungs {
 
 struct SamplerConfig;
-
-// Targets of one step on the host; inv_depth and mask are null without a depth term.
-struct StepTargets {
-  const ImageF* rgb = nullptr;
-  const ImageF* inv_depth = nullptr;
-  const Image8* mask = nullptr;
-};
 
 struct DeviceMemory {
   double used_mb = 0, total_mb = 0;  // whole device (cudaMemGetInfo), not only this process
@@ -41,7 +35,8 @@ class OptimBackend {
 
   // A host copy of the render of the given pool slots.
   virtual RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) = 0;
-  // Renders the slots, evaluates the loss against the targets and, when slots is non-empty, applies
+  // Renders the slots, evaluates the loss against the targets (the images that `targets` names,
+  // converted as host_targets does) and, when slots is non-empty, applies
   // the gradient with sparse Adam to the visible ones. With `prune`, `to_prune` receives the slots
   // that the pruning rule selects after the update (else it is cleared).
   virtual LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
@@ -59,8 +54,9 @@ class OptimBackend {
 // "auto" -> "cuda" when this build has the CUDA backend and a device is present, else "cpu".
 // "cuda" without either throws Error saying which is missing; anything but auto|cpu|cuda throws.
 std::string resolve_device(const std::string& device);
-// A backend for a resolved device with a pool of `capacity` slots.
+// A backend for a resolved device with a pool of `capacity` slots; a GPU backend keeps step targets in
+// up to `target_cache_bytes` of VRAM.
 std::unique_ptr<OptimBackend> make_optim_backend(const std::string& device, size_t capacity, int sh_degree,
-                                                 const RasterConfig& raster);
+                                                 const RasterConfig& raster, size_t target_cache_bytes = 0);
 
 }  // namespace chungs

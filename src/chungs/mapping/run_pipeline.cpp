@@ -291,6 +291,17 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     report["pacing"] = pj;
   }
   report["iterations"] = mapper.iterations();
+  if (const Mapper::StepTimes& t = mapper.step_times(); t.steps) {
+    // Per step, on the optimiser thread: culling and pinning its chunks, the backend's render, loss,
+    // backward and Adam (keyframe loads included), and the rest (dirty marks, pruning's bookkeeping).
+    const double n = double(t.steps);
+    report["step_ms"] = {{"mean", t.total_ms / n},
+                         {"chunks", t.chunks_ms / n},
+                         {"backend", t.backend_ms / n},
+                         {"keyframe_load", t.keyframe_load_ms / n},
+                         {"keyframe_loads_per_step", double(t.keyframe_loads) / n},
+                         {"bookkeeping", (t.total_ms - t.chunks_ms - t.backend_ms) / n}};
+  }
   report["time"] = {
       {"mapping_s", map_seconds},
       {"processing_fps", map_seconds > 0 ? double(done) / map_seconds : 0},

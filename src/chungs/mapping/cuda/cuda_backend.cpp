@@ -15,8 +15,9 @@ GaussianArraysMut<float> params_of(const PoolDeviceArrays& d, int k) {
 
 }  // namespace
 
-CudaOptimBackend::CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster)
-    : pool_(capacity, sh_degree), raster_(raster) {}
+CudaOptimBackend::CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster,
+                                   size_t target_cache_bytes)
+    : pool_(capacity, sh_degree), raster_(raster), targets_(target_cache_bytes) {}
 
 const DeviceRenderOutput& CudaOptimBackend::forward(std::span<const uint32_t> slots,
                                                     const RenderCamera<float>& camera) {
@@ -54,17 +55,12 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
                                  const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
   to_prune.clear();
-  const ImageF& rgb = *targets.rgb;
-  target_rgb_.upload(rgb.data(), rgb.size());
-  const bool depth = targets.inv_depth && targets.mask;
-  if (depth) {
-    target_inv_.upload(targets.inv_depth->data(), targets.inv_depth->size());
-    mask_.upload(targets.mask->data(), targets.mask->size());
-  }
+  const DeviceTargets t = targets_.expand(targets, target_rgb_, target_inv_, mask_);
+  const bool depth = t.depth;
   const DeviceRenderOutput& out = forward(slots, camera);
-  if (out.width != rgb.width() || out.height != rgb.height() || rgb.channels() != 3)
-    fail("cuda mapping step: target ", rgb.width(), "x", rgb.height(), "x", rgb.channels(),
-         " does not match the ", out.width, "x", out.height, " render");
+  if (out.width != t.width || out.height != t.height)
+    fail("cuda mapping step: target ", t.width, "x", t.height, " does not match the ", out.width, "x", out.height,
+         " render");
   const LossTerms terms = loss_.evaluate(loss, out, target_rgb_.data(), depth ? target_inv_.data() : nullptr,
                                          depth ? mask_.data() : nullptr, !slots.empty());
   if (slots.empty()) return terms;

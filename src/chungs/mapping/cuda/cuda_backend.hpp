@@ -1,10 +1,11 @@
 // The optimisation on the GPU: CudaGaussianPool (VRAM slots; Residency loads and evicts chunks through
 // its host<->device copies), CudaRasterizer, the fused CUDA loss and fused sparse Adam. Per step only
-// the targets and the slot list go up, and only the loss sums come back (plus the screen radii and
+// the slot list goes up (keyframe images stay in DeviceTargetCache), and only the loss sums come back (plus the screen radii and
 // opacities on pruning steps); render() downloads the images for the evaluation; the sampler's map is computed on the device.
 // Built only with CHUNGS_WITH_CUDA; no CUDA headers here.
 #pragma once
 #include "chungs/mapping/cuda/log_probability.hpp"
+#include "chungs/mapping/cuda/target_cache.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/optim/cuda/loss.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
@@ -15,7 +16,7 @@ namespace chungs::cuda {
 
 class CudaOptimBackend final : public OptimBackend {
  public:
-  CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster);
+  CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster, size_t target_cache_bytes = 0);
   std::string name() const override { return "cuda"; }
   GaussianPool& pool() override { return pool_; }
   RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) override;
@@ -33,6 +34,7 @@ class CudaOptimBackend final : public OptimBackend {
   CudaRasterizer raster_;
   CudaMappingLoss loss_;
   CudaLogProbability log_probability_;
+  DeviceTargetCache targets_;
   DeviceArray<uint32_t> ids_;
   DeviceArray<float> target_rgb_, target_inv_, probability_;
   DeviceArray<uint8_t> mask_;
