@@ -98,6 +98,13 @@ class Mapper {
     double total_ms = 0, chunks_ms = 0, keyframe_load_ms = 0, backend_ms = 0;
   };
   const StepTimes& step_times() const { return step_times_; }
+  // Where add_keyframe's time went (sums): the sampler's render and acceptance map, drawing the new
+  // Gaussians, handing them to residency.
+  struct KeyframeTimes {
+    uint64_t keyframes = 0;
+    double total_ms = 0, render_ms = 0, sample_ms = 0, add_ms = 0;
+  };
+  const KeyframeTimes& keyframe_times() const { return keyframe_times_; }
   // How often the budget narrowed training to a window, and how wide the windows were.
   struct WindowStats {
     uint64_t updates = 0, narrowed = 0;
@@ -136,9 +143,11 @@ class Mapper {
   uint64_t steps_at_last_keyframe_ = 0, views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0;
   WindowStats window_stats_;
   StepTimes step_times_;
+  KeyframeTimes keyframe_times_;
   double steps_per_keyframe_ = -1;  // smoothed steps the keyframes got (-1: none measured yet)
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
+  std::vector<uint8_t> prune_marks_;  // by pool slot: selected by this step's pruning
   KeyframeRecord* mutable_keyframe(uint32_t id) {
     return const_cast<KeyframeRecord*>(std::as_const(*this).find_keyframe(id));
   }

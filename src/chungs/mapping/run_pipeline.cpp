@@ -168,7 +168,17 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     const double cost_s = (mapper.io_stats().checkpoint_ms - checkpoint_ms_at_last) / 1000.0;
     return due && !(mc.checkpoint_max_share > 0 && cost_s > mc.checkpoint_max_share * elapsed);
   };
-  while (auto entry = ahead.next()) {
+  // The optimiser thread's time outside the steps and keyframes (report.json time.optimiser_ms).
+  double frames_wait_ms = 0, record_ms = 0, checkpoint_call_ms = 0, updates_ms = 0;
+  auto timed = [](double& acc, auto&& f) {
+    const auto a = Clock::now();
+    f();
+    acc += since(a) * 1000.0;
+  };
+  while (true) {
+    std::optional<FrameLookahead::Entry> entry;
+    timed(frames_wait_ms, [&] { entry = ahead.next(); });
+    if (!entry) break;
     progress.step();
     const FeedItem* item = &entry->item;
     const size_t i = item->frame;
@@ -192,7 +202,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         ++dropped;
         log::debug("frame ", i, ": dropped (a later keyframe has already arrived and been loaded)");
       } else {
-        const MappingFrame m = entry->frame.get();
+        MappingFrame m;
+        timed(frames_wait_ms, [&] { m = entry->frame.get(); });
         feed->set_scene_depth(m.median_depth);
         const SampleStats ss =
             mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose);
@@ -205,13 +216,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
           for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
       }
     }
-    const PoseUpdateApplier::Applied applied = updates.apply(item->updates);
+    PoseUpdateApplier::Applied applied;
+    timed(updates_ms, [&] { applied = updates.apply(item->updates); });
     if (!added && !applied.keyframes_moved) continue;
-    record(i);
+    timed(record_ms, [&] { record(i); });
     if (added) ++keyframes_since_checkpoint;
     if (checkpoint_due() || applied.loop) {
       checkpoint_ms_at_last = mapper.io_stats().checkpoint_ms;
-      mapper.checkpoint(state(i + 1, false), /*behind=*/true);
+      timed(checkpoint_call_ms, [&] { mapper.checkpoint(state(i + 1, false), /*behind=*/true); });
       keyframes_since_checkpoint = 0;
       last_checkpoint = seconds();
     }
@@ -308,6 +320,21 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       // Everything the optimiser thread lost to I/O (chunks, checkpoints, keyframes).
       {"io_wait_ms", io_wait_ms},
       {"io_wait_share", map_seconds > 0 ? io_wait_ms / 1000.0 / map_seconds : 0}};
+  {
+    // Where the optimiser thread's mapping time went: steps, keyframes (the sampler's render, its
+    // draws, handing them to residency), waiting for frames, timeline samples, checkpoints and pose
+    // updates. What is left is the loop's own overhead.
+    const Mapper::KeyframeTimes& k = mapper.keyframe_times();
+    report["time"]["optimiser_ms"] = {{"steps", mapper.step_times().total_ms},
+                                      {"keyframes", k.total_ms},
+                                      {"keyframe_render", k.render_ms},
+                                      {"keyframe_sample", k.sample_ms},
+                                      {"keyframe_add", k.add_ms},
+                                      {"frame_wait", frames_wait_ms},
+                                      {"timeline", record_ms},
+                                      {"checkpoints", checkpoint_call_ms},
+                                      {"pose_updates", updates_ms}};
+  }
   {
     // Distance covered, for drives: the intake rate in km/h is what the paper's settings name.
     const double path_m = traj.path_length();
