@@ -71,6 +71,35 @@ TEST(Sampler, AcceptanceRateFollowsTheProbability) {
     for (size_t i = 0; i < b.block.size(); ++i) EXPECT_LT(b.block.params.mean[3 * i], 0.0 + 1e-6);
 }
 
+TEST(Sampler, SameSeedSameGaussiansWhateverTheThreadsDo) {
+  // The draws run on several threads in bands of rows: the result must not depend on their timing.
+  const Camera cam(200, 150, 160, 160, 99.5, 74.5);
+  std::mt19937 r(3);
+  std::uniform_real_distribution<float> U(0.f, 1.f);
+  ImageF img = random_image(200, 150, 3, 4), depth(200, 150, 1), prob(200, 150, 1);
+  for (auto& d : depth.vec()) d = 1.f + 40.f * U(r);
+  for (auto& p : prob.vec()) p = 0.5f * U(r);
+  SamplerConfig c;
+  c.min_per_chunk = 1;
+  auto run = [&](uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    SampleStats st;
+    auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &st);
+    std::vector<float> means;
+    for (const auto& b : batches) means.insert(means.end(), b.block.params.mean.begin(), b.block.params.mean.end());
+    return means;
+  };
+  const std::vector<float> a = run(11);
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(run(11), a);
+  EXPECT_NE(run(12), a);
+  // The counter-based draws keep the acceptance rate: about half the pixels at p = 0.5.
+  ImageF flat(200, 150, 1, 0.5f);
+  std::mt19937_64 rng(5);
+  SampleStats st;
+  auto batches = sample_gaussians(c, img, depth, flat, cam, SE3(), 10.0, 0, 0, rng, &st);
+  EXPECT_NEAR(double(st.candidates) / (200.0 * 150.0), 0.5, 0.02);
+}
+
 TEST(Sampler, PlacesGaussiansOnPixelRaysWithFootprintAndChunks) {
   const Camera cam(40, 30, 35, 36, 19.2, 14.7);
   const SE3 pose(Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix(),

@@ -20,6 +20,20 @@ void SamplerConfig::validate() const {
   if (!(fill_depth >= 0)) fail("sampler: fill_depth must be >= 0, got ", fill_depth);
 }
 
+namespace {
+
+// A uniform in [0, 1) for counter i of stream `key` (splitmix64's finaliser): stateless, so any
+// pixel's draw can be made on any thread.
+inline double counter_uniform(uint64_t key, uint64_t i) {
+  uint64_t z = key + (i + 1) * 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  z ^= z >> 31;
+  return double(z >> 11) * 0x1.0p-53;
+}
+
+}  // namespace
+
 float sh_dc_of_colour(float c) { return (c - 0.5f) / 0.28209479177387814f; }
 
 ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, const ImageF* render,
@@ -53,36 +67,56 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
          " and probability ", probability.width(), "x", probability.height(), " must have the same size");
   SampleStats st;
   if (config.max_per_keyframe && (max_new == 0 || config.max_per_keyframe < max_new)) max_new = config.max_per_keyframe;
-  std::uniform_real_distribution<double> U(0, 1);
   struct Pick {
     int x, y;
     float p, z;
     Eigen::Vector3d pw;
     ChunkId id;
   };
-  std::vector<Pick> picks;
+  // The accept/reject draws come from a counter-based stream keyed by one draw of `rng`, so bands of
+  // rows run on several threads and give the same picks whatever their number (in row order).
+  const uint64_t key = rng();
   const int s = config.stride;
-  for (int y = 0; y < image.height(); y += s)
-    for (int x = 0; x < image.width(); x += s) {
-      const float p = probability(x, y);
-      // With a stride each visited pixel stands for s^2 pixels.
-      if (p <= 0 || U(rng) >= p) continue;
-      ++st.candidates;
-      float z = depth(x, y);
-      if (!(z > 0) || !std::isfinite(z)) {
-        ++st.no_depth;
-        if (!(config.fill_depth > 0)) continue;
-        z = float(config.fill_depth);
+  constexpr int kBands = 32;
+  const int rows = (image.height() + s - 1) / s;
+  std::vector<std::vector<Pick>> band_picks(kBands);
+  std::vector<SampleStats> band_stats(kBands);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(4)
+  for (int band = 0; band < kBands; ++band) {
+    std::vector<Pick>& picks = band_picks[size_t(band)];
+    SampleStats& bs = band_stats[size_t(band)];
+    for (int r = band * rows / kBands; r < (band + 1) * rows / kBands; ++r) {
+      const int y = r * s;
+      const float* prow = &probability(0, y);
+      const float* drow = &depth(0, y);
+      for (int x = 0; x < image.width(); x += s) {
+        const float p = prow[x];
+        // With a stride each visited pixel stands for s^2 pixels.
+        if (p <= 0 || counter_uniform(key, uint64_t(y) * uint64_t(image.width()) + uint64_t(x)) >= p) continue;
+        ++bs.candidates;
+        float z = drow[x];
+        if (!(z > 0) || !std::isfinite(z)) {
+          ++bs.no_depth;
+          if (!(config.fill_depth > 0)) continue;
+          z = float(config.fill_depth);
+        }
+        const Eigen::Vector3d pw = pose * camera.unproject(Eigen::Vector2d(x, y), z);
+        const ChunkId id = chunk_id_of(pw, chunk_size);
+        // The map holds this place in a chunk the render left out: what looks missing is on disk.
+        if (exclude && exclude->count(id)) {
+          ++bs.excluded;
+          continue;
+        }
+        picks.push_back({x, y, p, z, pw, id});
       }
-      const Eigen::Vector3d pw = pose * camera.unproject(Eigen::Vector2d(x, y), z);
-      const ChunkId id = chunk_id_of(pw, chunk_size);
-      // The map holds this place in a chunk the render left out: what looks missing is on disk.
-      if (exclude && exclude->count(id)) {
-        ++st.excluded;
-        continue;
-      }
-      picks.push_back({x, y, p, z, pw, id});
     }
+  }
+  std::vector<Pick> picks;
+  for (int band = 0; band < kBands; ++band) {
+    const SampleStats& bs = band_stats[size_t(band)];
+    st.candidates += bs.candidates, st.no_depth += bs.no_depth, st.excluded += bs.excluded;
+    picks.insert(picks.end(), band_picks[size_t(band)].begin(), band_picks[size_t(band)].end());
+  }
   // Stray points (chunks that would get only a few) go before the cap, so a cap thins every chunk
   // alike instead of pushing them all under the threshold.
   {
@@ -100,12 +134,19 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   }
   const double max_px = config.max_scale_fraction * image.width();
   const int ch = image.channels();
+  // Each chunk's block is sized once (growing it a Gaussian at a time cost more than the draws).
   std::map<ChunkId, GaussianBlock> by_chunk;
+  {
+    std::unordered_map<ChunkId, size_t> counts;
+    for (const Pick& pk : picks) ++counts[pk.id];
+    for (const auto& [id, n] : counts) by_chunk[id].resize(n);
+  }
+  std::unordered_map<ChunkId, std::pair<GaussianBlock*, size_t>> cursor;
+  for (auto& [id, b] : by_chunk) cursor[id] = {&b, 0};
   for (const Pick& pk : picks) {
     const double z = pk.z;
-    GaussianBlock& b = by_chunk[pk.id];
-    const size_t i = b.size();
-    b.resize(i + 1);
+    auto& [bp, i] = cursor[pk.id];
+    GaussianBlock& b = *bp;
     auto& q = b.params;
     for (int k = 0; k < 3; ++k) q.mean[3 * i + k] = float(pk.pw[k]);
     const double px = std::clamp(double(s) / std::sqrt(double(pk.p)), config.min_scale_px, max_px);
@@ -117,6 +158,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
     b.created_by_keyframe[i] = keyframe_id;
     b.created_at_step[i] = step;
     b.lr_position_factor[i] = 1.f;
+    ++i;
   }
   std::vector<ChunkBatch> out;
   for (auto& [id, block] : by_chunk) {

@@ -61,6 +61,11 @@ class TrackerFeed : public FrameFeed {
     nlohmann::json j = {{"tracker", tracker_.describe()}, {"frames", t.frames},
                         {"keyframes", t.keyframes},       {"lost_frames", lost_},
                         {"loop_closures", loops_},        {"tracking_ms_per_frame", ms}};
+    if (t.frames) {
+      // Per frame: ORB on both images and stereo matching, pose tracking, keyframe work (local BA).
+      const double n = double(t.frames);
+      j["tracking_ms"] = {{"features", t.features_ms / n}, {"pose", t.tracking_ms / n}, {"keyframes", t.keyframe_ms / n}};
+    }
     if (gt_.size() >= 3) {
       const AteResult ate = compute_ate(gt_, tracker_.trajectory(), {Alignment::SE3, 0.02});
       j["ate"] = to_json(ate);
