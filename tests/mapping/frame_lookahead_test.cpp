@@ -205,3 +205,33 @@ TEST(FrameLookahead, LoadsRunOnAFixedSetOfThreadsHoweverManyFrames) {
 
 }  // namespace
 }  // namespace chungs
+
+namespace chungs {
+namespace {
+
+// A live source: items become available only when released (like the tracker finishing a frame).
+class GatedFeed : public CountingFeed {
+ public:
+  using CountingFeed::CountingFeed;
+  bool ready() const override { return open_; }
+  std::atomic<bool> open_{false};
+};
+
+TEST(FrameLookahead, SaysWhetherTheNextItemWouldWaitForALiveFeed) {
+  GatedFeed feed(2);
+  FrameLookahead ahead(feed, 0, frame_marked);
+  EXPECT_FALSE(ahead.next_ready());  // the tracker has nothing yet: the mapper may train meanwhile
+  feed.open_ = true;
+  EXPECT_TRUE(ahead.next_ready());
+  ASSERT_TRUE(ahead.next());
+  feed.open_ = false;
+  EXPECT_FALSE(ahead.next_ready());
+  feed.open_ = true;
+  ASSERT_TRUE(ahead.next());
+  EXPECT_FALSE(ahead.next());
+  feed.open_ = false;
+  EXPECT_TRUE(ahead.next_ready());  // after the end the answer (none) needs no wait
+}
+
+}  // namespace
+}  // namespace chungs

@@ -57,6 +57,11 @@ class BlockingQueue {
     if (error_) std::rethrow_exception(error_);
     return std::nullopt;
   }
+  // Whether pop() would return at once (an item, the end or the producer's failure).
+  bool ready() const {
+    std::lock_guard lock(mutex_);
+    return !items_.empty() || closed_;
+  }
   size_t size() const {
     std::lock_guard lock(mutex_);
     return items_.size();

@@ -33,6 +33,8 @@ class FrameFeed {
  public:
   virtual ~FrameFeed() = default;
   virtual std::optional<FeedItem> next() = 0;  // none after the last frame
+  // Whether next() would return without waiting (a live source such as the tracker may make it wait).
+  virtual bool ready() const { return true; }
   // The median depth (m) of a keyframe just loaded: the scale that keyframe_parallax refers to.
   virtual void set_scene_depth(double /*median_m*/) {}
   // Every frame's final pose (after all corrections), for evaluation; call after the last item.

@@ -44,6 +44,8 @@ class FrameLookahead {
 
   // The next item, after topping the lookahead up; none after the feed's last item.
   std::optional<Entry> next();
+  // Whether next() would return without waiting for the feed (for a live source: the tracker).
+  bool next_ready() const { return !ahead_.empty() || feed_done_ || feed_.ready(); }
   // True when entry's frame is loaded (or its load failed): get() will not block.
   static bool ready(const Entry& e);
   // Real-time pacing: true when a keyframe behind the last one handed out has already arrived and

@@ -176,6 +176,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     acc += since(a) * 1000.0;
   };
   while (true) {
+    // Real time: while a live source (the tracker) has no frame for the map yet, the map trains.
+    if (anytime && !mapper.keyframes().empty())
+      while (!ahead.next_ready()) mapper.step();
     std::optional<FrameLookahead::Entry> entry;
     timed(frames_wait_ms, [&] { entry = ahead.next(); });
     if (!entry) break;

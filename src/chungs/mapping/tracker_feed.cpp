@@ -44,6 +44,7 @@ class TrackerFeed : public FrameFeed {
   }
 
   std::optional<FeedItem> next() override { return queue_.pop(); }
+  bool ready() const override { return queue_.ready(); }
 
   std::vector<std::optional<SE3>> final_poses() override {
     if (thread_.joinable()) thread_.join();
