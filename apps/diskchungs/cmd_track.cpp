@@ -59,6 +59,12 @@ int run_track(const TrackArgs& a) {
   nlohmann::json j = {{"dataset", a.dataset},  {"out", a.out},          {"frames", n},
                       {"lost_frames", lost},   {"keyframes", keyframes}, {"loop_closures", loops},
                       {"seconds", secs},       {"tracking_ms_per_frame", per_frame}};
+  if (tm.frames) {
+    const double f = double(tm.frames);  // per frame: where the tracker's time goes
+    j["tracking_ms"] = {{"features", tm.features_ms / f}, {"pose", tm.tracking_ms / f},
+                        {"keyframes", tm.keyframe_ms / f}, {"keyframe_ba", tm.ba_ms / f},
+                        {"keyframe_loop", tm.loop_ms / f}};
+  }
   std::optional<AteResult> ate;
   if (gt.size() >= 3) {
     ate = compute_ate(gt, est, {Alignment::SE3, 0.02});

@@ -65,7 +65,11 @@ class TrackerFeed : public FrameFeed {
     if (t.frames) {
       // Per frame: ORB on both images and stereo matching, pose tracking, keyframe work (local BA).
       const double n = double(t.frames);
-      j["tracking_ms"] = {{"features", t.features_ms / n}, {"pose", t.tracking_ms / n}, {"keyframes", t.keyframe_ms / n}};
+      j["tracking_ms"] = {{"features", t.features_ms / n},
+                          {"pose", t.tracking_ms / n},
+                          {"keyframes", t.keyframe_ms / n},
+                          {"keyframe_ba", t.ba_ms / n},
+                          {"keyframe_loop", t.loop_ms / n}};
     }
     if (gt_.size() >= 3) {
       const AteResult ate = compute_ate(gt_, tracker_.trajectory(), {Alignment::SE3, 0.02});

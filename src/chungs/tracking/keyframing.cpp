@@ -1,5 +1,6 @@
 // Keyframe decisions and insertion (new points from depth, local bundle adjustment, culling of points and
 // redundant keyframes), and what the tracker hands out: map operations and the trajectory.
+#include <chrono>
 #include <algorithm>
 
 #include "chungs/common/log.hpp"
@@ -74,7 +75,9 @@ long VisualTracker::create_keyframe(Current& c) {
     std::vector<std::pair<long, SE3>> culled;
     for (long k = 0; k < long(map_.keyframes()); ++k)
       if (map_.kf(k).bad) culled.emplace_back(k, map_.pose(k));
+    const auto tb = std::chrono::steady_clock::now();
     LocalBAResult ba = local_bundle_adjust(map_, id, k_, opt_.orb.scale_factor, opt_.ba_window, opt_.ba_iterations);
+    timings_.ba_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tb).count();
     for (long k : ba.keyframes)
       if (k != id) moved.emplace_back(k, map_.pose(k));
     for (auto& [k, old] : culled) {
@@ -93,7 +96,9 @@ long VisualTracker::create_keyframe(Current& c) {
       lo.scale_factor = opt_.orb.scale_factor;
       loops_ = std::make_unique<LoopCloser>(lo, k_, width_, height_);
     }
+    const auto tl = std::chrono::steady_clock::now();
     loop = loops_->process(map_, id);
+    timings_.loop_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tl).count();
     if (loop) {
       ++timings_.loops;
       c.T_cw = map_.kf(id).T_cw();

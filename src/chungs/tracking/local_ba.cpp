@@ -70,7 +70,7 @@ LocalBAResult local_bundle_adjust(Map& map, long kf, const Intrinsics& k, float 
     }
   }
   ceres::Solver::Options so;
-  so.linear_solver_type = ceres::SPARSE_SCHUR;
+  so.linear_solver_type = ceres::DENSE_SCHUR;  // a few keyframes: the reduced camera system is small
   so.max_num_iterations = iterations;
   so.num_threads = 2;
   so.logging_type = ceres::SILENT;

@@ -13,12 +13,24 @@ struct PoseOnlyCost {
   }
 };
 
+// Bundle adjustment gives every observation three residual rows (a zero row without a right column):
+// with one residual size Ceres eliminates the points with its fixed-size Schur code instead of the
+// dynamic one, which had been most of the local BA's time.
+struct PaddedCost {
+  ReprojectionCost c;
+  template <typename T>
+  bool operator()(const T* q, const T* t, const T* X, T* r) const {
+    r[2] = T(0);
+    return c(q, t, X, r);
+  }
+};
+
 }  // namespace
 
 ceres::CostFunction* ReprojectionCost::create(const Intrinsics& k, double u, double v, double ur, double inv_sigma) {
   if (has_right(ur))
     return new ceres::AutoDiffCostFunction<ReprojectionCost, 3, 4, 3, 3>(new ReprojectionCost(k, u, v, ur, inv_sigma));
-  return new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 4, 3, 3>(new ReprojectionCost(k, u, v, ur, inv_sigma));
+  return new ceres::AutoDiffCostFunction<PaddedCost, 3, 4, 3, 3>(new PaddedCost{ReprojectionCost(k, u, v, ur, inv_sigma)});
 }
 
 ceres::CostFunction* ReprojectionCost::create_pose_only(const Intrinsics& k, double u, double v, double ur,

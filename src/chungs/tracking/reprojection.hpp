@@ -34,7 +34,8 @@ struct ReprojectionCost {
     return true;
   }
 
-  // Point fixed (pose-only) or free (bundle adjustment); residual size 3 with a right column, else 2.
+  // Point free (bundle adjustment): residual size 3 (the third row 0 without a right column). Point fixed
+  // (pose-only): size 3 with a right column, else 2.
   static ceres::CostFunction* create(const Intrinsics& k, double u, double v, double ur, double inv_sigma);
   static ceres::CostFunction* create_pose_only(const Intrinsics& k, double u, double v, double ur, double inv_sigma,
                                                const Eigen::Vector3d& X);

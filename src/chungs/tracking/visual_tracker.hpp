@@ -14,6 +14,7 @@ namespace chungs::tracking {
 
 struct TrackerTimings {
   double features_ms = 0, tracking_ms = 0, keyframe_ms = 0;  // totals
+  double ba_ms = 0, loop_ms = 0;  // parts of keyframe_ms: local bundle adjustment, loop detection and closing
   size_t frames = 0, keyframes = 0, loops = 0, lost_frames = 0;
 };
 
