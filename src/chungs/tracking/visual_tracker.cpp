@@ -38,26 +38,32 @@ double VisualTracker::close_depth() const {
   return stereo_ ? opt_.close_depth_baselines * baseline_ : opt_.rgbd_close_depth;
 }
 
-void VisualTracker::extract(const Frame& frame, Current& c) {
+namespace {
+
+// The baseline a frame's features are matched with: the stereo rig's, or for RGB-D a virtual one.
+double frame_baseline(const Frame& frame, const TrackerOptions& opt) {
   const Camera& cam = frame.camera;
   if (frame.right) {
     if (!(frame.baseline > 0)) fail("tracking: frame ", frame.index, " (", frame.source, ") has a right image but baseline ", frame.baseline);
-    stereo_ = true;
-    baseline_ = frame.baseline;
-  } else if (frame.depth) {
-    stereo_ = false;
-    baseline_ = opt_.rgbd_virtual_baseline > 0 ? opt_.rgbd_virtual_baseline : 1.0 / (cam.fx * opt_.rgbd_depth_noise);
-    if (!std::isfinite(baseline_) || !(baseline_ > 0))
-      fail("tracking: RGB-D depth noise ", opt_.rgbd_depth_noise, " with fx ", cam.fx, " gives no usable virtual baseline");
-  } else {
-    fail("tracking: frame ", frame.index, " (", frame.source, ") has neither a right image nor depth (monocular tracking is not supported)");
+    return frame.baseline;
   }
-  if (width_ && (cam.width != width_ || cam.height != height_))
-    fail("tracking: frame ", frame.index, " is ", cam.width, "x", cam.height, ", earlier frames ", width_, "x", height_);
-  width_ = cam.width;
-  height_ = cam.height;
-  k_ = {cam.fx, cam.fy, cam.cx, cam.cy, cam.fx * baseline_};
-  c.gray = to_gray_mat(frame.left);
+  if (frame.depth) {
+    const double b = opt.rgbd_virtual_baseline > 0 ? opt.rgbd_virtual_baseline : 1.0 / (cam.fx * opt.rgbd_depth_noise);
+    if (!std::isfinite(b) || !(b > 0))
+      fail("tracking: RGB-D depth noise ", opt.rgbd_depth_noise, " with fx ", cam.fx, " gives no usable virtual baseline");
+    return b;
+  }
+  fail("tracking: frame ", frame.index, " (", frame.source, ") has neither a right image nor depth (monocular tracking is not supported)");
+}
+
+}  // namespace
+
+std::shared_ptr<PreparedFrame> VisualTracker::prepare(const Frame& frame, const TrackerOptions& opt) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto out = std::make_shared<PreparedFrame>();
+  out->index = frame.index;
+  const double bf = frame.camera.fx * frame_baseline(frame, opt);
+  out->gray = to_gray_mat(frame.left);
   if (frame.right) {
     cv::Mat rg = to_gray_mat(*frame.right);
     Features rf;
@@ -65,26 +71,49 @@ void VisualTracker::extract(const Frame& frame, Current& c) {
 #pragma omp parallel sections num_threads(2)
     {
 #pragma omp section
-      c.f = extract_orb(c.gray, opt_.orb);
+      out->f = extract_orb(out->gray, opt.orb);
 #pragma omp section
-      rf = extract_orb(rg, opt_.orb);
+      rf = extract_orb(rg, opt.orb);
     }
-    match_stereo(c.gray, rg, c.f, rf, k_.bf, opt_.stereo);
+    match_stereo(out->gray, rg, out->f, rf, bf, opt.stereo);
   } else {
     if (!frame.depth->same_size(frame.left)) fail("tracking: frame ", frame.index, " depth and image sizes differ");
-    c.f = extract_orb(c.gray, opt_.orb);
-    attach_depth(*frame.depth, c.f, k_.bf);
+    out->f = extract_orb(out->gray, opt.orb);
+    attach_depth(*frame.depth, out->f, bf);
   }
+  out->ms = ms_since(t0);
+  return out;
+}
+
+void VisualTracker::extract(const Frame& frame, Current& c, std::shared_ptr<PreparedFrame> prepared) {
+  const Camera& cam = frame.camera;
+  stereo_ = bool(frame.right);
+  baseline_ = frame_baseline(frame, opt_);
+  if (width_ && (cam.width != width_ || cam.height != height_))
+    fail("tracking: frame ", frame.index, " is ", cam.width, "x", cam.height, ", earlier frames ", width_, "x", height_);
+  width_ = cam.width;
+  height_ = cam.height;
+  k_ = {cam.fx, cam.fy, cam.cx, cam.cy, cam.fx * baseline_};
+  if (prepared && prepared->index != frame.index)
+    fail("tracking: features prepared for frame ", prepared->index, " given with frame ", frame.index);
+  if (prepared) {
+    timings_.ahead_ms += prepared->ms;
+  } else {
+    prepared = prepare(frame, opt_);
+    timings_.features_ms += prepared->ms;
+  }
+  c.gray = std::move(prepared->gray);
+  c.f = std::move(prepared->f);
   c.matches.assign(c.f.size(), -1);
 }
 
-TrackResult VisualTracker::track(const Frame& frame) {
-  auto t0 = std::chrono::steady_clock::now();
+TrackResult VisualTracker::track(const Frame& frame) { return track(frame, nullptr); }
+
+TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFrame> prepared) {
   Current c;
   c.index = frame.index;
   c.stamp = frame.timestamp;
-  extract(frame, c);
-  timings_.features_ms += ms_since(t0);
+  extract(frame, c, std::move(prepared));
   auto t1 = std::chrono::steady_clock::now();
   ++timings_.frames;
 

@@ -15,7 +15,17 @@ namespace chungs::tracking {
 struct TrackerTimings {
   double features_ms = 0, tracking_ms = 0, keyframe_ms = 0;  // totals
   double ba_ms = 0, loop_ms = 0;  // parts of keyframe_ms: local bundle adjustment, loop detection and closing
+  double ahead_ms = 0;  // features prepared on another thread (not part of the tracker thread's time)
   size_t frames = 0, keyframes = 0, loops = 0, lost_frames = 0;
+};
+
+// A frame's features (ORB on both images and their stereo matches, or depth attached), computed
+// without the tracker's state.
+struct PreparedFrame {
+  size_t index = 0;  // the frame's
+  Features f;
+  cv::Mat gray;
+  double ms = 0;  // time it took
 };
 
 class VisualTracker : public Tracker {
@@ -23,6 +33,13 @@ class VisualTracker : public Tracker {
   explicit VisualTracker(TrackerOptions opt = {});
   ~VisualTracker() override;
   TrackResult track(const Frame& frame) override;
+  // The features of a frame, with the same options as the tracker's: touches no tracker state, so a
+  // reader thread may prepare the next frame while track() works on this one (half of a stereo
+  // frame's tracking time at KITTI's full resolution is its features).
+  static std::shared_ptr<PreparedFrame> prepare(const Frame& frame, const TrackerOptions& opt);
+  // track(frame) with its features prepared ahead (null: computed here).
+  TrackResult track(const Frame& frame, std::shared_ptr<PreparedFrame> prepared);
+  const TrackerOptions& options() const { return opt_; }
   std::vector<MapOperation> take_map_operations() override;
   Trajectory trajectory() const override;
   std::string describe() const override;
@@ -39,7 +56,7 @@ class VisualTracker : public Tracker {
     cv::Mat gray;
   };
 
-  void extract(const Frame& frame, Current& c);
+  void extract(const Frame& frame, Current& c, std::shared_ptr<PreparedFrame> prepared);
   bool initialize(Current& c);
   int optimize(Current& c);  // pose-only on current matches; drops outliers; returns inliers
   int track_motion(Current& c);  // inliers of the motion-model pose
