@@ -235,3 +235,22 @@ TEST(FrameLookahead, SaysWhetherTheNextItemWouldWaitForALiveFeed) {
 
 }  // namespace
 }  // namespace chungs
+
+namespace chungs {
+namespace {
+
+TEST(FrameLookahead, PullsAheadOfALiveFeedOnlyWhatItAlreadyHas) {
+  GatedFeed feed(8);
+  FrameLookahead ahead(feed, 3, frame_marked);
+  ASSERT_TRUE(ahead.next());  // the item needed now is waited for ...
+  EXPECT_EQ(feed.pulled(), 1u);  // ... but none beyond it while the feed has nothing ready
+  feed.open_ = true;
+  ASSERT_TRUE(ahead.next());
+  EXPECT_EQ(feed.pulled(), 5u);  // ready: the one handed out and three ahead
+  feed.open_ = false;
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE(ahead.next());  // the three pulled ahead, no more pulls
+  EXPECT_EQ(feed.pulled(), 5u);
+}
+
+}  // namespace
+}  // namespace chungs

@@ -37,8 +37,11 @@ void FrameLookahead::work() {
   }
 }
 
-void FrameLookahead::fill(size_t target) {
+void FrameLookahead::fill(size_t target, bool wait_for_one) {
   while (!feed_done_ && ahead_.size() < target) {
+    // A live feed (the tracker) is waited for only for the item the caller needs now; beyond it,
+    // only what it already has is pulled, so the loads of those keyframes start early.
+    if (!(wait_for_one && ahead_.empty()) && !feed_.ready()) break;
     std::optional<FeedItem> item = feed_.next();
     if (!item) {
       feed_done_ = true;
@@ -67,11 +70,11 @@ void FrameLookahead::fill(size_t target) {
 }
 
 std::optional<FrameLookahead::Entry> FrameLookahead::next() {
-  fill(std::max<size_t>(depth_, 1));
+  fill(std::max<size_t>(depth_, 1), true);
   if (ahead_.empty()) return std::nullopt;
   Entry e = std::move(ahead_.front());
   ahead_.pop_front();
-  fill(depth_);  // the next loads start before the caller works on this one
+  fill(depth_, false);  // the next loads start before the caller works on this one
   return e;
 }
 

@@ -2,7 +2,7 @@
 // images and depth are loaded (decoded or rendered, stereo-matched) by a small fixed set of worker
 // threads, so that this work overlaps the optimiser instead of stopping it. Under real-time pacing
 // a frame's load starts no earlier than the moment the frame arrives: a camera cannot deliver it
-// sooner. The workers live as long as the lookahead: a thread per frame would leave per-thread
+// sooner. From a live feed (the tracker) only the items it already has are pulled ahead. The workers live as long as the lookahead: a thread per frame would leave per-thread
 // state of the libraries it calls behind at every frame (OpenCV's thread-local buffers are kept
 // after the thread ends: ~650 bytes a frame, without bound over a long drive).
 #pragma once
@@ -32,8 +32,8 @@ class FrameLookahead {
     bool has_frame() const { return frame.valid(); }
   };
 
-  // depth: items pulled from the feed beyond the one handed out (0: none, for a feed whose next()
-  // blocks on a live source; the handed-out keyframe still loads while the caller steps).
+  // depth: items pulled from the feed beyond the one handed out (0: none; the handed-out keyframe
+  // still loads while the caller steps); from a feed that is not ready() they are not waited for.
   // seconds_until may be empty (every frame is available at once).
   FrameLookahead(FrameFeed& feed, size_t depth, Load load, SecondsUntil seconds_until = {});
   // Stops waiting for arrivals, waits for loads still running; their results (and errors) are
@@ -53,7 +53,7 @@ class FrameLookahead {
   bool later_keyframe_ready() const;
 
  private:
-  void fill(size_t target);
+  void fill(size_t target, bool wait_for_one);
   void work();
   FrameFeed& feed_;
   size_t depth_;
