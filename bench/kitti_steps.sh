@@ -20,7 +20,9 @@ printf 'mapper:\n  gpu_keyframe_cache_mb: 0\n' >"$work/no_cache.yaml"
 run() {  # run NAME ITERATIONS [ARGS...]
   local name=$1 it=$2
   shift 2
-  "$bin" run --dataset "kitti:$data/kitti_seq1" --poses gt --device cuda --iterations "$it" --out "$work/$name" \
+  # --preset outdoor is what `auto` picks for KITTI; named, so that the run with a configuration file
+  # (which replaces the automatic preset) gets it too.
+  "$bin" run --dataset "kitti:$data/kitti_seq1" --poses gt --preset outdoor --device cuda --iterations "$it" --out "$work/$name" \
     "$@" >"$work/$name.log" 2>&1 || { echo "kitti_steps: $name failed:"; tail -n 5 "$work/$name.log"; }
 }
 for v in cache no_cache; do
