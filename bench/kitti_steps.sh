@@ -20,8 +20,8 @@ printf 'mapper:\n  gpu_keyframe_cache_mb: 0\n' >"$work/no_cache.yaml"
 run() {  # run NAME ITERATIONS [ARGS...]
   local name=$1 it=$2
   shift 2
-  # --preset outdoor is what `auto` picks for KITTI; named, so that the run with a configuration file
-  # (which replaces the automatic preset) gets it too.
+  # --preset outdoor is what `auto` picks for KITTI, named so that both runs say it (before a
+  # configuration file changed only its own keys, it replaced the automatic preset).
   "$bin" run --dataset "kitti:$data/kitti_seq1" --poses gt --preset outdoor --device cuda --iterations "$it" --out "$work/$name" \
     "$@" >"$work/$name.log" 2>&1 || { echo "kitti_steps: $name failed:"; tail -n 5 "$work/$name.log"; }
 }

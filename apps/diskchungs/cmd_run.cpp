@@ -52,13 +52,11 @@ const Command cmd{
       app.add_flag("--json", a->json, "print the report as JSON");
       return [a]() {
         Config& c = a->o.config;
+        // The preset (the dataset's, or the one named) first; a configuration file then changes only
+        // the keys it names. (It used to replace everything, so a file naming only the budget lost the
+        // outdoor preset on KITTI without a word.)
         apply_preset(c, a->preset, a->o.dataset);
-        if (!a->config_file.empty()) {
-          const Config file = load_config(a->config_file);
-          const std::string p = a->preset;
-          c = file;
-          if (p != "auto") apply_preset(c, p, a->o.dataset);
-        }
+        if (!a->config_file.empty()) c = load_config(a->config_file, c);
         if (a->budget) c.residency.budget_gaussians = a->budget;
         if (a->chunk_size > 0) c.store.chunk_size = a->chunk_size;
         if (a->resolution > 0) c.mapper.resolution = a->resolution;

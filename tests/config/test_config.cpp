@@ -49,3 +49,15 @@ TEST(Config, TyposAndBadValuesNameTheKeyAndLine) {
   expect_error("loss:\n  lambda_ssim: 3\n", "my.yaml");
   expect_error("store: [1, 2\n", "not valid YAML");
 }
+
+TEST(Config, KeysAbsentFromTheFileKeepTheBaseValues) {
+  chungs::Config base;
+  base.loss.lambda_depth = 0.37;
+  base.sampler.fill_depth = 61.0;
+  const chungs::Config c = chungs::config_from_yaml("residency:\n  budget_gaussians: 5000\nloss:\n  lambda_ssim: 0.3\n",
+                                                    "f.yaml", base);
+  EXPECT_EQ(c.residency.budget_gaussians, 5000u);
+  EXPECT_DOUBLE_EQ(c.loss.lambda_ssim, 0.3);
+  EXPECT_DOUBLE_EQ(c.loss.lambda_depth, 0.37);  // from the base, not the default
+  EXPECT_DOUBLE_EQ(c.sampler.fill_depth, 61.0);
+}

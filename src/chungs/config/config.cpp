@@ -237,8 +237,8 @@ struct Loader {
 
 }  // namespace
 
-Config config_from_yaml(const std::string& text, const std::string& source) {
-  Config c;
+Config config_from_yaml(const std::string& text, const std::string& source, const Config& base) {
+  Config c = base;
   Loader l;
   l.source = source;
   try {
@@ -261,8 +261,8 @@ Config config_from_yaml(const std::string& text, const std::string& source) {
   return c;
 }
 
-Config load_config(const std::filesystem::path& file) {
-  return config_from_yaml(read_file_text(file), file.string());
+Config load_config(const std::filesystem::path& file, const Config& base) {
+  return config_from_yaml(read_file_text(file), file.string(), base);
 }
 
 std::string config_to_yaml(const Config& config) {

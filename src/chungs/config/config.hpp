@@ -48,10 +48,11 @@ struct Config {
 };
 
 // YAML with one mapping per section (store:, keyframes:, ...). Keys absent from the text keep their
-// defaults; an unknown section or key, or a value of the wrong type, throws Error naming the
-// source and the key (so a typo never silently falls back to a default).
-Config config_from_yaml(const std::string& text, const std::string& source = "config");
-Config load_config(const std::filesystem::path& file);
+// values in `base` (the defaults, or a preset already applied); an unknown section or key, or a value
+// of the wrong type, throws Error naming the source and the key (so a typo never silently falls
+// back to a default).
+Config config_from_yaml(const std::string& text, const std::string& source = "config", const Config& base = Config());
+Config load_config(const std::filesystem::path& file, const Config& base = Config());
 std::string config_to_yaml(const Config& config);
 
 }  // namespace chungs
