@@ -2,6 +2,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <unordered_map>
+#include <mutex>
 
 #include "chungs/common/heap.hpp"
 #include "chungs/common/log.hpp"
@@ -155,9 +157,18 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   double last_checkpoint = seconds(), checkpoint_ms_at_last = 0;
   // From the tracker's feed only the frames it has tracked are pulled ahead (their dense stereo for
   // the map then runs side by side, where one keyframe at a time had held tracked runs below 10 Hz).
+  // When each keyframe's load ran (seconds of the run), for the debug log's account of its lag.
+  std::mutex load_times_mutex;
+  std::unordered_map<size_t, std::pair<double, double>> load_times;
   FrameLookahead ahead(
       *feed, size_t(mc.frame_lookahead),
-      [&](size_t i) { return load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo); },
+      [&](size_t i) {
+        const double begin = seconds();
+        MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo);
+        std::lock_guard lock(load_times_mutex);
+        load_times[i] = {begin, seconds()};
+        return m;
+      },
       mc.pacing == "anytime" ? FrameLookahead::SecondsUntil([&](size_t i) { return arrival(i) - seconds(); })
                              : FrameLookahead::SecondsUntil());
   const bool anytime = mc.pacing == "anytime";
@@ -218,6 +229,15 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
                    " without depth, ", ss.excluded, " in chunks left out of the render, ", ss.capped,
                    " over the cap) in ", ss.chunks, " chunks");
+        if (anytime) {
+          std::pair<double, double> load{0, 0};
+          {
+            std::lock_guard lock(load_times_mutex);
+            if (auto it = load_times.find(i); it != load_times.end()) load = it->second, load_times.erase(it);
+          }
+          log::debug("frame ", i, ": arrived at ", arrival(i), " s, loaded ", load.first, "-", load.second,
+                     " s, added at ", seconds(), " s");
+        }
         if (mc.pacing == "fixed")
           for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
       }
