@@ -11,6 +11,7 @@
 #include "chungs/datasets/dataset.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/geometry/trajectory.hpp"
+#include "chungs/mapping/tracker_feed.hpp"
 #include "chungs/tracking/visual_tracker.hpp"
 #include "command.hpp"
 
@@ -55,16 +56,11 @@ int run_track(const TrackArgs& a) {
   const Trajectory est = tracker.trajectory();
   write_trajectory(a.out, est, format);
   const auto& tm = tracker.timings();
-  const double per_frame = tm.frames ? (tm.features_ms + tm.tracking_ms + tm.keyframe_ms) / double(tm.frames) : 0;
   nlohmann::json j = {{"dataset", a.dataset},  {"out", a.out},          {"frames", n},
                       {"lost_frames", lost},   {"keyframes", keyframes}, {"loop_closures", loops},
-                      {"seconds", secs},       {"tracking_ms_per_frame", per_frame}};
-  if (tm.frames) {
-    const double f = double(tm.frames);  // per frame: where the tracker's time goes
-    j["tracking_ms"] = {{"features", tm.features_ms / f}, {"pose", tm.tracking_ms / f},
-                        {"keyframes", tm.keyframe_ms / f}, {"keyframe_ba", tm.ba_ms / f},
-                        {"keyframe_loop", tm.loop_ms / f}};
-  }
+                      {"seconds", secs}};
+  j.update(chungs::tracker_time_report(tm));
+  const double per_frame = j["tracking_ms_per_frame"].get<double>();
   std::optional<AteResult> ate;
   if (gt.size() >= 3) {
     ate = compute_ate(gt, est, {Alignment::SE3, 0.02});

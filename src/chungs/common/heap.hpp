@@ -3,12 +3,11 @@
 // the ones that allocated them, and glibc keeps the free pages between live allocations, so host RSS
 // creeps with distance while the live heap stays level (bench/README.md).
 #pragma once
-#include <cstddef>
 
 namespace chungs {
 
 // Returns whole free pages of every allocator arena to the system (glibc's malloc_trim); a no-op
-// elsewhere. Returns the bytes of RSS released, as far as can be told (0 when unknown).
-size_t release_free_heap();
+// elsewhere.
+void release_free_heap();
 
 }  // namespace chungs

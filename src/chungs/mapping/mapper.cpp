@@ -8,6 +8,7 @@
 #include <unordered_set>
 
 #include "chungs/common/log.hpp"
+#include "chungs/common/stopwatch.hpp"
 #include "chungs/store/atomic_file.hpp"
 
 namespace chungs {
@@ -171,9 +172,6 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
     fail("mapper: frame ", frame, ": depth ", depth->width(), "x", depth->height(),
          " does not match the image ", color.width(), "x", color.height());
   using clock = std::chrono::steady_clock;
-  const auto ms = [](clock::time_point a, clock::time_point b) {
-    return std::chrono::duration<double, std::milli>(b - a).count();
-  };
   const auto t0 = clock::now();
   const uint32_t id = keyframes_.empty() ? 0 : keyframes_.back().id + 1;
   keyframe_store_->put(id, KeyframeImages{color, depth ? *depth : ImageF()});
@@ -196,8 +194,8 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
     const ImageF prob = with_pinned_slots(*residency_, shown, slots_, [&](const std::vector<uint32_t>& slots) {
       return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler, target);
     });
+    keyframe_times_.render_ms += ms_since(t1);
     const auto t2 = clock::now();
-    keyframe_times_.render_ms += ms(t1, t2);
     // What the render lacks only because chunks stayed on disk is not sampled again; nor is any
     // other chunk of the map the render did not draw (beyond the far plane).
     std::unordered_set<ChunkId> exclude;
@@ -206,8 +204,8 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
     for (ChunkId id : shown) exclude.erase(id);
     auto batches = sample_gaussians(config_.sampler, target, *depth, prob, camera, pose, store_->chunk_size(), id,
                                     uint32_t(iterations_), rng_, &stats, &exclude, new_gaussian_cap(color));
+    keyframe_times_.sample_ms += ms_since(t2);
     const auto t3 = clock::now();
-    keyframe_times_.sample_ms += ms(t2, t3);
     for (auto& b : batches) {
       const PinResult res = residency_->add(b.id, b.block);
       if (!res.ok)
@@ -216,7 +214,7 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
         keyframe_chunks_.add(id, b.id);
     }
     sampled_total_ += stats.kept;
-    keyframe_times_.add_ms += ms(t3, clock::now());
+    keyframe_times_.add_ms += ms_since(t3);
   }
   steps_at_last_keyframe_ = iterations_;
   KeyframeRecord rec;
@@ -235,7 +233,7 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   keyframes_.push_back(rec);
   update_training_window();
   ++keyframe_times_.keyframes;
-  keyframe_times_.total_ms += ms(t0, clock::now());
+  keyframe_times_.total_ms += ms_since(t0);
   return stats;
 }
 
@@ -277,9 +275,6 @@ const KeyframeRecord* Mapper::find_keyframe(uint32_t id) const {
 
 StepStats Mapper::step_keyframe(uint32_t keyframe) {
   using clock = std::chrono::steady_clock;
-  const auto ms_since = [](clock::time_point t) {
-    return std::chrono::duration<double, std::milli>(clock::now() - t).count();
-  };
   const auto t0 = clock::now();
   StepStats st;
   st.keyframe = keyframe;
@@ -292,8 +287,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe) {
   try {
     slots_.clear();
     residency_->append_slots(chunks, slots_);
-    const auto t1 = clock::now();
     step_times_.chunks_ms += ms_since(t0);
+    const auto t1 = clock::now();
     // Pruning runs on the step that completes `every` iterations, as before the backend split.
     const bool prune = config_.prune.every > 0 && (iterations_ + 1) % uint64_t(config_.prune.every) == 0;
     // Keyframe ids are never reused within a map, so the id names the images.
@@ -307,8 +302,7 @@ StepStats Mapper::step_keyframe(uint32_t keyframe) {
     const LossTerms terms =
         backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
                        config_.adam, prune ? &config_.prune : nullptr, to_prune_);
-    const auto t2 = clock::now();
-    step_times_.backend_ms += std::chrono::duration<double, std::milli>(t2 - t1).count();
+    step_times_.backend_ms += ms_since(t1);
     st.loss = terms.total;
     st.rendered = slots_.size();
     st.chunks = chunks.size();

@@ -158,6 +158,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   // From the tracker's feed only the frames it has tracked are pulled ahead (their dense stereo for
   // the map then runs side by side, where one keyframe at a time had held tracked runs below 10 Hz).
   // When each keyframe's load ran (seconds of the run), for the debug log's account of its lag.
+  const bool log_lag = mc.pacing == "anytime" && log::enabled(log::Level::Debug);
   std::mutex load_times_mutex;
   std::unordered_map<size_t, std::pair<double, double>> load_times;
   FrameLookahead ahead(
@@ -165,8 +166,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       [&](size_t i) {
         const double begin = seconds();
         MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, cfg.stereo);
-        std::lock_guard lock(load_times_mutex);
-        load_times[i] = {begin, seconds()};
+        if (log_lag) {
+          std::lock_guard lock(load_times_mutex);
+          load_times[i] = {begin, seconds()};
+        }
         return m;
       },
       mc.pacing == "anytime" ? FrameLookahead::SecondsUntil([&](size_t i) { return arrival(i) - seconds(); })
@@ -217,6 +220,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       }
       if (drop) {
         ++dropped;
+        if (log_lag) {
+          std::lock_guard lock(load_times_mutex);
+          load_times.erase(i);
+        }
         log::debug("frame ", i, ": dropped (a later keyframe has already arrived and been loaded)");
       } else {
         MappingFrame m;
@@ -229,7 +236,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
                    " without depth, ", ss.excluded, " in chunks left out of the render, ", ss.capped,
                    " over the cap) in ", ss.chunks, " chunks");
-        if (anytime) {
+        if (log_lag) {
           std::pair<double, double> load{0, 0};
           {
             std::lock_guard lock(load_times_mutex);
@@ -252,7 +259,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       timed(checkpoint_call_ms, [&] { mapper.checkpoint(state(i + 1, false), /*behind=*/true); });
       // At the checkpoint cadence: free pages that fragmentation left in the heap go back, so host
       // RSS follows the live heap over a long drive instead of creeping with distance.
-      timed(heap_release_ms, [&] { released_mb += double(release_free_heap()) / 1048576.0; });
+      timed(heap_release_ms, [&] {
+        const uint64_t before = current_rss_bytes();
+        release_free_heap();
+        released_mb += double(before - std::min(before, current_rss_bytes())) / 1048576.0;
+      });
       keyframes_since_checkpoint = 0;
       last_checkpoint = seconds();
     }

@@ -58,21 +58,10 @@ class TrackerFeed : public FrameFeed {
 
   nlohmann::json report() const override {
     const auto& t = tracker_.timings();
-    // The tracker thread's own time (features extracted ahead on the reader thread are not in it).
-    const double ms = t.frames ? (t.features_ms + t.tracking_ms + t.keyframe_ms) / double(t.frames) : 0;
     nlohmann::json j = {{"tracker", tracker_.describe()}, {"frames", t.frames},
                         {"keyframes", t.keyframes},       {"lost_frames", lost_},
-                        {"loop_closures", loops_},        {"tracking_ms_per_frame", ms}};
-    if (t.frames) {
-      // Per frame: ORB on both images and stereo matching, pose tracking, keyframe work (local BA).
-      const double n = double(t.frames);
-      j["tracking_ms"] = {{"features", t.features_ms / n},
-                          {"features_ahead", t.ahead_ms / n},
-                          {"pose", t.tracking_ms / n},
-                          {"keyframes", t.keyframe_ms / n},
-                          {"keyframe_ba", t.ba_ms / n},
-                          {"keyframe_loop", t.loop_ms / n}};
-    }
+                        {"loop_closures", loops_}};
+    j.update(tracker_time_report(t));
     if (gt_.size() >= 3) {
       const AteResult ate = compute_ate(gt_, tracker_.trajectory(), {Alignment::SE3, 0.02});
       j["ate"] = to_json(ate);
@@ -145,6 +134,17 @@ class TrackerFeed : public FrameFeed {
 };
 
 }  // namespace
+
+nlohmann::json tracker_time_report(const tracking::TrackerTimings& t) {
+  // The tracker thread's own time: features extracted ahead on the reader thread are not in it.
+  const double n = double(std::max<size_t>(t.frames, 1));
+  nlohmann::json j = {{"tracking_ms_per_frame", (t.features_ms + t.tracking_ms + t.keyframe_ms) / n}};
+  if (t.frames)
+    j["tracking_ms"] = {{"features", t.features_ms / n}, {"features_ahead", t.ahead_ms / n},
+                        {"pose", t.tracking_ms / n},     {"keyframes", t.keyframe_ms / n},
+                        {"keyframe_ba", t.ba_ms / n},    {"keyframe_loop", t.loop_ms / n}};
+  return j;
+}
 
 std::unique_ptr<FrameFeed> make_tracker_feed(const Dataset& dataset, size_t n, const MapperConfig& config,
                                              const tracking::TrackerOptions& options) {

@@ -1,9 +1,10 @@
 // Keyframe decisions and insertion (new points from depth, local bundle adjustment, culling of points and
 // redundant keyframes), and what the tracker hands out: map operations and the trajectory.
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 
 #include "chungs/common/log.hpp"
+#include "chungs/common/stopwatch.hpp"
 #include "chungs/tracking/local_ba.hpp"
 #include "chungs/tracking/visual_tracker.hpp"
 
@@ -77,7 +78,7 @@ long VisualTracker::create_keyframe(Current& c) {
       if (map_.kf(k).bad) culled.emplace_back(k, map_.pose(k));
     const auto tb = std::chrono::steady_clock::now();
     LocalBAResult ba = local_bundle_adjust(map_, id, k_, opt_.orb.scale_factor, opt_.ba_window, opt_.ba_iterations);
-    timings_.ba_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tb).count();
+    timings_.ba_ms += ms_since(tb);
     for (long k : ba.keyframes)
       if (k != id) moved.emplace_back(k, map_.pose(k));
     for (auto& [k, old] : culled) {
@@ -98,7 +99,7 @@ long VisualTracker::create_keyframe(Current& c) {
     }
     const auto tl = std::chrono::steady_clock::now();
     loop = loops_->process(map_, id);
-    timings_.loop_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tl).count();
+    timings_.loop_ms += ms_since(tl);
     if (loop) {
       ++timings_.loops;
       c.T_cw = map_.kf(id).T_cw();

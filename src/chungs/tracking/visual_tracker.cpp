@@ -1,5 +1,7 @@
 #include "chungs/tracking/visual_tracker.hpp"
 
+#include "chungs/common/stopwatch.hpp"
+
 #include <chrono>
 #include <algorithm>
 #include <cmath>
@@ -9,13 +11,6 @@
 #include "chungs/tracking/pose_optimizer.hpp"
 
 namespace chungs::tracking {
-namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
 
 const char* state_name(TrackState s) {
   switch (s) {
