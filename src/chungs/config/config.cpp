@@ -147,11 +147,12 @@ void fields(V& v, KeyframeSelectorConfig& c) {
 }
 template <class V>
 void fields(V& v, StereoDepthConfig& c) {
-  v("num_disparities", c.num_disparities, "SGBM search range, pixels at full resolution");
-  v("block_size", c.block_size, "");
-  v("uniqueness", c.uniqueness, "");
-  v("speckle_window", c.speckle_window, "");
-  v("speckle_range", c.speckle_range, "");
+  v("num_disparities", c.num_disparities, "search range, pixels at full resolution (at most 256)");
+  v("p1", c.p1, "semi-global matching: penalty of a 1-pixel disparity step between neighbours");
+  v("p2", c.p2, "semi-global matching: penalty of a larger step (census costs are 0-62)");
+  v("uniqueness", c.uniqueness, "percent by which the best match must beat the others");
+  v("speckle_window", c.speckle_window, "largest island of disparity (pixels) dropped as a mismatch, 0 = off");
+  v("speckle_range", c.speckle_range, "pixels of disparity within which neighbours belong to one island");
   v("lr_max_diff", c.lr_max_diff, "left-right check tolerance, pixels");
   v("min_depth", c.min_depth, "metres");
   v("max_depth", c.max_depth, "metres");

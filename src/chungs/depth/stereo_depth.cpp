@@ -6,35 +6,28 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "chungs/depth/sgm.hpp"
+#if CHUNGS_WITH_CUDA
+#include "chungs/depth/cuda/sgm_cuda.hpp"
+#endif
+
 namespace chungs {
 
 void StereoDepthConfig::validate() const {
-  if (num_disparities < 16) fail("stereo depth: num_disparities must be at least 16, got ", num_disparities);
-  if (block_size < 1 || block_size % 2 == 0) fail("stereo depth: block_size must be odd and positive, got ", block_size);
+  if (num_disparities < 16 || num_disparities > kSgmMaxDisparities)
+    fail("stereo depth: num_disparities must be in [16, ", kSgmMaxDisparities, "], got ", num_disparities);
+  if (p1 < 0 || p2 < p1 || p2 > 1000) fail("stereo depth: need 0 <= p1 <= p2 <= 1000, got ", p1, " and ", p2);
+  if (uniqueness < 0 || uniqueness > 100) fail("stereo depth: uniqueness must be in [0, 100], got ", uniqueness);
+  if (speckle_window < 0 || speckle_range < 0)
+    fail("stereo depth: speckle_window and speckle_range must be >= 0, got ", speckle_window, " and ", speckle_range);
   if (!(min_depth > 0) || !(max_depth > min_depth))
     fail("stereo depth: need 0 < min_depth < max_depth, got ", min_depth, " and ", max_depth);
   if (!(lr_max_diff >= 0)) fail("stereo depth: lr_max_diff must be >= 0, got ", lr_max_diff);
   if (!(confidence_sigma2 > 0)) fail("stereo depth: confidence_sigma2 must be > 0, got ", confidence_sigma2);
+#if !CHUNGS_WITH_CUDA
+  if (cuda) fail("stereo depth: this build has no CUDA backend");
+#endif
 }
-
-namespace {
-
-cv::Mat gray_mat(const Image8& img) {
-  cv::Mat m(img.height(), img.width(), img.channels() == 1 ? CV_8UC1 : CV_8UC(img.channels()),
-            const_cast<uint8_t*>(img.data()));
-  if (img.channels() == 1) return m.clone();
-  cv::Mat g;
-  cv::cvtColor(m, g, img.channels() == 3 ? cv::COLOR_RGB2GRAY : cv::COLOR_RGBA2GRAY);
-  return g;
-}
-
-cv::Ptr<cv::StereoSGBM> make_matcher(const StereoDepthConfig& c, int num_disp) {
-  const int cn = 1, b = c.block_size;
-  return cv::StereoSGBM::create(0, num_disp, b, 8 * cn * b * b, 32 * cn * b * b, 1, 0, c.uniqueness,
-                                c.speckle_window, c.speckle_range, cv::StereoSGBM::MODE_SGBM_3WAY);
-}
-
-}  // namespace
 
 StereoDepth stereo_depth(const Image8& left, const Image8& right, double fx, double baseline,
                          const StereoDepthConfig& config) {
@@ -43,28 +36,21 @@ StereoDepth stereo_depth(const Image8& left, const Image8& right, double fx, dou
     fail("stereo depth: left ", left.width(), "x", left.height(), " and right ", right.width(), "x",
          right.height(), " images differ in size or are empty");
   if (!(fx > 0) || !(baseline > 0)) fail("stereo depth: need fx > 0 and baseline > 0, got ", fx, " and ", baseline);
-  const int num_disp = (config.num_disparities + 15) / 16 * 16;
   const int w = left.width(), h = left.height();
-  cv::Mat l = gray_mat(left), r = gray_mat(right);
-  // Right disparities come from matching the mirrored pair: mirrored right becomes the "left".
-  cv::Mat lf, rf, dl, dr_flipped, dr;
-  cv::flip(l, lf, 1);
-  cv::flip(r, rf, 1);
-  auto matcher = make_matcher(config, num_disp);
-  // SGBM leaves the first num_disp columns without disparity (their search range would leave the
-  // image): at 310 pixels wide that was 40 % of every view, at 160 all of it. Both images get that
-  // many blank columns in front, so every real column has its whole range; matches that would
-  // fall in the blank part find no texture there and the left-right check drops them.
-  auto match = [&](const cv::Mat& a, const cv::Mat& b, cv::Mat& out) {
-    cv::Mat pa, pb, d;
-    cv::copyMakeBorder(a, pa, 0, 0, num_disp, 0, cv::BORDER_CONSTANT, cv::Scalar(0));
-    cv::copyMakeBorder(b, pb, 0, 0, num_disp, 0, cv::BORDER_CONSTANT, cv::Scalar(0));
-    matcher->compute(pa, pb, d);
-    out = d(cv::Rect(num_disp, 0, w, h)).clone();
-  };
-  match(l, r, dl);
-  match(rf, lf, dr_flipped);
-  cv::flip(dr_flipped, dr, 1);
+  SgmParams params;
+  params.disparities = config.num_disparities;
+  params.p1 = config.p1, params.p2 = config.p2, params.uniqueness = config.uniqueness;
+  const Image8 l = to_gray(left), r = to_gray(right);
+#if CHUNGS_WITH_CUDA
+  SgmDisparities disp = config.cuda ? cuda::sgm_disparities(l, r, params) : sgm_disparities(l, r, params);
+#else
+  SgmDisparities disp = sgm_disparities(l, r, params);
+#endif
+  if (config.speckle_window > 0) {
+    // Small islands of disparity that differ from their surroundings are mismatches.
+    cv::Mat dl(h, w, CV_16S, disp.left.data());
+    cv::filterSpeckles(dl, kNoDisparity, config.speckle_window, 16 * config.speckle_range);
+  }
 
   StereoDepth out;
   out.depth = ImageF(w, h, 1, 0.f);
@@ -73,8 +59,8 @@ StereoDepth stereo_depth(const Image8& left, const Image8& right, double fx, dou
   const double fb = fx * baseline;
   std::vector<float> valid_inv;
   for (int y = 0; y < h; ++y) {
-    const int16_t* pl = dl.ptr<int16_t>(y);
-    const int16_t* pr = dr.ptr<int16_t>(y);
+    const int16_t* pl = &disp.left[size_t(y) * w];
+    const int16_t* pr = &disp.right[size_t(y) * w];
     for (int x = 0; x < w; ++x) {
       if (pl[x] <= 0) continue;
       const double d = pl[x] / 16.0;

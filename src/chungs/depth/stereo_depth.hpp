@@ -1,14 +1,15 @@
-// Metric depth from a rectified stereo pair: OpenCV semi-global block matching on both views, a
-// left-right consistency check, and a confidence map from the smoothness of the inverse depth.
+// Metric depth from a rectified stereo pair: semi-global matching (sgm.hpp; on the GPU when asked),
+// a speckle filter, a left-right consistency check against the right view's winners, and a
+// confidence map from the smoothness of the inverse depth.
 #pragma once
 #include "chungs/image/image.hpp"
 
 namespace chungs {
 
 struct StereoDepthConfig {
-  int num_disparities = 128;  // search range in pixels (rounded up to a multiple of 16)
-  int block_size = 5;         // odd SGBM window
-  int uniqueness = 10;        // SGBM uniqueness ratio, percent
+  int num_disparities = 128;  // search range in pixels, at most 256
+  int p1 = 10, p2 = 120;      // matching penalties of small and large disparity changes (sgm.hpp)
+  int uniqueness = 10;        // percent by which the best match must beat the others
   int speckle_window = 100;   // speckle filter region (pixels), 0 = off
   int speckle_range = 2;
   double lr_max_diff = 1.0;   // left and right disparities must agree to this many pixels
@@ -18,6 +19,7 @@ struct StereoDepthConfig {
   // the median of the valid ones (scale free); pixels below min_confidence are dropped.
   double confidence_sigma2 = 0.2;
   double min_confidence = 0.0;
+  bool cuda = false;  // match on the GPU (chosen by the run's device, not a file setting)
   void validate() const;
 };
 

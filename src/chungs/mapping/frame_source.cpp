@@ -89,7 +89,6 @@ MappingFrame load_mapping_frame(const Dataset& dataset, size_t i, double resolut
     f.camera = f.camera.scaled(resolution);
     if (f.depth) f.depth = scale_depth(*f.depth, f.left.width(), f.left.height());
     stereo.num_disparities = std::max(16, int(std::ceil(stereo.num_disparities * resolution / 16.0)) * 16);
-    stereo.block_size = std::max(3, int(stereo.block_size * resolution) | 1);
   }
   if (want_depth) {
     m.depth = frame_depth(f, mode, stereo);
