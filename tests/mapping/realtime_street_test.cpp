@@ -91,7 +91,9 @@ TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFlo
     EXPECT_EQ(floor, 10);
     EXPECT_GE(c->pacing()["steps_per_keyframe_lowest_minute"].get<double>(), floor);
     const int64_t least = c->pacing()["steps_per_keyframe_min_after_first_minute"].get<int64_t>();
-    if (least >= 0) EXPECT_GE(least, floor);
+    if (least >= 0) {
+      EXPECT_GE(least, floor);
+    }
     // Untrained Gaussians do not pile up: no larger than the fixed run's map by much.
     EXPECT_LT(double(c->total()), 1.5 * double(fixed.total()));
   }

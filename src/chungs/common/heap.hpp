@@ -1,13 +1,19 @@
-// Giving the allocator's free memory back to the system. Over a long drive the heap fragments:
-// chunk blocks, keyframe images and per-step buffers of many sizes are freed by threads other than
-// the ones that allocated them, and glibc keeps the free pages between live allocations, so host RSS
-// creeps with distance while the live heap stays level (bench/README.md).
+// The host heap of a long run. Chunks in flight (queued writes, read-ahead, checkpoint copies) are
+// allocated and freed by different threads in bursts; with glibc's defaults each thread's arena
+// grows to its own peak the first time its queue fills, and freed pages go back and forth, so host
+// RSS rose in steps of 50-125 MB minutes after the budget was reached (bench/README.md, the 10 km
+// drive). keep_heap_for_reuse makes that peak resident once, at the start, and has the allocator
+// keep and reuse it.
 #pragma once
+#include <cstddef>
 
 namespace chungs {
 
-// Returns whole free pages of every allocator arena to the system (glibc's malloc_trim); a no-op
-// elsewhere.
-void release_free_heap();
+// glibc: one arena for every thread (a block freed by the I/O thread is reused by the optimiser),
+// allocations up to 32 MB served from the heap and freed memory never trimmed; then `reserve_bytes`
+// allocated in pieces, touched and freed, so the heap holds them from the start. The process's
+// RSS then stays at its peak instead of following the queues. A no-op elsewhere. Call once, before
+// the threads that allocate start.
+void keep_heap_for_reuse(size_t reserve_bytes);
 
 }  // namespace chungs

@@ -50,4 +50,8 @@ struct GaussianBlock {
   void validate(const char* what) const;
 };
 
+// Host bytes of one Gaussian in a GaussianBlock: parameters and both Adam moments as float32, the
+// step count, creator ids and position learning-rate factor.
+constexpr size_t kBlockBytesPerGaussian = 3 * kParamFloats * sizeof(float) + 3 * sizeof(uint32_t) + sizeof(float);
+
 }  // namespace chungs

@@ -75,6 +75,9 @@ nlohmann::json run_mapping(const RunOptions& o) {
 nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const Config& cfg = o.config;
   cfg.mapper.validate();
+  // The chunks in flight at their limits, made resident now and kept: host RSS stays level once
+  // the budget is reached instead of rising each time a queue first fills (common/heap.hpp).
+  keep_heap_for_reuse(in_flight_max_gaussians(cfg.residency) * kBlockBytesPerGaussian);
   const MapperConfig& mc = cfg.mapper;
   const Dataset* dataset = &data;
   const DatasetInfo& info = dataset->info();
@@ -187,8 +190,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     return due && !(mc.checkpoint_max_share > 0 && cost_s > mc.checkpoint_max_share * elapsed);
   };
   // The optimiser thread's time outside the steps and keyframes (report.json time.optimiser_ms).
-  double frames_wait_ms = 0, record_ms = 0, checkpoint_call_ms = 0, updates_ms = 0, heap_release_ms = 0;
-  double released_mb = 0;
+  double frames_wait_ms = 0, record_ms = 0, checkpoint_call_ms = 0, updates_ms = 0;
   auto timed = [](double& acc, auto&& f) {
     const auto a = Clock::now();
     f();
@@ -259,13 +261,6 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (checkpoint_due() || applied.loop) {
       checkpoint_ms_at_last = mapper.io_stats().checkpoint_ms;
       timed(checkpoint_call_ms, [&] { mapper.checkpoint(state(i + 1, false), /*behind=*/true); });
-      // At the checkpoint cadence: free pages that fragmentation left in the heap go back, so host
-      // RSS follows the live heap over a long drive instead of creeping with distance.
-      timed(heap_release_ms, [&] {
-        const uint64_t before = current_rss_bytes();
-        release_free_heap();
-        released_mb += double(before - std::min(before, current_rss_bytes())) / 1048576.0;
-      });
       keyframes_since_checkpoint = 0;
       last_checkpoint = seconds();
     }
@@ -375,9 +370,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                                       {"frame_wait", frames_wait_ms},
                                       {"timeline", record_ms},
                                       {"checkpoints", checkpoint_call_ms},
-                                      {"pose_updates", updates_ms},
-                                      {"heap_release", heap_release_ms}};
-    report["memory_released_mb"] = released_mb;  // free heap pages returned at checkpoints
+                                      {"pose_updates", updates_ms}};
   }
   {
     // Distance covered, for drives: the intake rate in km/h is what the paper's settings name.

@@ -9,6 +9,22 @@
 
 namespace chungs {
 
+namespace {
+
+size_t or_automatic(size_t set, size_t budget, size_t divisor) {
+  return set ? set : std::max<size_t>(budget / divisor, 10'000);
+}
+size_t prefetch_max(const ResidencyConfig& c) { return or_automatic(c.prefetch_max_gaussians, c.budget_gaussians, 32); }
+size_t write_behind_max(const ResidencyConfig& c) {
+  return or_automatic(c.write_behind_max_gaussians, c.budget_gaussians, 8);
+}
+
+}  // namespace
+
+size_t in_flight_max_gaussians(const ResidencyConfig& config) {
+  return prefetch_max(config) + write_behind_max(config) + checkpoint_memory_limit(config.budget_gaussians);
+}
+
 Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfig& config)
     : store_(store), pool_(pool), config_(config), budget_(config.budget_gaussians) {
   if (pool_.capacity() < budget_)
@@ -17,9 +33,7 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
   if (!(config_.eviction_hysteresis >= 0 && config_.eviction_hysteresis < 1))
     fail("residency: eviction hysteresis must be in [0, 1), got ", config_.eviction_hysteresis);
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
-  auto or_automatic = [&](size_t set, size_t divisor) { return set ? set : std::max<size_t>(budget_ / divisor, 10'000); };
-  io_ = std::make_unique<IoWorker>(store_, config_.async_io, or_automatic(config_.prefetch_max_gaussians, 32),
-                                   or_automatic(config_.write_behind_max_gaussians, 8));
+  io_ = std::make_unique<IoWorker>(store_, config_.async_io, prefetch_max(config_), write_behind_max(config_));
 }
 
 Residency::~Residency() {

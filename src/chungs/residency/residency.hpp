@@ -49,6 +49,12 @@ struct ResidencyConfig {
   bool flush_on_close = true;
 };
 
+// Host memory the chunks in flight may hold at once, in Gaussians: read-ahead, queued writes and a
+// checkpoint's copies at their limits (the automatic ones where the config says 0).
+size_t in_flight_max_gaussians(const ResidencyConfig& config);
+// Gaussians a checkpoint copies out ahead of its writers at most, for a budget.
+size_t checkpoint_memory_limit(size_t budget);
+
 struct PinResult {
   bool ok = true;
   uint64_t pinned_gaussians = 0;  // in all pinned chunks (after the call, or as requested if !ok)

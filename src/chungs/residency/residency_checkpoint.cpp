@@ -11,7 +11,9 @@ double ns_since(std::chrono::steady_clock::time_point t) {
 }
 }  // namespace
 
-size_t Residency::checkpoint_memory_limit() const { return std::max<size_t>(budget_ / 32, 10'000); }
+size_t checkpoint_memory_limit(size_t budget) { return std::max<size_t>(budget / 32, 10'000); }
+
+size_t Residency::checkpoint_memory_limit() const { return chungs::checkpoint_memory_limit(budget_); }
 
 std::vector<ChunkId> Residency::next_portion(size_t gaussians) const {
   std::vector<ChunkId> out;

@@ -27,7 +27,7 @@ struct StreetOptions {
   double lane_offset = 1.6;  // camera path right of the centreline (middle of a 3 m lane)
   double turn_radius = 6.0;
   double far = 150;          // far plane the world is culled to
-  size_t max_blocks = 512;   // blocks kept in memory
+  size_t max_blocks = 128;  // blocks kept in memory per renderer (about 3 MB each at most)
 };
 
 // The KITTI odometry camera (fx = fy = 718.856 at 1241x376) scaled to another width, principal
