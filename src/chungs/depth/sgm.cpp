@@ -13,6 +13,13 @@ void SgmParams::validate() const {
   if (uniqueness < 0 || uniqueness > 100) fail("stereo matching: uniqueness must be in [0, 100] %, got ", uniqueness);
 }
 
+void check_sgm_inputs(const Image8& left, const Image8& right, const SgmParams& params) {
+  params.validate();
+  if (left.empty() || !left.same_size(right) || left.channels() != 1 || right.channels() != 1)
+    fail("stereo matching: need two gray images of one size, got ", left.width(), "x", left.height(), "x",
+         left.channels(), " and ", right.width(), "x", right.height(), "x", right.channels());
+}
+
 std::vector<uint64_t> census_9x7(const Image8& gray) {
   const int w = gray.width(), h = gray.height();
   std::vector<uint64_t> out(size_t(w) * size_t(h));
@@ -91,10 +98,7 @@ CHUNGS_SGM_CLONES void left_winner(const uint16_t* s, int D, int uniqueness, int
 }  // namespace
 
 SgmDisparities sgm_disparities(const Image8& left, const Image8& right, const SgmParams& params) {
-  params.validate();
-  if (left.empty() || !left.same_size(right) || left.channels() != 1 || right.channels() != 1)
-    fail("stereo matching: need two gray images of one size, got ", left.width(), "x", left.height(), "x",
-         left.channels(), " and ", right.width(), "x", right.height(), "x", right.channels());
+  check_sgm_inputs(left, right, params);
   const int w = left.width(), h = left.height(), D = params.disparities;
   const int16_t p1 = int16_t(params.p1), p2 = int16_t(params.p2);
   const size_t px = size_t(w) * size_t(h);

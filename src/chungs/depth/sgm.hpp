@@ -31,6 +31,7 @@ struct SgmDisparities {
 
 // Gray images of one size. Throws Error on empty or mismatched images or invalid params.
 SgmDisparities sgm_disparities(const Image8& left, const Image8& right, const SgmParams& params);
+void check_sgm_inputs(const Image8& left, const Image8& right, const SgmParams& params);  // the throws above
 
 #ifdef __CUDACC__
 #define CHUNGS_SGM_HOST_DEVICE __host__ __device__

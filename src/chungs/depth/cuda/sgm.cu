@@ -163,10 +163,7 @@ Workspace& workspace() {
 }  // namespace
 
 SgmDisparities sgm_disparities(const Image8& left, const Image8& right, const SgmParams& params) {
-  params.validate();
-  if (left.empty() || !left.same_size(right) || left.channels() != 1 || right.channels() != 1)
-    fail("stereo matching: need two gray images of one size, got ", left.width(), "x", left.height(), "x",
-         left.channels(), " and ", right.width(), "x", right.height(), "x", right.channels());
+  check_sgm_inputs(left, right, params);
   const int w = left.width(), h = left.height();
   const size_t px = size_t(w) * size_t(h);
   Workspace& ws = workspace();
