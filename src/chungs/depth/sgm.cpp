@@ -1,6 +1,7 @@
 #include "chungs/depth/sgm.hpp"
 
 #include <algorithm>
+#include <memory>
 
 #include "chungs/common/error.hpp"
 
@@ -52,31 +53,38 @@ CHUNGS_SGM_CLONES void census_costs(const uint64_t* cl, const uint64_t* cr, int 
       cost[size_t(x) * D + d] = x - d >= 0 ? uint8_t(__builtin_popcountll(cl[x] ^ cr[x - d])) : uint8_t(kSgmOutsideCost);
 }
 
+// Adds a path's costs at one pixel into its sum: sum = base + L where the pass writes the sum first
+// (base: the other direction's costs along the row), sum += L after; nothing without a sum.
+inline void add_path(const int16_t* L, uint16_t* sum, const int16_t* base, int D) {
+  if (!sum) return;
+  if (base)
+    for (int d = 0; d < D; ++d) sum[d] = uint16_t(base[d] + L[d]);
+  else
+    for (int d = 0; d < D; ++d) sum[d] = uint16_t(sum[d] + L[d]);
+}
+
 // One step of a path: next[d] = cost[d] + min(prev[d], prev[d -+ 1] + p1, min(prev) + p2) - min(prev),
-// added to sum. Values stay below 2^15 (costs <= 64, penalties <= 1000), so 16-bit lanes do.
-CHUNGS_SGM_CLONES void path_step(const uint8_t* cost, const int16_t* prev, int16_t* next, uint16_t* sum, int D,
-                                 int16_t p1, int16_t p2) {
+// then add_path. Values stay below 2^15 (costs <= 64, penalties <= 1000), so 16-bit lanes do.
+CHUNGS_SGM_CLONES void path_step(const uint8_t* cost, const int16_t* prev, int16_t* next, uint16_t* sum,
+                                 const int16_t* base, int D, int16_t p1, int16_t p2) {
   int16_t m = prev[0];
   for (int d = 1; d < D; ++d) m = std::min(m, prev[d]);
   const int16_t far = int16_t(m + p2);
-  auto at = [&](int d, int16_t near) {
-    next[d] = int16_t(cost[d] + std::min(std::min(prev[d], far), near) - m);
-    sum[d] = uint16_t(sum[d] + next[d]);
-  };
-  if (D == 1) return at(0, far);
-  at(0, int16_t(prev[1] + p1));
-  for (int d = 1; d + 1 < D; ++d) {
-    next[d] = int16_t(cost[d] + std::min(std::min(prev[d], far), int16_t(std::min(prev[d - 1], prev[d + 1]) + p1)) - m);
-    sum[d] = uint16_t(sum[d] + next[d]);
+  auto at = [&](int d, int16_t near) { next[d] = int16_t(cost[d] + std::min(std::min(prev[d], far), near) - m); };
+  if (D == 1) {
+    at(0, far);
+  } else {
+    at(0, int16_t(prev[1] + p1));
+    for (int d = 1; d + 1 < D; ++d)
+      next[d] = int16_t(cost[d] + std::min(std::min(prev[d], far), int16_t(std::min(prev[d - 1], prev[d + 1]) + p1)) - m);
+    at(D - 1, int16_t(prev[D - 2] + p1));
   }
-  at(D - 1, int16_t(prev[D - 2] + p1));
+  add_path(next, sum, base, D);
 }
 
-CHUNGS_SGM_CLONES void path_start(const uint8_t* cost, int16_t* next, uint16_t* sum, int D) {
-  for (int d = 0; d < D; ++d) {
-    next[d] = cost[d];
-    sum[d] = uint16_t(sum[d] + cost[d]);
-  }
+CHUNGS_SGM_CLONES void path_start(const uint8_t* cost, int16_t* next, uint16_t* sum, const int16_t* base, int D) {
+  for (int d = 0; d < D; ++d) next[d] = cost[d];
+  add_path(next, sum, base, D);
 }
 
 // The lowest-cost disparity (lowest d on ties) if it beats every candidate outside +-1 by the
@@ -110,20 +118,24 @@ SgmDisparities sgm_disparities(const Image8& left, const Image8& right, const Sg
   // Sum over the four directions. Rows (left-right paths) are independent, and so are columns
   // (up-down paths, walked row by row over a band of columns so memory is read in order): each
   // pass splits them between threads without sharing a sum.
-  std::vector<uint16_t> sum(px * D, 0);
+  // Every element is written by the first pass (left-right), so the sum starts uninitialised.
+  std::unique_ptr<uint16_t[]> sum_memory(new uint16_t[px * D]);
+  uint16_t* sum = sum_memory.get();
 #pragma omp parallel
   {
-    std::vector<int16_t> a(D), b(D);
+    // Left to right into a row of costs kept in cache; right to left then writes each sum once.
+    std::vector<int16_t> row(size_t(w) * D), a(D), b(D);
 #pragma omp for schedule(static)
-    for (int y = 0; y < h; ++y)
-      for (int dir : {1, -1}) {
-        const int x0 = dir > 0 ? 0 : w - 1;
-        path_start(&cost[at(x0, y)], a.data(), &sum[at(x0, y)], D);
-        for (int x = x0 + dir; x >= 0 && x < w; x += dir) {
-          path_step(&cost[at(x, y)], a.data(), b.data(), &sum[at(x, y)], D, p1, p2);
-          std::swap(a, b);
-        }
+    for (int y = 0; y < h; ++y) {
+      path_start(&cost[at(0, y)], row.data(), nullptr, nullptr, D);
+      for (int x = 1; x < w; ++x)
+        path_step(&cost[at(x, y)], &row[size_t(x - 1) * D], &row[size_t(x) * D], nullptr, nullptr, D, p1, p2);
+      path_start(&cost[at(w - 1, y)], a.data(), &sum[at(w - 1, y)], &row[size_t(w - 1) * D], D);
+      for (int x = w - 2; x >= 0; --x) {
+        path_step(&cost[at(x, y)], a.data(), b.data(), &sum[at(x, y)], &row[size_t(x) * D], D, p1, p2);
+        std::swap(a, b);
       }
+    }
     constexpr int kBand = 16;
     std::vector<int16_t> la(size_t(kBand) * D), lb(size_t(kBand) * D);
 #pragma omp for schedule(static)
@@ -131,10 +143,12 @@ SgmDisparities sgm_disparities(const Image8& left, const Image8& right, const Sg
       const int n = std::min(kBand, w - x0);
       for (int dir : {1, -1}) {
         const int y0 = dir > 0 ? 0 : h - 1;
-        for (int i = 0; i < n; ++i) path_start(&cost[at(x0 + i, y0)], &la[size_t(i) * D], &sum[at(x0 + i, y0)], D);
+        for (int i = 0; i < n; ++i)
+          path_start(&cost[at(x0 + i, y0)], &la[size_t(i) * D], &sum[at(x0 + i, y0)], nullptr, D);
         for (int y = y0 + dir; y >= 0 && y < h; y += dir) {
           for (int i = 0; i < n; ++i)
-            path_step(&cost[at(x0 + i, y)], &la[size_t(i) * D], &lb[size_t(i) * D], &sum[at(x0 + i, y)], D, p1, p2);
+            path_step(&cost[at(x0 + i, y)], &la[size_t(i) * D], &lb[size_t(i) * D], &sum[at(x0 + i, y)], nullptr, D,
+                      p1, p2);
           std::swap(la, lb);
         }
       }
