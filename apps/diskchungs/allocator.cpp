@@ -1,10 +1,11 @@
 // A mapping run holds a bounded working set on the host, but its buffers come and go in sizes that
 // never repeat exactly (chunks in flight to and from disk, keyframe images, stereo matching) and on
 // many threads. glibc malloc gives each thread that allocates concurrently an arena of its own (up
-// to 8 per core) and frees a block back into the arena it came from; over a long drive the arenas
-// fragment independently and host memory creeps up although what is live stays bounded. Two arenas
-// keep RSS level (10 km drives on an H100: at most +4.9 % above the plateau once the budget was
-// reached, where the default arenas dipped to -21 %, at no cost in speed; bench/README.md). MALLOC_ARENA_MAX or
+// to 8 per core) and frees a block back into the arena it came from, so each arena grows to its own
+// peak and host memory steps up although what is live stays bounded. One arena lets a block freed by
+// the I/O thread serve the optimiser's next one; run_mapping then makes the chunks-in-flight peak
+// resident at the start and keeps it (common/heap.hpp). 10 km drive on an H100: +3.8 % / -0.0 %
+// around the plateau once the budget was reached, no slower (bench/README.md). MALLOC_ARENA_MAX or
 // GLIBC_TUNABLES in the environment still decide where set.
 #include "allocator.hpp"
 
@@ -15,7 +16,7 @@
 namespace chungs::app {
 
 namespace {
-constexpr int kArenas = 2;
+constexpr int kArenas = 1;
 bool g_limited = false;
 }  // namespace
 
@@ -25,7 +26,7 @@ void limit_allocator_arenas() {
 }
 
 std::string allocator_description() {
-  if (g_limited) return "glibc malloc, " + std::to_string(kArenas) + " arenas";
+  if (g_limited) return "glibc malloc, " + std::to_string(kArenas) + (kArenas == 1 ? " arena" : " arenas");
   if (const char* v = std::getenv("MALLOC_ARENA_MAX"))
     return std::string("glibc malloc, MALLOC_ARENA_MAX=") + v;
   if (const char* v = std::getenv("GLIBC_TUNABLES")) return std::string("glibc malloc, GLIBC_TUNABLES=") + v;

@@ -1,6 +1,7 @@
 // diskchungs: the command-line front end. Errors end as one line on stderr and a non-zero exit.
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 
 #include "allocator.hpp"
@@ -24,6 +25,9 @@ std::vector<const Command*>& commands() {
 int main(int argc, char** argv) {
   using namespace chungs;
   app::limit_allocator_arenas();
+  // Nothing here uses OpenCL; left on, OpenCV probes the platform at its first call, which cost the
+  // tracker's first frame 30-280 ms on a GPU host (bench/README.md). The environment may still say.
+  setenv("OPENCV_OPENCL_DEVICE", "disabled", 0);
   CLI::App cli{"DiskChunGS: Gaussian-splatting SLAM with out-of-core chunked maps"};
   cli.require_subcommand(1);
   bool quiet = false, verbose = false;

@@ -13,9 +13,10 @@ namespace chungs {
 void keep_heap_for_reuse(size_t reserve_bytes) {
 #if defined(__GLIBC__)
   constexpr size_t kPiece = size_t(16) << 20;  // below the mmap threshold: served by, and kept in, the heap
-  mallopt(M_ARENA_MAX, 1);
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);
-  mallopt(M_TRIM_THRESHOLD, 0x7fffffff);
+  if (!std::getenv("GLIBC_TUNABLES")) {
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    mallopt(M_TRIM_THRESHOLD, 0x7fffffff);
+  }
   std::vector<void*> pieces;
   for (size_t done = 0; done < reserve_bytes; done += kPiece) {
     const size_t n = std::min(kPiece, reserve_bytes - done);

@@ -9,11 +9,12 @@
 
 namespace chungs {
 
-// glibc: one arena for every thread (a block freed by the I/O thread is reused by the optimiser),
-// allocations up to 32 MB served from the heap and freed memory never trimmed; then `reserve_bytes`
-// allocated in pieces, touched and freed, so the heap holds them from the start. The process's
-// RSS then stays at its peak instead of following the queues. A no-op elsewhere. Call once, before
-// the threads that allocate start.
+// glibc: allocations up to 32 MB served from the heap and freed memory never trimmed; then
+// `reserve_bytes` allocated in pieces, touched and freed, so the heap holds them from the start.
+// The process's RSS then stays at its peak instead of following the queues. It works best with one
+// arena for every thread (the CLI sets that at start, so that a block freed by the I/O thread serves
+// the optimiser's next one). GLIBC_TUNABLES in the environment keeps its say over the thresholds.
+// A no-op elsewhere.
 void keep_heap_for_reuse(size_t reserve_bytes);
 
 }  // namespace chungs
