@@ -4,6 +4,7 @@
 // room as an RGB-D sequence. Exports the map as a 3DGS PLY and prints held-out quality, speed,
 // memory and chunk I/O.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 #include "chungs/common/error.hpp"
@@ -14,6 +15,7 @@
 #include "chungs/synth/sequence.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
+#include "flag_checks.hpp"
 #include "presets.hpp"
 
 namespace chungs::app {
@@ -23,7 +25,7 @@ namespace fs = std::filesystem;
 
 struct DemoArgs {
   std::string out = "out/demo", scene = "street";
-  size_t frames = 0, budget = 0;  // 0: the scene's default
+  long long frames = 0, budget = 0;  // 0: the scene's default (signed: a typed -1 is refused, not wrapped)
   double length_m = 440, resolution = 0, chunk_size = 0;
   int iterations = 10, final_iterations = 100, seed = 15;
   bool json = false;
@@ -63,14 +65,14 @@ int run_demo(const DemoArgs& a) {
     clear_previous(map, "manifest.txt");
     o.dataset = cat("synth-street:length=", a.length_m, ",width=310,height=94,seed=", a.seed);
     apply_preset(c, "outdoor", o.dataset);
-    c.residency.budget_gaussians = a.budget ? a.budget : kStreetBudget;
+    c.residency.budget_gaussians = a.budget ? size_t(a.budget) : kStreetBudget;
     // Keyframe images are host memory the budget does not count (400 kept by default): a short demo
     // keeps fewer, so that memory levels off within its minute as it does on a long drive.
     c.keyframes.max_in_memory = 48;
     log::info("demo: a synthetic street of ", a.length_m, " m (stereo, rendered frame by frame) under a budget of ",
               c.residency.budget_gaussians, " Gaussians");
   } else {
-    const size_t frames = a.frames ? a.frames : kRoomFrames;
+    const size_t frames = a.frames ? size_t(a.frames) : kRoomFrames;
     if (frames < 8) fail("--frames must be at least 8 (every 8th frame is held out for scoring), got ", frames);
     clear_previous(room, "rgb.txt");
     clear_previous(map, "manifest.txt");
@@ -85,7 +87,7 @@ int run_demo(const DemoArgs& a) {
     synth_s = since(t_synth);
     o.dataset = "tum:" + room.string();
     apply_preset(c, "indoor", o.dataset);
-    c.residency.budget_gaussians = a.budget ? a.budget : kRoomBudget;
+    c.residency.budget_gaussians = a.budget ? size_t(a.budget) : kRoomBudget;
     c.store.chunk_size = 2.0;
     c.mapper.resolution = 0.25;
   }
@@ -162,7 +164,20 @@ const Command cmd{"demo", "synthetic street (or room) -> map larger than its bud
   app.add_option("--budget", a->budget, "resident Gaussians at most (street default 12000, room 200000)");
   app.add_option("--chunk-size", a->chunk_size, "chunk edge in metres (street default 10, room 2)");
   app.add_flag("--json", a->json, "print the run's report (with the demo's paths) as JSON");
-  return [a]() { return run_demo(*a); };
+  return [a, &app]() {
+    // 0 stands for "the scene's default" inside DemoArgs; typed on the command line it is refused.
+    if (given(app, "--budget")) require_flag(a->budget >= 1, "--budget", "at least 1 Gaussian", a->budget);
+    if (given(app, "--frames")) require_flag(a->frames >= 1, "--frames", "at least 1", a->frames);
+    if (given(app, "--resolution"))
+      require_flag(std::isfinite(a->resolution) && a->resolution > 0 && a->resolution <= 1, "--resolution",
+                   "in (0, 1]", a->resolution);
+    if (given(app, "--chunk-size"))
+      require_flag(std::isfinite(a->chunk_size) && a->chunk_size > 0, "--chunk-size", "a positive number of metres",
+                   a->chunk_size);
+    require_flag(a->iterations >= 0, "--iterations", "0 or more", a->iterations);
+    require_flag(a->final_iterations >= 0, "--final-iterations", "0 or more", a->final_iterations);
+    return run_demo(*a);
+  };
 }};
 
 }  // namespace

@@ -1,10 +1,12 @@
 // `diskchungs run`: map a dataset, on given poses or tracked ones, into a chunked Gaussian map folder.
+#include <cmath>
 #include <cstdio>
 
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/run_pipeline.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
+#include "flag_checks.hpp"
 #include "presets.hpp"
 
 namespace chungs::app {
@@ -13,9 +15,9 @@ namespace {
 struct RunArgs {
   RunOptions o;
   std::string config_file, preset = "auto";
-  size_t budget = 0;
-  double chunk_size = 0, resolution = 0, speed = 0, fill_depth = -1;
-  int iterations = -1, final_iterations = -1;
+  long long budget = 0, max_frames = 0;
+  double chunk_size = 0, resolution = 0, speed = 0, fill_depth = 0;
+  int iterations = 0, final_iterations = 0;
   std::string pacing, depth, device;
   bool json = false, no_eval = false, no_ba = false, no_loop = false;
 };
@@ -47,25 +49,53 @@ const Command cmd{
                      "auto | cuda | cpu: where the optimisation runs (auto: cuda when a GPU is usable)");
       app.add_flag("--no-ba", a->no_ba, "--poses track: no local bundle adjustment");
       app.add_flag("--no-loop", a->no_loop, "--poses track: no loop closure");
-      app.add_option("--max-frames", a->o.max_frames, "use only the first n frames");
+      app.add_option("--max-frames", a->max_frames, "use only the first n frames");
       app.add_flag("--no-eval", a->no_eval, "skip the held-out evaluation");
       app.add_flag("--json", a->json, "print the report as JSON");
-      return [a]() {
+      return [a, &app]() {
         Config& c = a->o.config;
         // The preset (the dataset's, or the one named) first; a configuration file then changes only
         // the keys it names. (It used to replace everything, so a file naming only the budget lost the
         // outdoor preset on KITTI without a word.)
         apply_preset(c, a->preset, a->o.dataset);
         if (!a->config_file.empty()) c = load_config(a->config_file, c);
-        if (a->budget) c.residency.budget_gaussians = a->budget;
-        if (a->chunk_size > 0) c.store.chunk_size = a->chunk_size;
-        if (a->resolution > 0) c.mapper.resolution = a->resolution;
-        if (a->iterations >= 0) c.mapper.iterations_per_keyframe = a->iterations;
-        if (a->final_iterations >= 0) c.mapper.final_iterations = a->final_iterations;
+        if (given(app, "--budget")) {
+          require_flag(a->budget >= 1, "--budget", "at least 1 Gaussian", a->budget);
+          c.residency.budget_gaussians = size_t(a->budget);
+        }
+        if (given(app, "--chunk-size")) {
+          require_flag(std::isfinite(a->chunk_size) && a->chunk_size > 0, "--chunk-size", "a positive number of metres",
+                       a->chunk_size);
+          c.store.chunk_size = a->chunk_size;
+        }
+        if (given(app, "--resolution")) {
+          require_flag(std::isfinite(a->resolution) && a->resolution > 0 && a->resolution <= 1, "--resolution",
+                       "in (0, 1]", a->resolution);
+          c.mapper.resolution = a->resolution;
+        }
+        if (given(app, "--iterations")) {
+          require_flag(a->iterations >= 0, "--iterations", "0 or more", a->iterations);
+          c.mapper.iterations_per_keyframe = a->iterations;
+        }
+        if (given(app, "--final-iterations")) {
+          require_flag(a->final_iterations >= 0, "--final-iterations", "0 or more", a->final_iterations);
+          c.mapper.final_iterations = a->final_iterations;
+        }
+        if (given(app, "--speed")) {
+          require_flag(std::isfinite(a->speed) && a->speed > 0, "--speed", "a positive factor", a->speed);
+          c.mapper.speed = a->speed;
+        }
+        if (given(app, "--fill-depth")) {
+          require_flag(std::isfinite(a->fill_depth) && a->fill_depth >= 0, "--fill-depth", "0 or more metres",
+                       a->fill_depth);
+          c.sampler.fill_depth = a->fill_depth;
+        }
+        if (given(app, "--max-frames")) {
+          require_flag(a->max_frames >= 1, "--max-frames", "at least 1", a->max_frames);
+          a->o.max_frames = size_t(a->max_frames);
+        }
         if (!a->pacing.empty()) c.mapper.pacing = a->pacing;
-        if (a->speed > 0) c.mapper.speed = a->speed;
         if (!a->depth.empty()) c.mapper.depth = a->depth;
-        if (a->fill_depth >= 0) c.sampler.fill_depth = a->fill_depth;
         if (!a->device.empty()) c.mapper.device = a->device;
         c.validate();
         a->o.evaluate = !a->no_eval;

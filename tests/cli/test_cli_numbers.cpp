@@ -1,0 +1,47 @@
+// Numbers typed on the command line: out of range (zero where it used to mean "default", negative,
+// NaN, infinite) is refused with the flag named and a non-zero exit, before anything is written.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "cli/cli_support.hpp"
+#include "test_support.hpp"
+
+using chungs::test::run_cli;
+
+namespace {
+
+void expect_refused(const std::string& command, const std::string& flag, const std::filesystem::path& out) {
+  auto r = run_cli(command);
+  EXPECT_NE(r.code, 0) << command << "\n" << r.out;
+  EXPECT_NE(r.out.find("error: " + flag + " must be"), std::string::npos) << command << "\n" << r.out;
+  EXPECT_FALSE(std::filesystem::exists(out)) << command << " wrote " << out;
+}
+
+TEST(CliNumbers, RunRefusesOutOfRangeValuesNamingTheFlag) {
+  chungs::test::TempDir dir;
+  const auto out = dir / "map";
+  const std::string run = "run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --out " +
+                          out.string() + " ";
+  for (const auto& [args, flag] : std::vector<std::pair<std::string, std::string>>{
+           {"--resolution 0", "--resolution"}, {"--resolution nan", "--resolution"},
+           {"--resolution 1.5", "--resolution"}, {"--budget 0", "--budget"}, {"--budget -3", "--budget"},
+           {"--chunk-size -1", "--chunk-size"}, {"--iterations -5", "--iterations"},
+           {"--final-iterations -1", "--final-iterations"}, {"--speed inf", "--speed"}, {"--speed 0", "--speed"},
+           {"--fill-depth -2", "--fill-depth"}, {"--max-frames 0", "--max-frames"},
+           {"--max-frames -5", "--max-frames"}})
+    expect_refused(run + args, flag, out);
+}
+
+TEST(CliNumbers, DemoRefusesOutOfRangeValuesNamingTheFlag) {
+  chungs::test::TempDir dir;
+  const auto out = dir / "demo";
+  const std::string demo = "demo --out " + out.string() + " ";
+  for (const auto& [args, flag] : std::vector<std::pair<std::string, std::string>>{
+           {"--budget 0", "--budget"}, {"--budget -2", "--budget"}, {"--resolution 0", "--resolution"},
+           {"--chunk-size 0", "--chunk-size"}, {"--iterations -1", "--iterations"},
+           {"--scene room --frames 0", "--frames"}})
+    expect_refused(demo + args, flag, out);
+}
+
+}  // namespace
