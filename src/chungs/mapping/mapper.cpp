@@ -1,9 +1,11 @@
 #include "chungs/mapping/mapper.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -36,7 +38,16 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   ChunkStoreConfig store_config = config_.store;
   store_config.adopt_uncommitted = false;
   store_ = std::make_unique<ChunkStore>(folder, store_config);
-  if (resume) recover_checkpoint_files();
+  if (resume) {
+    recover_checkpoint_files();
+    // A committed checkpoint names its keyframe list and run state; resuming without them would map
+    // the frames again on top of the map (from frame 0, or with no keyframes).
+    if (checkpoint_seq_ > 0)
+      for (const char* name : {"keyframes.txt", "run_state.json"})
+        if (!fs::exists(folder / name))
+          fail(folder.string(), ": checkpoint ", checkpoint_seq_, " of this map has no ", name,
+               ", so --resume cannot tell where the run stopped; the map is left as it is");
+  }
   backend_ =
       make_optim_backend(device_, pool_capacity(config_.residency), store_->sh_degree(), config_.raster,
                          size_t(config_.mapper.gpu_keyframe_cache_mb) << 20);
@@ -355,7 +366,14 @@ fs::path checkpoint_file(const fs::path& folder, uint64_t seq, const std::string
 // the previous checkpoint whole; after it, opening finishes the renaming.
 void Mapper::recover_checkpoint_files() {
   const auto tag = store_->config_value("checkpoint");
-  checkpoint_seq_ = tag ? std::stoull(*tag) : 0;
+  checkpoint_seq_ = 0;
+  if (tag) {
+    char* end = nullptr;
+    errno = 0;
+    checkpoint_seq_ = std::strtoull(tag->c_str(), &end, 10);
+    if (tag->empty() || *end != '\0' || errno == ERANGE || (*tag)[0] == '-')
+      fail(folder_.string(), "/manifest.txt: checkpoint '", *tag, "' is not a checkpoint number");
+  }
   for (const auto& e : fs::directory_iterator(folder_)) {
     const std::string name = e.path().filename().string();
     unsigned long long seq = 0;

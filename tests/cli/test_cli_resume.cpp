@@ -1,0 +1,65 @@
+// --resume on a map whose committed state files are missing: refused with the file named
+// and a non-zero exit, and the folder's manifest and chunk files are left as they were (it used to
+// restart at frame 0 on top of the map, or resume with no keyframes).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "cli/cli_support.hpp"
+#include "test_support.hpp"
+
+using chungs::test::run_cli;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kDataset = "synth-street:length=30,width=160,height=48,seed=2";
+
+std::string read_all(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// Names and sizes of every file under the folder, for "nothing changed".
+std::string listing(const fs::path& dir) {
+  std::string out;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) out += e.path().string() + " " + std::to_string(e.file_size()) + "\n";
+  return out;
+}
+
+fs::path small_map(const fs::path& dir) {
+  const fs::path map = dir / "map";
+  auto r = run_cli("-q run --dataset " + kDataset + " --device cpu --max-frames 12 --no-eval --out " + map.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  return map;
+}
+
+TEST(CliResume, MissingStateFilesAreRefusedAndTheMapIsLeftAlone) {
+  for (const char* missing : {"run_state.json", "keyframes.txt"}) {
+    chungs::test::TempDir dir;
+    const fs::path map = small_map(dir.path());
+    ASSERT_TRUE(fs::exists(map / missing));
+    fs::remove(map / missing);
+    const std::string before = listing(map), manifest = read_all(map / "manifest.txt");
+    auto r = run_cli("run --dataset " + kDataset + " --device cpu --no-eval --resume --out " + map.string());
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find(std::string("has no ") + missing), std::string::npos) << r.out;
+    EXPECT_EQ(read_all(map / "manifest.txt"), manifest);
+    EXPECT_EQ(listing(map), before);
+  }
+}
+
+TEST(CliResume, AnIntactMapStillResumes) {
+  chungs::test::TempDir dir;
+  const fs::path map = small_map(dir.path());
+  auto r = run_cli("run --dataset " + kDataset + " --device cpu --no-eval --resume --out " + map.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("resuming"), std::string::npos) << r.out;
+}
+
+}  // namespace
