@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <tuple>
+#include <vector>
 
 #include "cli/cli_support.hpp"
 #include "test_support.hpp"
@@ -51,6 +53,32 @@ TEST(CliResume, MissingStateFilesAreRefusedAndTheMapIsLeftAlone) {
     EXPECT_NE(r.out.find(std::string("has no ") + missing), std::string::npos) << r.out;
     EXPECT_EQ(read_all(map / "manifest.txt"), manifest);
     EXPECT_EQ(listing(map), before);
+  }
+}
+
+TEST(CliResume, DamagedRunStateValuesAreRefusedNamingTheKey) {
+  chungs::test::TempDir dir;
+  const fs::path map = small_map(dir.path());
+  const std::string state = read_all(map / "run_state.json");
+  auto replaced = [&](const std::string& key, const std::string& value) {
+    // "key": <value> with the writer's formatting, whatever the old value was.
+    const size_t at = state.find("\"" + key + "\"");
+    EXPECT_NE(at, std::string::npos) << key;
+    const size_t colon = state.find(':', at), end = state.find_first_of(",}\n", colon);
+    return state.substr(0, colon + 1) + value + state.substr(end);
+  };
+  for (const auto& [key, value, says] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"next_frame", "-3", "'next_frame' must be a whole number"},
+           {"next_frame", "99999", "'next_frame' 99999 lies beyond"},
+           {"seconds", "\"abc\"", "'seconds' must be a finite number"},
+           {"iterations", "1.5", "'iterations' must be a whole number"},
+           {"finished", "\"yes\"", "'finished' must be true or false"}}) {
+    { std::ofstream(map / "run_state.json", std::ios::binary) << replaced(key, value); }
+    const std::string before = listing(map);
+    auto r = run_cli("run --dataset " + kDataset + " --device cpu --no-eval --resume --out " + map.string());
+    EXPECT_NE(r.code, 0) << key << " " << value << "\n" << r.out;
+    EXPECT_NE(r.out.find("run_state.json: " + says), std::string::npos) << r.out;
+    EXPECT_EQ(listing(map), before) << key;
   }
 }
 

@@ -1,5 +1,7 @@
 #include "chungs/mapping/map_state.hpp"
 
+#include <cmath>
+
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -61,6 +63,23 @@ nlohmann::json read_json_file(const std::filesystem::path& file) {
   } catch (const std::exception& e) {
     fail(file.string(), ": not valid JSON (", e.what(), ")");
   }
+}
+
+void validate_run_state(const nlohmann::json& j, const std::filesystem::path& file) {
+  auto bad = [&](const char* key, const char* what) {
+    fail(file.string(), ": '", key, "' must be ", what, ", got ", j[key].dump());
+  };
+  if (!j.is_object()) fail(file.string(), ": not a run state (a JSON object), got ", j.type_name());
+  for (const char* key : {"next_frame", "iterations", "frames"})
+    if (j.contains(key) && !j[key].is_number_unsigned()) bad(key, "a whole number >= 0");
+  if (j.contains("seconds") && !(j["seconds"].is_number() && std::isfinite(j["seconds"].get<double>()) &&
+                                 j["seconds"].get<double>() >= 0))
+    bad("seconds", "a finite number >= 0");
+  for (const char* key : {"dataset", "poses", "rng"})
+    if (j.contains(key) && !j[key].is_string()) bad(key, "a string");
+  if (j.contains("finished") && !j["finished"].is_boolean()) bad("finished", "true or false");
+  for (const char* key : {"timeline", "keyframe_chunks"})
+    if (j.contains(key) && !(j[key].is_array() || j[key].is_object())) bad(key, "an array or object");
 }
 
 namespace {

@@ -28,6 +28,11 @@ std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& f
 
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable);
 nlohmann::json read_json_file(const std::filesystem::path& file);
+// run_state.json as a checkpoint writes it: an object whose known keys have their types and ranges
+// (next_frame, iterations: whole numbers >= 0; seconds: finite >= 0; dataset, poses, rng: strings;
+// finished: true/false; timeline, keyframe_chunks: arrays or objects). Throws Error naming the file
+// and the first key at fault, so a damaged state never becomes a wrapped-around frame number.
+void validate_run_state(const nlohmann::json& state, const std::filesystem::path& file);
 
 // Resident set size of this process now and its peak, in bytes (0 where /proc is unavailable).
 uint64_t current_rss_bytes();

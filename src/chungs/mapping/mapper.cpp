@@ -77,14 +77,21 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     update_training_window();
   }
   if (resume && fs::exists(folder / "run_state.json")) {
-    resumed_state_ = read_json_file(folder / "run_state.json");
+    const fs::path file = folder / "run_state.json";
+    resumed_state_ = read_json_file(file);
+    validate_run_state(resumed_state_, file);
     iterations_ = resumed_state_.value("iterations", uint64_t(0));
     steps_at_last_keyframe_ = iterations_;
-    if (resumed_state_.contains("keyframe_chunks"))
-      keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
+    try {
+      if (resumed_state_.contains("keyframe_chunks"))
+        keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
+    } catch (const nlohmann::json::exception& e) {
+      fail(file.string(), ": 'keyframe_chunks' is damaged (", e.what(), ")");
+    }
     if (resumed_state_.contains("rng")) {
       std::istringstream s(resumed_state_["rng"].get<std::string>());
       s >> rng_;
+      if (!s) fail(file.string(), ": 'rng' is not a saved random state");
     }
   }
   // A map saved before the index existed: a loop correction then visits every chunk.
