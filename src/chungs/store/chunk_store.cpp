@@ -24,6 +24,10 @@ ChunkStore::ChunkStore(fs::path folder, const ChunkStoreConfig& config)
       chunk_size_(config.chunk_size),
       sh_degree_(config.sh_degree) {
   if (!(chunk_size_ > 0)) fail("chunk store: chunk size must be positive, got ", chunk_size_);
+  if (config_.read_only) {
+    open_read_only();
+    return;
+  }
   std::error_code ec;
   fs::create_directories(chunk_dir_, ec);
   if (ec) fail(chunk_dir_.string(), ": cannot create map folder: ", ec.message());
@@ -57,7 +61,36 @@ ChunkStore::ChunkStore(fs::path folder, const ChunkStoreConfig& config)
   }
 }
 
+void ChunkStore::open_read_only() {
+  if (!fs::exists(manifest_path())) fail(folder_.string(), ": not a map folder (no manifest.txt)");
+  // A shared lock: a writer (which locks exclusively) and a reader exclude each other.
+  const fs::path lock_file = folder_ / "lock";
+  lock_ = FileDescriptor(::open(lock_file.c_str(), O_RDONLY | O_CLOEXEC));
+  if (lock_ && ::flock(lock_.get(), LOCK_SH | LOCK_NB) != 0)
+    fail(folder_.string(), ": map folder is being written (open by another process)");
+  try {
+    manifest_ = Manifest::read(manifest_path());
+  } catch (const Error& e) {
+    fail(e.what(), " (a writer, `run --resume`, can rebuild it from the chunk files)");
+  }
+  chunk_size_ = manifest_.chunk_size;
+  sh_degree_ = manifest_.sh_degree;
+  for (const auto& [id, e] : manifest_.chunks) {
+    const fs::path file = chunk_file(id, e.generation);
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec))
+      fail(file.string(), ": listed in ", manifest_path().string(), " but missing (or not a file); the map is left as it is");
+  }
+  committed_ = manifest_.chunks;
+  next_generation_ = std::max<uint64_t>(manifest_.next_generation, 1);
+}
+
+void ChunkStore::refuse_write(const char* what) const {
+  if (config_.read_only) fail(folder_.string(), ": opened read-only, cannot ", what);
+}
+
 ChunkStore::~ChunkStore() {
+  if (config_.read_only) return;
   try {
     if (config_.adopt_uncommitted) commit();
   } catch (const std::exception& e) {
@@ -142,6 +175,7 @@ GaussianBlock ChunkStore::load(ChunkId id) const {
 }
 
 void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
+  refuse_write("save a chunk");
   if (block.size() == 0) {
     remove(id);
     return;
@@ -184,6 +218,7 @@ std::pair<uint64_t, ChunkFileInfo> ChunkStore::write_generation(ChunkId id, cons
 }
 
 void ChunkStore::remove(ChunkId id) {
+  refuse_write("remove a chunk");
   uint64_t generation;
   {
     std::lock_guard lock(mutex_);
@@ -245,6 +280,7 @@ void ChunkStore::set_config(const std::string& key, const std::string& value) {
     fail("chunk store: config key '", key, "' must be non-empty and free of blanks");
   if (value.find_first_of("\r\n") != std::string::npos)
     fail("chunk store: config value of '", key, "' must not contain line breaks");
+  refuse_write("change its settings");
   std::lock_guard lock(mutex_);
   auto& v = manifest_.config[key];
   if (v != value) {
@@ -268,6 +304,7 @@ void ChunkStore::commit() {
     std::lock_guard lock(mutex_);
     if (snapshot_) fail(folder_.string(), ": commit while a snapshot is pending (commit or abandon it first)");
     if (!dirty_) return;
+    refuse_write("commit");
     snapshot = manifest_;
     snapshot.next_generation = writing_.empty() ? next_generation_ : *writing_.begin();
     to_sync = start_commit_locked(snapshot);

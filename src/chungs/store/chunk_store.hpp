@@ -57,6 +57,10 @@ struct ChunkStoreConfig {
   // Half precision by default: 45 % smaller files, no measured loss of quality (bench/README).
   bool half_moments = true;   // Adam moments as binary16: 724 -> 488 bytes per Gaussian
   bool half_sh_rest = true;   // SH beyond DC as binary16 too: -> 398 bytes per Gaussian
+  // For readers (export, render): the folder must hold a map; it is read as its manifest commits it,
+  // nothing is repaired, created, renamed or deleted, and any write throws. A chunk the manifest
+  // lists but whose file is gone is an error naming the file (a writer repairs, a reader does not).
+  bool read_only = false;
 };
 
 // What opening had to repair. A clean close leaves all zeros.
@@ -140,6 +144,8 @@ class ChunkStore {
     bool orphan = false;
   };
   void reconcile(bool have_manifest);
+  void open_read_only();
+  void refuse_write(const char* what) const;  // throws when opened read-only
   bool is_committed(ChunkId id, uint64_t generation) const;
   // Writes the chunk's next generation (not yet named anywhere): the generation and the file.
   std::pair<uint64_t, ChunkFileInfo> write_generation(ChunkId id, const GaussianBlock& block);

@@ -5,6 +5,7 @@
 namespace chungs {
 
 void ChunkStore::begin_snapshot() {
+  refuse_write("begin a snapshot");
   std::lock_guard lock(mutex_);
   if (snapshot_) fail(folder_.string(), ": a snapshot is already pending");
   snapshot_ = manifest_;
