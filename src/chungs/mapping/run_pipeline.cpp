@@ -86,6 +86,16 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     fail("dataset ", o.dataset,
          ": depth source 'none' places Gaussians only at a tracker's sparse points, "
          "and mapping on given poses has none; use an RGB-D or stereo dataset");
+  {
+    // The loss's SSIM window and the tracker's feature pyramid need some image: refused before the
+    // folder is touched (a 2x1 mapping image used to fail only at the evaluation, after mapping).
+    constexpr int kMinSide = 16;
+    const int w = std::max(1, int(std::lround(info.camera.width * mc.resolution)));
+    const int h = std::max(1, int(std::lround(info.camera.height * mc.resolution)));
+    if (w < kMinSide || h < kMinSide)
+      fail("dataset ", o.dataset, ": its ", info.camera.width, "x", info.camera.height, " images at resolution ",
+           mc.resolution, " are ", w, "x", h, ", below the ", kMinSide, "x", kMinSide, " that mapping needs");
+  }
   const bool tracked = o.poses == "track";
   if (tracked && o.resume)
     fail(o.out.string(),
