@@ -33,6 +33,16 @@ TEST(CliNumbers, RunRefusesOutOfRangeValuesNamingTheFlag) {
     expect_refused(run + args, flag, out);
 }
 
+TEST(CliNumbers, RunRefusesImagesTooSmallToMapBeforeWritingAnything) {
+  chungs::test::TempDir dir;
+  const auto out = dir / "map";
+  auto r = run_cli("run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --resolution 0.1 "
+                   "--out " + out.string());
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("are 16x5, below the 16x16"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 TEST(CliNumbers, DemoRefusesOutOfRangeValuesNamingTheFlag) {
   chungs::test::TempDir dir;
   const auto out = dir / "demo";
