@@ -43,6 +43,16 @@ TEST(CliNumbers, RunRefusesImagesTooSmallToMapBeforeWritingAnything) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+TEST(CliNumbers, TrackingRefusesTinyImagesInsteadOfAborting) {
+  // 1x1 stereo images: OpenCV threw inside an OpenMP region and the process aborted (exit 134).
+  chungs::test::TempDir dir;
+  auto r = run_cli("synth street --out " + (dir / "seq").string() + " --frames 3 --width 1 --height 1 --length-m 10");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run_cli("track --dataset kitti:" + (dir / "seq").string() + " --out " + (dir / "t.txt").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("is 1x1, below the 32x32"), std::string::npos) << r.out;
+}
+
 TEST(CliNumbers, DemoRefusesOutOfRangeValuesNamingTheFlag) {
   chungs::test::TempDir dir;
   const auto out = dir / "demo";

@@ -3,6 +3,7 @@
 #include "chungs/common/stopwatch.hpp"
 
 #include <chrono>
+#include <exception>
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
@@ -58,18 +59,41 @@ std::shared_ptr<PreparedFrame> VisualTracker::prepare(const Frame& frame, const 
   auto out = std::make_shared<PreparedFrame>();
   out->index = frame.index;
   const double bf = frame.camera.fx * frame_baseline(frame, opt);
+  // Below this ORB's border and pyramid leave nothing to match (and OpenCV throws on some sizes).
+  constexpr int kMinSide = 32;
+  if (frame.left.width() < kMinSide || frame.left.height() < kMinSide)
+    fail("tracking: frame ", frame.index, " (", frame.source, ") is ", frame.left.width(), "x", frame.left.height(),
+         ", below the ", kMinSide, "x", kMinSide, " that feature tracking needs");
   out->gray = to_gray_mat(frame.left);
   if (frame.right) {
     cv::Mat rg = to_gray_mat(*frame.right);
     Features rf;
-    // The two images are independent: one core each.
+    // The two images are independent: one core each. An exception may not leave an OpenMP region
+    // (that ends the process), so each section keeps its own and the first is rethrown after it.
+    std::exception_ptr errors[2];
 #pragma omp parallel sections num_threads(2)
     {
 #pragma omp section
-      out->f = extract_orb(out->gray, opt.orb);
+      try {
+        out->f = extract_orb(out->gray, opt.orb);
+      } catch (...) {
+        errors[0] = std::current_exception();
+      }
 #pragma omp section
-      rf = extract_orb(rg, opt.orb);
+      try {
+        rf = extract_orb(rg, opt.orb);
+      } catch (...) {
+        errors[1] = std::current_exception();
+      }
     }
+    for (const auto& e : errors)
+      if (e) {
+        try {
+          std::rethrow_exception(e);
+        } catch (const std::exception& x) {
+          fail("tracking: frame ", frame.index, " (", frame.source, "): feature extraction failed: ", x.what());
+        }
+      }
     match_stereo(out->gray, rg, out->f, rf, bf, opt.stereo);
   } else {
     if (!frame.depth->same_size(frame.left)) fail("tracking: frame ", frame.index, " depth and image sizes differ");
