@@ -6,6 +6,10 @@ void require_file(const std::filesystem::path& p, const std::string& what) {
   std::error_code ec;
   if (!std::filesystem::exists(p, ec)) fail(p.string(), ": ", what, " does not exist");
   if (std::filesystem::is_directory(p, ec)) fail(p.string(), ": expected a ", what, ", found a folder");
+  // A FIFO, socket or device would block a read forever or never end: only regular files (or links
+  // to them) are inputs.
+  if (!std::filesystem::is_regular_file(p, ec))
+    fail(p.string(), ": expected a ", what, ", found a FIFO, socket or device (not a regular file)");
 }
 
 void require_dir(const std::filesystem::path& p, const std::string& what) {
