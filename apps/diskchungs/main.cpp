@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <string>
 
 #include "allocator.hpp"
 #include "chungs/common/log.hpp"
@@ -41,6 +42,18 @@ int main(int argc, char** argv) {
     CLI::App* sub = cli.add_subcommand(c->name, c->help);
     sub->fallthrough();  // -q / -v also after the subcommand, where users type them
     actions[sub] = c->setup(*sub);
+  }
+  // A mistyped command: CLI11 would only say that a subcommand is required.
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (!arg.empty() && arg[0] == '-') continue;  // global flags before the command
+    if (std::none_of(cmds.begin(), cmds.end(), [&](auto* c) { return c->name == arg; })) {
+      std::string names;
+      for (const auto* c : cmds) names += (names.empty() ? "" : ", ") + c->name;
+      std::fprintf(stderr, "diskchungs: error: unknown command '%s' (commands: %s)\n", arg.c_str(), names.c_str());
+      return 2;
+    }
+    break;
   }
   try {
     cli.parse(argc, argv);

@@ -33,3 +33,13 @@ TEST(Cli, InspectsRealKitti) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("\"frames\": 51"), std::string::npos) << r.out;
 }
+
+TEST(Cli, AnUnknownCommandIsNamedWithTheCommandsThereAre) {
+  for (const std::string args : {"frobnicate", "-q frobnicate --out x"}) {
+    auto r = run_cli(args);
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("unknown command 'frobnicate'"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("run"), std::string::npos) << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  }
+}
