@@ -61,3 +61,23 @@ TEST(Config, KeysAbsentFromTheFileKeepTheBaseValues) {
   EXPECT_DOUBLE_EQ(c.loss.lambda_depth, 0.37);  // from the base, not the default
   EXPECT_DOUBLE_EQ(c.sampler.fill_depth, 61.0);
 }
+
+TEST(Config, StoreAndResidencyValuesOutOfRangeAreRefusedNamingTheKey) {
+  for (const auto& [yaml, key] : std::vector<std::pair<std::string, std::string>>{
+           {"store: {zstd_level: 9999}", "zstd_level"},
+           {"store: {zstd_level: 0}", "zstd_level"},
+           {"store: {chunk_size: .nan}", "chunk_size"},
+           {"store: {sh_degree: 4}", "sh_degree"},
+           {"residency: {flush_threads: -5}", "flush_threads"},
+           {"residency: {checkpoint_threads: 0}", "checkpoint_threads"},
+           {"residency: {budget_gaussians: 0}", "budget_gaussians"},
+           {"residency: {eviction_hysteresis: 1}", "eviction_hysteresis"}}) {
+    try {
+      chungs::config_from_yaml(yaml, "t.yaml");
+      ADD_FAILURE() << yaml << " accepted";
+    } catch (const chungs::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << yaml << ": " << e.what();
+    }
+  }
+  EXPECT_NO_THROW(chungs::config_from_yaml("store: {zstd_level: 22}\nresidency: {flush_threads: 1}", "t.yaml"));
+}

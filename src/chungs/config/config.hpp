@@ -36,6 +36,8 @@ struct Config {
   // Each section's own checks. Inline, so that the mapping library, which takes the whole tree,
   // needs only the section modules it already links and not the YAML code of this module.
   void validate() const {
+    store.validate();
+    residency.validate();
     adam.validate();
     loss.validate();
     prune.validate();

@@ -21,6 +21,20 @@ size_t write_behind_max(const ResidencyConfig& c) {
 
 }  // namespace
 
+void ResidencyConfig::validate() const {
+  constexpr size_t kMaxGaussians = size_t(1) << 34;  // far beyond any GPU or host memory
+  if (budget_gaussians < 1 || budget_gaussians > kMaxGaussians)
+    fail("residency: budget_gaussians must be in [1, ", kMaxGaussians, "], got ", budget_gaussians);
+  if (!(eviction_hysteresis >= 0 && eviction_hysteresis < 1))
+    fail("residency: eviction_hysteresis must be in [0, 1), got ", eviction_hysteresis);
+  if (prefetch_max_gaussians > kMaxGaussians || write_behind_max_gaussians > kMaxGaussians)
+    fail("residency: prefetch_max_gaussians and write_behind_max_gaussians must be at most ", kMaxGaussians);
+  if (flush_threads < 1 || flush_threads > 256) fail("residency: flush_threads must be in [1, 256], got ", flush_threads);
+  if (checkpoint_threads < 1 || checkpoint_threads > 256)
+    fail("residency: checkpoint_threads must be in [1, 256], got ", checkpoint_threads);
+  if (!(pool_headroom >= 0 && pool_headroom <= 4)) fail("residency: pool_headroom must be in [0, 4], got ", pool_headroom);
+}
+
 size_t in_flight_max_gaussians(const ResidencyConfig& config) {
   return prefetch_max(config) + write_behind_max(config) + checkpoint_memory_limit(config.budget_gaussians);
 }

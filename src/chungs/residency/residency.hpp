@@ -47,6 +47,7 @@ struct ResidencyConfig {
   // false: the destructor writes nothing (only a checkpoint in flight is finished), for a caller
   // that commits consistent states itself, e.g. the mapper's checkpoints with their keyframe list.
   bool flush_on_close = true;
+  void validate() const;  // throws Error naming the key out of range
 };
 
 // Host memory the chunks in flight may hold at once, in Gaussians: read-ahead, queued writes and a

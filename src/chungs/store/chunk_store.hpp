@@ -61,6 +61,7 @@ struct ChunkStoreConfig {
   // nothing is repaired, created, renamed or deleted, and any write throws. A chunk the manifest
   // lists but whose file is gone is an error naming the file (a writer repairs, a reader does not).
   bool read_only = false;
+  void validate() const;  // throws Error naming the key out of range
 };
 
 // What opening had to repair. A clean close leaves all zeros.
