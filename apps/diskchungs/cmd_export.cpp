@@ -29,9 +29,7 @@ const Command cmd{"export", "write a map (whole, one chunk, or a box) as a 3DGS 
       if (p == map) fail("--out ", a->out, " lies inside the map folder ", a->map, "; write the PLY elsewhere");
       if (p == p.root_path()) break;
     }
-    ChunkStoreConfig read_only;
-    read_only.read_only = true;  // a reader never repairs or rewrites the map
-    ChunkStore store(a->map, read_only);
+    ChunkStore store(a->map, reader_config());  // a reader never repairs or rewrites the map
     PlySelection s;
     if (!a->chunk.empty()) s.chunk = chunk_id(ChunkCoord{a->chunk[0], a->chunk[1], a->chunk[2]});
     if (!a->box.empty()) {

@@ -6,7 +6,6 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "chungs/depth/sgm.hpp"
 #if CHUNGS_WITH_CUDA
 #include "chungs/depth/cuda/sgm_cuda.hpp"
 #endif
@@ -14,10 +13,8 @@
 namespace chungs {
 
 void StereoDepthConfig::validate() const {
-  if (num_disparities < 16 || num_disparities > kSgmMaxDisparities)
-    fail("stereo depth: num_disparities must be in [16, ", kSgmMaxDisparities, "], got ", num_disparities);
-  if (p1 < 0 || p2 < p1 || p2 > 1000) fail("stereo depth: need 0 <= p1 <= p2 <= 1000, got ", p1, " and ", p2);
-  if (uniqueness < 0 || uniqueness > 100) fail("stereo depth: uniqueness must be in [0, 100], got ", uniqueness);
+  if (num_disparities < 16) fail("stereo depth: num_disparities must be at least 16, got ", num_disparities);
+  sgm_params().validate();  // the range of disparities, the penalties, the uniqueness margin
   if (speckle_window < 0 || speckle_range < 0)
     fail("stereo depth: speckle_window and speckle_range must be >= 0, got ", speckle_window, " and ", speckle_range);
   if (!(min_depth > 0) || !(max_depth > min_depth))
@@ -29,6 +26,13 @@ void StereoDepthConfig::validate() const {
 #endif
 }
 
+SgmParams StereoDepthConfig::sgm_params() const {
+  SgmParams p;
+  p.disparities = num_disparities;
+  p.p1 = p1, p.p2 = p2, p.uniqueness = uniqueness;
+  return p;
+}
+
 StereoDepth stereo_depth(const Image8& left, const Image8& right, double fx, double baseline,
                          const StereoDepthConfig& config) {
   config.validate();
@@ -37,9 +41,7 @@ StereoDepth stereo_depth(const Image8& left, const Image8& right, double fx, dou
          right.height(), " images differ in size or are empty");
   if (!(fx > 0) || !(baseline > 0)) fail("stereo depth: need fx > 0 and baseline > 0, got ", fx, " and ", baseline);
   const int w = left.width(), h = left.height();
-  SgmParams params;
-  params.disparities = config.num_disparities;
-  params.p1 = config.p1, params.p2 = config.p2, params.uniqueness = config.uniqueness;
+  const SgmParams params = config.sgm_params();
   const Image8 l = to_gray(left), r = to_gray(right);
 #if CHUNGS_WITH_CUDA
   SgmDisparities disp = config.cuda ? cuda::sgm_disparities(l, r, params) : sgm_disparities(l, r, params);

@@ -2,6 +2,7 @@
 // a speckle filter, a left-right consistency check against the right view's winners, and a
 // confidence map from the smoothness of the inverse depth.
 #pragma once
+#include "chungs/depth/sgm.hpp"
 #include "chungs/image/image.hpp"
 
 namespace chungs {
@@ -21,6 +22,7 @@ struct StereoDepthConfig {
   double min_confidence = 0.0;
   bool cuda = false;  // match on the GPU (chosen by the run's device, not a file setting)
   void validate() const;
+  SgmParams sgm_params() const;  // the matcher's share of these settings
 };
 
 struct StereoDepth {

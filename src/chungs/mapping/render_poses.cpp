@@ -20,14 +20,6 @@ namespace chungs {
 
 namespace fs = std::filesystem;
 
-namespace {
-// Rendering reads the map as committed: nothing in the folder is repaired or rewritten.
-ChunkStoreConfig read_only(ChunkStoreConfig c) {
-  c.read_only = true;
-  return c;
-}
-}  // namespace
-
 struct MapRenderer::Impl {
   ChunkStore store;
   CpuGaussianPool pool;
@@ -35,7 +27,7 @@ struct MapRenderer::Impl {
   FrustumCuller culler;
   CpuRasterizer<float> raster;
   Impl(const fs::path& folder, const Config& c)
-      : store(folder, read_only(c.store)),
+      : store(folder, reader_config(c.store)),  // rendering never repairs or rewrites the map
         pool(c.residency.budget_gaussians, store.sh_degree()),
         residency(store, pool, c.residency),
         culler(store.chunk_size(), c.culling),

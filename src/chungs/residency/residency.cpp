@@ -44,8 +44,7 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
   if (pool_.capacity() < budget_)
     fail("residency: the Gaussian pool holds ", pool_.capacity(), " Gaussians, less than the budget of ", budget_);
   if (pool_.used() != 0) fail("residency: the Gaussian pool must start empty (", pool_.used(), " slots in use)");
-  if (!(config_.eviction_hysteresis >= 0 && config_.eviction_hysteresis < 1))
-    fail("residency: eviction hysteresis must be in [0, 1), got ", config_.eviction_hysteresis);
+  config_.validate();
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
   io_ = std::make_unique<IoWorker>(store_, config_.async_io, prefetch_max(config_), write_behind_max(config_));
 }

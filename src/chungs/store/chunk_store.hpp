@@ -64,6 +64,12 @@ struct ChunkStoreConfig {
   void validate() const;  // throws Error naming the key out of range
 };
 
+// `base` opened for reading only (read_only above).
+inline ChunkStoreConfig reader_config(ChunkStoreConfig base = {}) {
+  base.read_only = true;
+  return base;
+}
+
 // What opening had to repair. A clean close leaves all zeros.
 struct StoreOpenReport {
   size_t temporaries_removed = 0;  // half-written files of an interrupted write
