@@ -39,6 +39,22 @@ TEST(KeyframeSelector, AWindowNarrowsTheCellUntilTheNextKeyframe) {
   EXPECT_EQ(s.candidates().size(), 7u);
 }
 
+TEST(KeyframeSelector, ACellPickRangesBeyondTheWindowAndSaysWhichAreInIt) {
+  KeyframeSelector s;
+  for (uint32_t i = 0; i < 6; ++i) s.add(i, {10.0 * i, 0, 0});
+  s.restrict_to({4});
+  EXPECT_FALSE(s.in_window(0));
+  EXPECT_TRUE(s.in_window(4));
+  EXPECT_TRUE(s.in_window(5)) << "the latest keyframe";
+  std::mt19937_64 rng(4);
+  std::map<uint32_t, int> seen;
+  for (int i = 0; i < 200; ++i) ++seen[s.pick(rng, PickScope::cell)];
+  EXPECT_EQ(seen.size(), 6u) << "every keyframe of the cell is picked";
+  for (int i = 0; i < 50; ++i) EXPECT_GE(s.pick(rng, PickScope::window), 4u);
+  s.add(6, {60, 0, 0});
+  EXPECT_TRUE(s.in_window(0)) << "no window: every keyframe is in";
+}
+
 TEST(KeyframeSelector, SpendsUsesThenRefillsWithALossBonus) {
   KeyframeSelectorConfig c;
   c.new_uses = 2;

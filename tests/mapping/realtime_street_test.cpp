@@ -76,6 +76,8 @@ TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFlo
     const double steps = double(c->report["iterations"].get<uint64_t>());
     EXPECT_LT(double(c->report["chunk_io"]["loads"].get<uint64_t>()), 0.5 * steps);
     EXPECT_LT(double(c->report["chunk_io"]["waited_loads"].get<uint64_t>()), 0.25 * steps);
+    // Keyframes outside the window keep being trained, on the resident part of their views.
+    EXPECT_GT(c->pacing()["training_window"]["partial_step_share"].get<double>(), 0.0);
   }
   // Below what one view needs: the farthest chunks stay out of each render, and their screen area
   // is not sampled again.

@@ -83,6 +83,40 @@ TEST(CudaMappingLoss, MatchesCpuTwinWithAndWithoutDepth) {
   }
 }
 
+TEST(CudaMappingLoss, PixelMaskMatchesCpuTwin) {
+  CHUNGS_REQUIRE_GPU();
+  std::mt19937 rng(8);
+  cuda::CudaMappingLoss gpu;
+  const int w = 97, h = 53;
+  RenderOutput<float> r;
+  r.rgb = random_image(w, h, 3, rng, 0.2f);
+  r.inv_depth = random_image(w, h, 1, rng, 0.3f);
+  const Image<float> target = random_image(w, h, 3, rng, 0.2f);
+  const Image<float> tinv = random_image(w, h, 1, rng, 0.3f);
+  Image<uint8_t> pixels(w, h, 1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) pixels(x, y) = (x / 8 + y / 8) % 3 != 0 && rng() % 7 != 0;
+  LossConfig cfg;
+  cfg.lambda_depth = 0.5;
+  RenderGrads<float> ref;
+  mapping_loss(cfg, r, target, &tinv, nullptr, &ref, &pixels);
+  cuda::DeviceArray<float> drgb(r.rgb.vec()), dinv(r.inv_depth.vec()), dt(target.vec()), dtinv(tinv.vec());
+  cuda::DeviceArray<uint8_t> dpix(pixels.vec());
+  cuda::DeviceRenderOutput out;
+  out.width = w, out.height = h, out.rgb = drgb.data(), out.inv_depth = dinv.data();
+  gpu.evaluate(cfg, out, dt.data(), dtinv.data(), nullptr, true, dpix.data());
+  std::vector<float> g(size_t(3) * w * h), gd(size_t(w) * h);
+  cuda::copy_to_host(g.data(), gpu.grads().rgb, g.size() * sizeof(float), "test");
+  cuda::copy_to_host(gd.data(), gpu.grads().inv_depth, gd.size() * sizeof(float), "test");
+  EXPECT_LT(rel_norm(g, ref.rgb.vec()), 1e-4);
+  EXPECT_LT(rel_norm(gd, ref.inv_depth.vec()), 1e-6);
+  for (size_t i = 0; i < pixels.pixels(); ++i)
+    if (!pixels.data()[i]) {
+      ASSERT_EQ(g[3 * i], 0.f);
+      ASSERT_EQ(gd[i], 0.f);
+    }
+}
+
 }  // namespace
 }  // namespace chungs
 #endif

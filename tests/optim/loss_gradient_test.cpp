@@ -6,6 +6,7 @@
 #include <functional>
 #include <random>
 
+#include "chungs/common/error.hpp"
 #include "chungs/optim/loss.hpp"
 #include "chungs/optim/loss_depth.hpp"
 #include "chungs/optim/loss_l1.hpp"
@@ -154,6 +155,32 @@ TEST(Losses, MappingLossCombinesTermsAndItsGradientMatchesFiniteDifferences) {
       EXPECT_TRUE(g.inv_depth.empty());
     }
   }
+}
+
+TEST(Losses, PixelMaskZeroesGradientsOutsideItAndKeepsThemInside) {
+  RenderOutput<double> r;
+  r.rgb = random_image(23, 17, 3, 21);
+  r.inv_depth = random_image(23, 17, 1, 22, 0.05, 0.8);
+  const Image<double> target = random_image(23, 17, 3, 23);
+  const Image<double> target_inv = random_image(23, 17, 1, 24, 0.05, 0.8);
+  Image<uint8_t> mask(23, 17, 1);
+  std::mt19937 rng(25);
+  for (auto& m : mask.vec()) m = rng() % 3 != 0;
+  const LossConfig cfg{0.2, 0.5};
+  RenderGrads<double> all, masked;
+  const LossTerms ta = mapping_loss(cfg, r, target, &target_inv, nullptr, &all);
+  const LossTerms tm = mapping_loss(cfg, r, target, &target_inv, nullptr, &masked, &mask);
+  EXPECT_EQ(ta.total, tm.total);  // the terms stay those of the whole image
+  size_t outside = 0;
+  for (size_t i = 0; i < mask.pixels(); ++i) {
+    for (int c = 0; c < 3; ++c)
+      EXPECT_EQ(masked.rgb.data()[3 * i + c], mask.data()[i] ? all.rgb.data()[3 * i + c] : 0.0);
+    EXPECT_EQ(masked.inv_depth.data()[i], mask.data()[i] ? all.inv_depth.data()[i] : 0.0);
+    if (!mask.data()[i] && all.rgb.data()[3 * i] != 0) ++outside;
+  }
+  EXPECT_GT(outside, 50u);  // the mask removed real gradient
+  const Image<uint8_t> wrong(22, 17, 1, 1);
+  EXPECT_THROW(mapping_loss(cfg, r, target, &target_inv, nullptr, &masked, &wrong), Error);
 }
 
 }  // namespace

@@ -144,6 +144,10 @@ void fields(V& v, KeyframeSelectorConfig& c) {
   v("new_uses", c.new_uses, "remaining uses of a new keyframe");
   v("top_loss_fraction", c.top_loss_fraction, "share of candidates by loss that get an extra use");
   v("budget_share", c.budget_share, "most of the budget the keyframes trained on together may need");
+  v("partial_views", c.partial_views,
+    "under a window, keyframes outside it are trained on the resident part of their view (no loads)");
+  v("min_partial_coverage", c.min_partial_coverage,
+    "least share of the image that resident part must explain, else a window keyframe is trained");
 }
 template <class V>
 void fields(V& v, StereoDepthConfig& c) {

@@ -25,7 +25,7 @@ LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCam
   const HostTargets t = host_targets(*targets.load(), targets.depth);
   const RenderOutput<float>& out = raster_.forward(view_of(pool_.params()), slots, camera);
   const LossTerms terms = mapping_loss<float>(loss, out, t.rgb, t.depth ? &t.inv_depth : nullptr,
-                                              t.depth ? &t.mask : nullptr, &dloss_);
+                                              t.depth ? &t.mask : nullptr, &dloss_, targets.pixel_mask);
   if (slots.empty()) return terms;
   raster_.backward(dloss_, grads_);
   sparse_adam_step(adam, mut_view_of(pool_.params()), adam_state_of(pool_.storage()), slots, out.visible,

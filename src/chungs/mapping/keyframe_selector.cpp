@@ -14,6 +14,8 @@ void KeyframeSelectorConfig::validate() const {
     fail("keyframe selector: top_loss_fraction must be in [0, 1], got ", top_loss_fraction);
   if (!(budget_share > 0 && budget_share <= 1))
     fail("keyframe selector: budget_share must be in (0, 1], got ", budget_share);
+  if (!(min_partial_coverage >= 0 && min_partial_coverage <= 1))
+    fail("keyframe selector: min_partial_coverage must be in [0, 1], got ", min_partial_coverage);
 }
 
 KeyframeSelector::KeyframeSelector(const KeyframeSelectorConfig& config) : config_(config) { config_.validate(); }
@@ -36,20 +38,22 @@ void KeyframeSelector::restrict_to(std::vector<uint32_t> ids) {
   window_ = std::move(ids);
 }
 
-std::vector<uint32_t> KeyframeSelector::candidates() const {
+bool KeyframeSelector::in_window(uint32_t id) const {
+  return window_.empty() || id == latest_ || std::binary_search(window_.begin(), window_.end(), id);
+}
+
+std::vector<uint32_t> KeyframeSelector::in_cell(PickScope scope) const {
   std::vector<uint32_t> out;
   if (keyframes_.empty()) return out;
   const Cell c = cell_of(keyframes_.at(latest_).position);
   for (const auto& [id, k] : keyframes_)
-    if (cell_of(k.position) == c &&
-        (window_.empty() || id == latest_ || std::binary_search(window_.begin(), window_.end(), id)))
-      out.push_back(id);
+    if (cell_of(k.position) == c && (scope == PickScope::cell || in_window(id))) out.push_back(id);
   std::sort(out.begin(), out.end());
   return out;
 }
 
-uint32_t KeyframeSelector::pick(std::mt19937_64& rng) {
-  const std::vector<uint32_t> cand = candidates();
+uint32_t KeyframeSelector::pick(std::mt19937_64& rng, PickScope scope) {
+  const std::vector<uint32_t> cand = in_cell(scope);
   if (cand.empty()) fail("keyframe selector: no keyframe to pick from");
   long long total = 0;
   for (uint32_t id : cand) total += keyframes_[id].uses;

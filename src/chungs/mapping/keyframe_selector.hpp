@@ -5,7 +5,9 @@
 // candidate has any left, every candidate gets +1 and the top quarter by last loss another +1; the
 // pick is random, weighted by remaining uses, and costs the picked keyframe one use.
 // The mapper may narrow the cell to a window (restrict_to): the keyframes nearest the latest whose
-// chunks fit the memory budget together, so that a small budget does not make every step load.
+// chunks fit the memory budget together, so that a small budget does not make every step load. A
+// pick may still range over the whole cell (PickScope::cell): the mapper then trains a keyframe
+// outside the window on the resident part of its view (view_coverage.hpp).
 #pragma once
 #include <Eigen/Core>
 #include <cstdint>
@@ -22,6 +24,11 @@ struct KeyframeSelectorConfig {
   // The keyframes trained on together may need at most this share of the budget (their chunks'
   // Gaussians): the rest leaves room for new Gaussians and eviction's hysteresis.
   double budget_share = 0.85;
+  // Under a window, steps still pick from the whole cell; a keyframe outside the window is trained on
+  // the resident part of its view (pixels whose surface lies in a resident chunk) when that part
+  // covers at least min_partial_coverage of the image, else a window keyframe is trained instead.
+  bool partial_views = true;
+  double min_partial_coverage = 0.2;
   void validate() const;
 };
 
@@ -32,18 +39,22 @@ struct KeyframeUsage {
   double last_loss = 0;  // loss of its last step (0 before the first)
 };
 
+enum class PickScope { window, cell };
+
 class KeyframeSelector {
  public:
   explicit KeyframeSelector(const KeyframeSelectorConfig& config = {});
   // Registers a keyframe (the latest one defines the candidate cell). `uses` < 0 means new_uses.
   void add(uint32_t id, const Eigen::Vector3d& position, int uses = -1, double last_loss = 0);
-  // Throws Error when no keyframe was added.
-  uint32_t pick(std::mt19937_64& rng);
+  // Among the candidates (scope window) or the whole cell. Throws Error when no keyframe was added.
+  uint32_t pick(std::mt19937_64& rng, PickScope scope = PickScope::window);
   void report_loss(uint32_t id, double loss);
   // Returns the use that pick() took from `id` (a pick made ahead of time and then not trained on).
   void give_back(uint32_t id);
   // Keyframes in the latest keyframe's cell (within the window, if one is set), ascending.
-  std::vector<uint32_t> candidates() const;
+  std::vector<uint32_t> candidates() const { return in_cell(PickScope::window); }
+  // Whether the keyframe is a candidate of the window (true when there is none).
+  bool in_window(uint32_t id) const;
   // Narrows the candidates to these keyframes until the next add(); empty: the whole cell. The
   // latest keyframe is always a candidate.
   void restrict_to(std::vector<uint32_t> ids);
@@ -59,6 +70,7 @@ class KeyframeSelector {
     bool operator==(const Cell&) const = default;
   };
   Cell cell_of(const Eigen::Vector3d& p) const;
+  std::vector<uint32_t> in_cell(PickScope scope) const;
   KeyframeSelectorConfig config_;
   std::unordered_map<uint32_t, KeyframeUsage> keyframes_;
   std::vector<uint32_t> order_;  // insertion order

@@ -270,14 +270,28 @@ StepStats Mapper::step() {
   residency_->advance_checkpoint();
   // The keyframe after this one is drawn now and its chunks are read in the background while this
   // step runs, so the next pin finds them in host memory instead of waiting on the disk.
-  const uint32_t keyframe = next_pick_ ? *next_pick_ : selector_.pick(rng_);
-  next_pick_ = selector_.pick(rng_);
-  if (const KeyframeRecord* next = find_keyframe(*next_pick_)) {
+  const PickScope scope = config_.selector.partial_views ? PickScope::cell : PickScope::window;
+  const uint32_t keyframe = next_pick_ ? *next_pick_ : selector_.pick(rng_, scope);
+  next_pick_ = selector_.pick(rng_, scope);
+  // A pick outside the window loads nothing: its step uses what is resident.
+  if (const KeyframeRecord* next = find_keyframe(*next_pick_); next && selector_.in_window(next->id)) {
     const std::vector<ChunkId> ahead = visible_chunks(next->camera, next->pose);
     residency_->prefetch(ahead);
     keyframe_store_->prefetch(next->id);
   }
   return step_keyframe(keyframe);
+}
+
+const ViewCoverage& Mapper::coverage_of(const KeyframeRecord& kf) {
+  auto it = coverage_.find(kf.id);
+  if (it == coverage_.end()) {
+    const std::shared_ptr<const KeyframeImages> images = keyframe_store_->get(kf.id);
+    ViewCoverage built;  // no depth map: nothing known of where its pixels look
+    if (!images->depth.empty())
+      built = ViewCoverage(images->depth, kf.camera, kf.pose, store_->chunk_size(), config_.sampler.fill_depth);
+    it = coverage_.emplace(kf.id, std::move(built)).first;
+  }
+  return it->second;
 }
 
 double Mapper::optimiser_io_wait_ms() const {
@@ -291,7 +305,7 @@ const KeyframeRecord* Mapper::find_keyframe(uint32_t id) const {
   return it == keyframes_.end() ? nullptr : &*it;
 }
 
-StepStats Mapper::step_keyframe(uint32_t keyframe) {
+StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   StepStats st;
@@ -299,8 +313,23 @@ StepStats Mapper::step_keyframe(uint32_t keyframe) {
   const KeyframeRecord* found = find_keyframe(keyframe);
   if (!found) fail("mapper: no keyframe ", keyframe, " to train on");
   const KeyframeRecord& kf = *found;
-  const std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose);
-  const PinResult pr = residency_->pin(chunks);
+  std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose);
+  // Outside the window: the resident part of the view, scored only where it explains the image.
+  std::optional<Image8> pixel_mask;
+  if (!whole_view && !selector_.in_window(kf.id)) {
+    std::erase_if(chunks, [&](ChunkId c) { return !residency_->is_resident(c); });
+    std::sort(chunks.begin(), chunks.end());
+    const auto rendered = [&](ChunkId c) { return std::binary_search(chunks.begin(), chunks.end(), c); };
+    const ViewCoverage& coverage = coverage_of(kf);
+    if (coverage.coverage(rendered) < config_.selector.min_partial_coverage) {
+      ++window_stats_.partial_too_small;
+      selector_.give_back(kf.id);
+      return step_keyframe(selector_.pick(rng_, PickScope::window));
+    }
+    pixel_mask = coverage.mask(rendered);
+    ++window_stats_.partial_steps;
+  }
+  const PinResult pr = residency_->pin(chunks, !pixel_mask);
   if (!pr.ok) fail("mapper: cannot make the chunks of keyframe ", kf.id, " resident: ", pr.message);
   try {
     slots_.clear();
@@ -310,13 +339,15 @@ StepStats Mapper::step_keyframe(uint32_t keyframe) {
     // Pruning runs on the step that completes `every` iterations, as before the backend split.
     const bool prune = config_.prune.every > 0 && (iterations_ + 1) % uint64_t(config_.prune.every) == 0;
     // Keyframe ids are never reused within a map, so the id names the images.
-    const StepTargets targets{uint64_t(kf.id) + 1, config_.loss.lambda_depth > 0, [&] {
+    const StepTargets targets{uint64_t(kf.id) + 1, config_.loss.lambda_depth > 0,
+                              [&] {
                                 const auto tl = clock::now();
                                 auto images = keyframe_store_->get(kf.id);
                                 ++step_times_.keyframe_loads;
                                 step_times_.keyframe_load_ms += ms_since(tl);
                                 return images;
-                              }};
+                              },
+                              pixel_mask ? &*pixel_mask : nullptr};
     const LossTerms terms =
         backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
                        config_.adam, prune ? &config_.prune : nullptr, to_prune_);
@@ -353,7 +384,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe) {
     throw;
   }
   residency_->unpin(chunks);
-  selector_.report_loss(kf.id, st.loss);
+  // A partial step's loss counts pixels it could not explain: not a measure of the keyframe.
+  if (!pixel_mask) selector_.report_loss(kf.id, st.loss);
   ++step_times_.steps;
   step_times_.total_ms += ms_since(t0);
   return st;

@@ -22,6 +22,7 @@
 #include "chungs/mapping/map_state.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/sampler.hpp"
+#include "chungs/mapping/view_coverage.hpp"
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
 #include "chungs/store/keyframe_store.hpp"
@@ -108,6 +109,9 @@ class Mapper {
   // How often the budget narrowed training to a window, and how wide the windows were.
   struct WindowStats {
     uint64_t updates = 0, narrowed = 0;
+    // Steps on a keyframe outside the window, on the resident part of its view; and picks outside
+    // it whose resident part covered too little, trained on a window keyframe instead.
+    uint64_t partial_steps = 0, partial_too_small = 0;
     double keyframes = 0, cell_keyframes = 0, reach_m = 0;  // sums over the narrowed updates
   };
   const WindowStats& window_stats() const { return window_stats_; }
@@ -124,7 +128,11 @@ class Mapper {
   // New Gaussians a keyframe may add: what the optimiser trained per keyframe lately (see
   // SamplerConfig::new_per_step); 0 for no cap.
   uint64_t new_gaussian_cap(const Image8& image);
-  StepStats step_keyframe(uint32_t keyframe);  // one optimisation step on the given keyframe
+  // One optimisation step on the given keyframe: on its whole view (loading what it needs) when it is
+  // in the training window or `whole_view`, else on the resident part (view_coverage.hpp).
+  StepStats step_keyframe(uint32_t keyframe, bool whole_view = false);
+  // Where the keyframe's pixels see surfaces, by chunk (built on first use while it is in the cell).
+  const ViewCoverage& coverage_of(const KeyframeRecord& kf);
   // Narrows the selector's candidates to the keyframes whose views fit the budget together
   // (training_window.hpp); after every change of the keyframes or their poses.
   void update_training_window();
@@ -156,6 +164,7 @@ class Mapper {
   std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views
+  std::unordered_map<uint32_t, ViewCoverage> coverage_;             // of the cell's views (partial steps)
   bool loop_batch_allowed_ = true;
 };
 

@@ -60,6 +60,7 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
     const KeyframeUsage u = selector_.usage(latest.id);
     selector_.add(latest.id, latest.pose.t, u.uses, u.last_loss);
     view_chunks_.clear();  // the views moved
+    coverage_.clear();
     update_training_window();
   }
 
@@ -70,7 +71,7 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
     if (order.empty())
       step();
     else
-      step_keyframe(order[size_t(i) % order.size()]);
+      step_keyframe(order[size_t(i) % order.size()], /*whole_view=*/true);
   }
   stats.refine_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const std::string msg =

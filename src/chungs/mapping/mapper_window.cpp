@@ -14,6 +14,7 @@ void Mapper::update_training_window() {
   // Only the cell's keyframes are remembered, so this cache stays as small as the cell.
   const std::unordered_set<uint32_t> in_cell(cell.begin(), cell.end());
   std::erase_if(view_chunks_, [&](const auto& kv) { return !in_cell.count(kv.first); });
+  std::erase_if(coverage_, [&](const auto& kv) { return !in_cell.count(kv.first); });
   const Eigen::Vector3d at = keyframes_.back().pose.t;
   std::vector<WindowKeyframe> keyframes;
   keyframes.reserve(cell.size());

@@ -352,7 +352,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       pj["training_window"] = {{"narrowed_share", double(w.narrowed) / double(w.updates)},
                                {"mean_keyframes", w.keyframes / n},
                                {"mean_cell_keyframes", w.cell_keyframes / n},
-                               {"mean_reach_m", w.reach_m / n}};
+                               {"mean_reach_m", w.reach_m / n},
+                               {"partial_step_share", double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
+                               {"partial_too_small", w.partial_too_small}};
     }
     report["pacing"] = pj;
   }

@@ -18,6 +18,9 @@ struct StepTargets {
   // The keyframe's images (8-bit colour of 1-4 channels, metric depth); called only when the backend
   // holds no copy under `key`.
   std::function<std::shared_ptr<const KeyframeImages>()> load;
+  // Pixels the step may learn from (1 channel, image size; non-zero: yes); null: all. A keyframe
+  // trained on only the resident part of its view is scored where that part explains the image.
+  const Image8* pixel_mask = nullptr;
 };
 
 // Float RGB target of an 8-bit image (gray replicated).

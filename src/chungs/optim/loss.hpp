@@ -21,10 +21,12 @@ struct LossTerms {
 
 // target_inv_depth may be null (no depth supervision, or lambda_depth = 0); depth_mask may be null.
 // When grads is given, its rgb (and inv_depth, when the depth term is on) are set to dLoss/d(output)
-// and its other images are cleared.
+// and its other images are cleared. pixel_mask (1 channel, render size, may be null): the gradients
+// are zeroed where it is 0, so that pixels a partial render cannot explain teach nothing (the terms
+// are still those of the whole image).
 template <typename T>
 LossTerms mapping_loss(const LossConfig& config, const RenderOutput<T>& render, const Image<T>& target_rgb,
                        const Image<T>* target_inv_depth, const Image<uint8_t>* depth_mask,
-                       std::type_identity_t<RenderGrads<T>>* grads);
+                       std::type_identity_t<RenderGrads<T>>* grads, const Image<uint8_t>* pixel_mask = nullptr);
 
 }  // namespace chungs

@@ -115,7 +115,7 @@ std::string Residency::over_budget_message(uint64_t pinned, size_t chunks) const
              "; nothing was loaded. Pin fewer chunks (shorter far plane, smaller chunks) or raise the budget.");
 }
 
-PinResult Residency::pin(std::span<const ChunkId> ids) {
+PinResult Residency::pin(std::span<const ChunkId> ids, bool recent) {
   PinResult r;
   r.budget = budget_;
   std::vector<ChunkId> want(ids.begin(), ids.end());
@@ -150,7 +150,7 @@ PinResult Residency::pin(std::span<const ChunkId> ids) {
     }
     Resident& e = resident_.at(id);
     if (e.pins++ == 0) pinned_gaussians_ += e.slots.size();
-    touch(e, id);
+    if (recent) touch(e, id);
   }
   r.pinned_gaussians = pinned_gaussians_;
   check_budget_invariant();

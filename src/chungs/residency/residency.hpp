@@ -75,7 +75,9 @@ class Residency {
   Residency& operator=(const Residency&) = delete;
 
   // Makes the chunks resident and pins them (pins nest). Unknown ids are skipped and listed.
-  PinResult pin(std::span<const ChunkId> ids);
+  // recent = false leaves their place in the LRU order as it is: a use that should not keep chunks
+  // resident in place of those the next steps need (a partial view's step).
+  PinResult pin(std::span<const ChunkId> ids, bool recent = true);
   void unpin(std::span<const ChunkId> ids);  // throws on a chunk that is not pinned
   void unpin_all();
 

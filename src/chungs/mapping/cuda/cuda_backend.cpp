@@ -61,8 +61,16 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
   if (out.width != t.width || out.height != t.height)
     fail("cuda mapping step: target ", t.width, "x", t.height, " does not match the ", out.width, "x", out.height,
          " render");
+  if (targets.pixel_mask) {
+    if (targets.pixel_mask->width() != t.width || targets.pixel_mask->height() != t.height ||
+        targets.pixel_mask->channels() != 1)
+      fail("cuda mapping step: pixel mask ", targets.pixel_mask->width(), "x", targets.pixel_mask->height(),
+           " does not match the ", t.width, "x", t.height, " target");
+    pixel_mask_.upload(targets.pixel_mask->data(), targets.pixel_mask->pixels());
+  }
   const LossTerms terms = loss_.evaluate(loss, out, target_rgb_.data(), depth ? target_inv_.data() : nullptr,
-                                         depth ? mask_.data() : nullptr, !slots.empty());
+                                         depth ? mask_.data() : nullptr, !slots.empty(),
+                                         targets.pixel_mask ? pixel_mask_.data() : nullptr);
   if (slots.empty()) return terms;
   const DeviceGaussianGrads& g = raster_.backward(loss_.grads());
   const PoolDeviceArrays& d = pool_.device_arrays();

@@ -37,7 +37,7 @@ class CudaOptimBackend final : public OptimBackend {
   DeviceTargetCache targets_;
   DeviceArray<uint32_t> ids_;
   DeviceArray<float> target_rgb_, target_inv_, probability_;
-  DeviceArray<uint8_t> mask_;
+  DeviceArray<uint8_t> mask_, pixel_mask_;
   std::vector<float> opacity_, radius_;  // host copies for the pruning rule
 };
 

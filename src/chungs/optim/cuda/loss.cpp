@@ -9,7 +9,7 @@ namespace chungs::cuda {
 
 LossTerms CudaMappingLoss::evaluate(const LossConfig& config, const DeviceRenderOutput& render,
                                     const float* target_rgb, const float* target_inv_depth,
-                                    const uint8_t* depth_mask, bool want_grads) {
+                                    const uint8_t* depth_mask, bool want_grads, const uint8_t* pixel_mask) {
   config.validate();
   const int W = render.width, H = render.height;
   if (W <= 0 || H <= 0 || !render.rgb) fail("CUDA mapping loss: no rendered image (", W, "x", H, ")");
@@ -31,6 +31,7 @@ LossTerms CudaMappingLoss::evaluate(const LossConfig& config, const DeviceRender
                        render.inv_depth,
                        target_inv_depth,
                        depth_mask,
+                       pixel_mask,
                        float(1 - ls),
                        float(ls),
                        use_depth ? float(ld) : 0.f,

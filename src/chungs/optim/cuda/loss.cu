@@ -160,6 +160,15 @@ __global__ void depth_grad_kernel(LossLaunch a) {
   a.grad_inv_depth[i] = g;
 }
 
+// After the SSIM backward, whose blur spreads each pixel's partials over its neighbours.
+__global__ void mask_grads_kernel(LossLaunch a) {
+  const size_t i = size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const size_t n = size_t(a.width) * a.height;
+  if (i >= n || a.pixel_mask[i]) return;
+  a.grad_rgb[3 * i] = a.grad_rgb[3 * i + 1] = a.grad_rgb[3 * i + 2] = 0.f;
+  if (a.grad_inv_depth) a.grad_inv_depth[i] = 0.f;
+}
+
 void check(cudaError_t e, const char* what) {
   if (e != cudaSuccess) fail("CUDA mapping loss: ", what, ": ", cudaGetErrorString(e));
 }
@@ -192,6 +201,11 @@ void launch_mapping_loss(const LossLaunch& a, double* host_sums) {
       depth_grad_kernel<<<blocks, 256>>>(a);
       check(cudaGetLastError(), "depth gradient launch");
     }
+  }
+  if (a.want_grads && a.pixel_mask) {
+    const size_t n = size_t(a.width) * a.height;
+    mask_grads_kernel<<<unsigned((n + 255) / 256), 256>>>(a);
+    check(cudaGetLastError(), "gradient mask launch");
   }
   check(cudaMemcpy(host_sums, a.sums, 4 * sizeof(double), cudaMemcpyDeviceToHost), "loss");
 }

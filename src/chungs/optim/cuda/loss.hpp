@@ -14,9 +14,11 @@ class CudaMappingLoss {
  public:
   // render's rgb (and inv_depth for the depth term) against the targets, all device images of the
   // render's size (target_rgb 3 channels; target_inv_depth, depth_mask 1 channel; both may be null:
-  // no depth term). With want_grads, grads() holds dLoss/d(output) until the next call.
+  // no depth term). With want_grads, grads() holds dLoss/d(output) until the next call. pixel_mask
+  // (device, 1 byte per pixel, may be null): gradients zeroed where it is 0, as the CPU twin does.
   LossTerms evaluate(const LossConfig& config, const DeviceRenderOutput& render, const float* target_rgb,
-                     const float* target_inv_depth, const uint8_t* depth_mask, bool want_grads = true);
+                     const float* target_inv_depth, const uint8_t* depth_mask, bool want_grads = true,
+                     const uint8_t* pixel_mask = nullptr);
 
   // rgb always; inv_depth only when the last call had a depth term; depth and alpha null.
   const DeviceRenderGrads& grads() const { return grads_; }

@@ -12,6 +12,7 @@ struct LossLaunch {
   const float* inv_depth;   // rendered, 1 channel; used when depth_weight > 0
   const float* target_inv_depth;
   const uint8_t* depth_mask;                   // optional
+  const uint8_t* pixel_mask;                   // optional: gradients are zeroed where it is 0
   float l1_weight, ssim_weight, depth_weight;  // (1 - ls), ls, ld; a zero weight skips the term
   bool want_grads;
   float* grad_rgb;        // overwritten: (1 - ls) dL1 - ls dSSIM

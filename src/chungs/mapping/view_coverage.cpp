@@ -1,0 +1,66 @@
+#include "chungs/mapping/view_coverage.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "chungs/common/error.hpp"
+
+namespace chungs {
+
+ViewCoverage::ViewCoverage(const ImageF& depth, const Camera& camera, const SE3& pose, double chunk_size,
+                           double fill_depth)
+    : width_(camera.width), height_(camera.height) {
+  if (depth.width() != camera.width || depth.height() != camera.height)
+    fail("view coverage: depth ", depth.width(), "x", depth.height(), " does not match the camera ", camera.width,
+         "x", camera.height);
+  bw_ = (width_ + kBlock - 1) / kBlock;
+  bh_ = (height_ + kBlock - 1) / kBlock;
+  blocks_.assign(size_t(bw_) * bh_, kNone);
+  std::unordered_map<ChunkId, uint16_t> index;
+  for (int by = 0; by < bh_; ++by)
+    for (int bx = 0; bx < bw_; ++bx) {
+      // The block's centre pixel, clamped into the image for a partial block at the border.
+      const int x = std::min(bx * kBlock + kBlock / 2, width_ - 1), y = std::min(by * kBlock + kBlock / 2, height_ - 1);
+      double z = depth(x, y);
+      if (!(z > 0) || !std::isfinite(z)) z = fill_depth;
+      if (!(z > 0)) continue;
+      const ChunkId id = chunk_id_of(pose * camera.unproject(Eigen::Vector2d(x, y), z), chunk_size);
+      auto [it, fresh] = index.try_emplace(id, uint16_t(chunks_.size()));
+      if (fresh) {
+        if (chunks_.size() >= kNone) fail("view coverage: the view sees more than ", kNone - 1, " chunks");
+        chunks_.push_back(id);
+      }
+      blocks_[size_t(by) * bw_ + bx] = it->second;
+    }
+}
+
+std::vector<bool> ViewCoverage::accepted(const std::function<bool(ChunkId)>& rendered) const {
+  std::vector<bool> ok(chunks_.size());
+  for (size_t i = 0; i < chunks_.size(); ++i) ok[i] = rendered(chunks_[i]);
+  return ok;
+}
+
+double ViewCoverage::coverage(const std::function<bool(ChunkId)>& rendered) const {
+  if (blocks_.empty()) return 0;
+  const std::vector<bool> ok = accepted(rendered);
+  size_t n = 0;
+  for (uint16_t b : blocks_) n += b != kNone && ok[b];
+  return double(n) / double(blocks_.size());
+}
+
+Image8 ViewCoverage::mask(const std::function<bool(ChunkId)>& rendered) const {
+  const std::vector<bool> ok = accepted(rendered);
+  Image8 m(width_, height_, 1, 0);
+  for (int y = 0; y < height_; ++y) {
+    const uint16_t* row = &blocks_[size_t(y / kBlock) * bw_];
+    uint8_t* out = &m(0, y);
+    for (int x = 0; x < width_; ++x) {
+      const uint16_t b = row[x / kBlock];
+      out[x] = b != kNone && ok[b];
+    }
+  }
+  return m;
+}
+
+}  // namespace chungs

@@ -1,0 +1,81 @@
+// ViewCoverage: which chunk each block of a keyframe sees, against a per-pixel float64 reference on a
+// random depth map and pose.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "chungs/common/error.hpp"
+#include "chungs/mapping/view_coverage.hpp"
+
+namespace chungs {
+namespace {
+
+struct Scene {
+  Camera camera{61, 37, 40.0, 41.0, 30.2, 18.1};
+  SE3 pose;
+  ImageF depth{61, 37, 1};
+};
+
+Scene random_scene(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> U(-1, 1);
+  Scene s;
+  s.pose = SE3(Eigen::Quaterniond(1, 0.2 * U(rng), 0.2 * U(rng), 0.2 * U(rng)).normalized().toRotationMatrix(),
+               Eigen::Vector3d(30 * U(rng), 30 * U(rng), 2 * U(rng)));
+  for (float& d : s.depth.vec()) d = float(1.0 + 45.0 * (0.5 + 0.5 * U(rng)));
+  for (size_t i = 0; i < s.depth.pixels(); i += 11) s.depth.data()[i] = i % 2 ? 0.f : NAN;  // no depth
+  return s;
+}
+
+// The chunk a pixel's surface lies in, or none.
+std::optional<ChunkId> chunk_seen(const Scene& s, int x, int y, double chunk_size, double fill) {
+  double z = s.depth(x, y);
+  if (!(z > 0) || !std::isfinite(z)) z = fill;
+  if (!(z > 0)) return std::nullopt;
+  return chunk_id_of(s.pose * s.camera.unproject(Eigen::Vector2d(x, y), z), chunk_size);
+}
+
+TEST(ViewCoverage, MaskFollowsTheChunkEachBlockCentreSees) {
+  for (double fill : {0.0, 35.0}) {
+    const Scene s = random_scene(fill > 0 ? 3 : 4);
+    const ViewCoverage v(s.depth, s.camera, s.pose, 5.0, fill);
+    ASSERT_GT(v.chunks().size(), 10u);
+    // Accept every other chunk of the view.
+    std::set<ChunkId> accepted;
+    for (size_t i = 0; i < v.chunks().size(); i += 2) accepted.insert(v.chunks()[i]);
+    const auto rendered = [&](ChunkId c) { return accepted.count(c) > 0; };
+    const Image8 m = v.mask(rendered);
+    ASSERT_EQ(m.width(), 61);
+    ASSERT_EQ(m.height(), 37);
+    size_t blocks = 0, in = 0;
+    const int B = ViewCoverage::kBlock;
+    for (int y = 0; y < 37; ++y)
+      for (int x = 0; x < 61; ++x) {
+        const int cx = std::min(x / B * B + B / 2, 60), cy = std::min(y / B * B + B / 2, 36);
+        const auto c = chunk_seen(s, cx, cy, 5.0, fill);
+        EXPECT_EQ(m(x, y), c && accepted.count(*c) ? 1 : 0) << x << "," << y;
+        if (x % B == 0 && y % B == 0) ++blocks, in += c && accepted.count(*c);
+      }
+    EXPECT_NEAR(v.coverage(rendered), double(in) / double(blocks), 1e-12);
+    EXPECT_GT(in, 0u);
+    EXPECT_LT(in, blocks);
+    EXPECT_DOUBLE_EQ(v.coverage([](ChunkId) { return true; }) < 1.0, fill == 0.0)
+        << "without a fill depth, pixels with no depth are never covered";
+  }
+}
+
+TEST(ViewCoverage, RefusesADepthMapOfAnotherSize) {
+  const Scene s = random_scene(5);
+  EXPECT_THROW(ViewCoverage(ImageF(60, 37, 1), s.camera, s.pose, 10.0, 0.0), Error);
+}
+
+TEST(ViewCoverage, EmptyCoverageAcceptsNothing) {
+  const ViewCoverage v;
+  EXPECT_TRUE(v.empty());
+  EXPECT_EQ(v.coverage([](ChunkId) { return true; }), 0.0);
+}
+
+}  // namespace
+}  // namespace chungs
