@@ -1,5 +1,7 @@
 // ViewCoverage: which chunk each block of a keyframe sees, against a per-pixel float64 reference on a
 // random depth map and pose.
+#include "chungs/mapping/view_coverage.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,7 +9,6 @@
 #include <set>
 
 #include "chungs/common/error.hpp"
-#include "chungs/mapping/view_coverage.hpp"
 
 namespace chungs {
 namespace {
@@ -22,8 +23,9 @@ Scene random_scene(unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(-1, 1);
   Scene s;
-  s.pose = SE3(Eigen::Quaterniond(1, 0.2 * U(rng), 0.2 * U(rng), 0.2 * U(rng)).normalized().toRotationMatrix(),
-               Eigen::Vector3d(30 * U(rng), 30 * U(rng), 2 * U(rng)));
+  s.pose =
+      SE3(Eigen::Quaterniond(1, 0.2 * U(rng), 0.2 * U(rng), 0.2 * U(rng)).normalized().toRotationMatrix(),
+          Eigen::Vector3d(30 * U(rng), 30 * U(rng), 2 * U(rng)));
   for (float& d : s.depth.vec()) d = float(1.0 + 45.0 * (0.5 + 0.5 * U(rng)));
   for (size_t i = 0; i < s.depth.pixels(); i += 11) s.depth.data()[i] = i % 2 ? 0.f : NAN;  // no depth
   return s;

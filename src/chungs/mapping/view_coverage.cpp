@@ -12,8 +12,8 @@ ViewCoverage::ViewCoverage(const ImageF& depth, const Camera& camera, const SE3&
                            double fill_depth)
     : width_(camera.width), height_(camera.height) {
   if (depth.width() != camera.width || depth.height() != camera.height)
-    fail("view coverage: depth ", depth.width(), "x", depth.height(), " does not match the camera ", camera.width,
-         "x", camera.height);
+    fail("view coverage: depth ", depth.width(), "x", depth.height(), " does not match the camera ",
+         camera.width, "x", camera.height);
   bw_ = (width_ + kBlock - 1) / kBlock;
   bh_ = (height_ + kBlock - 1) / kBlock;
   blocks_.assign(size_t(bw_) * bh_, kNone);
@@ -21,7 +21,8 @@ ViewCoverage::ViewCoverage(const ImageF& depth, const Camera& camera, const SE3&
   for (int by = 0; by < bh_; ++by)
     for (int bx = 0; bx < bw_; ++bx) {
       // The block's centre pixel, clamped into the image for a partial block at the border.
-      const int x = std::min(bx * kBlock + kBlock / 2, width_ - 1), y = std::min(by * kBlock + kBlock / 2, height_ - 1);
+      const int x = std::min(bx * kBlock + kBlock / 2, width_ - 1),
+                y = std::min(by * kBlock + kBlock / 2, height_ - 1);
       double z = depth(x, y);
       if (!(z > 0) || !std::isfinite(z)) z = fill_depth;
       if (!(z > 0)) continue;

@@ -29,7 +29,8 @@ class ViewCoverage {
   ViewCoverage() = default;
   // depth: metres, 0 or non-finite where unknown (then fill_depth, if > 0). Throws Error when the
   // depth map and the camera differ in size or the view sees more than 65 535 chunks.
-  ViewCoverage(const ImageF& depth, const Camera& camera, const SE3& pose, double chunk_size, double fill_depth);
+  ViewCoverage(const ImageF& depth, const Camera& camera, const SE3& pose, double chunk_size,
+               double fill_depth);
 
   const std::vector<ChunkId>& chunks() const { return chunks_; }
   // Share of the blocks whose chunk satisfies `rendered` (0 when the view has no block).
