@@ -353,7 +353,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                                {"mean_keyframes", w.keyframes / n},
                                {"mean_cell_keyframes", w.cell_keyframes / n},
                                {"mean_reach_m", w.reach_m / n},
-                               {"partial_step_share", double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
+                               {"partial_step_share",
+                                double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
                                {"partial_too_small", w.partial_too_small}};
     }
     report["pacing"] = pj;
