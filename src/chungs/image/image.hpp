@@ -8,6 +8,10 @@
 
 namespace chungs {
 
+// The most pixels an image read from a file may have (8192 x 8192, beyond 8K video): a header that
+// declares more is refused before anything is allocated for it.
+constexpr uint64_t kMaxImagePixels = uint64_t(1) << 26;
+
 template <typename T>
 class Image {
  public:

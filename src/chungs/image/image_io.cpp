@@ -20,7 +20,34 @@ namespace {
 struct ErrBuf {
   std::jmp_buf jmp;
   char msg[JMSG_LENGTH_MAX + 256] = {0};
+  bool refused = false;  // msg says why a well-formed header was refused, not what is corrupt
 };
+
+// Deflate expands at most 1032:1 (a 258-byte match coded in 2 bits): PNG image data of N bytes needs
+// at least N / 1032 bytes of file.
+constexpr uint64_t kMaxDeflateExpansion = 1032;
+
+// Returns false with the reason in err when a header declares more pixels than any image may have,
+// or more image data than `file_bytes` can hold (`least_file_bytes`): a 100-byte PNG declaring
+// 100000x100000 once took 9.8 GB before its data ran out. Runs between setjmp and longjmp, where no
+// object with a destructor may be alive: it formats into err's buffer.
+bool declared_size_ok(const char* format, uint64_t width, uint64_t height, uint64_t least_file_bytes,
+                      uint64_t file_bytes, ErrBuf& err) {
+  const auto w = (unsigned long long)width, h = (unsigned long long)height;
+  if (width * height > kMaxImagePixels)
+    std::snprintf(err.msg, sizeof err.msg,
+                  "%s header declares %llu x %llu pixels, more than the %llu an image may have", format, w, h,
+                  (unsigned long long)kMaxImagePixels);
+  else if (least_file_bytes > file_bytes)
+    std::snprintf(
+        err.msg, sizeof err.msg,
+        "%s header declares %llu x %llu pixels, whose data needs at least %llu bytes; the file has %llu",
+        format, w, h, (unsigned long long)least_file_bytes, (unsigned long long)file_bytes);
+  else
+    return true;
+  err.refused = true;
+  return false;
+}
 
 void png_err(png_structp png, png_const_charp msg) {
   auto* e = static_cast<ErrBuf*>(png_get_error_ptr(png));
@@ -62,6 +89,12 @@ bool decode_png(const std::string& file_bytes, PngPixels& out, ErrBuf& err) {
   }
   png_set_read_fn(png, &reader, png_read_mem);
   png_read_info(png, info);
+  {  // before any transform: the samples as the file stores them (a palette index is one)
+    const uint64_t w = png_get_image_width(png, info), h = png_get_image_height(png, info);
+    const uint64_t data_bytes = w * h * png_get_channels(png, info) * png_get_bit_depth(png, info) / 8;
+    if (!declared_size_ok("PNG", w, h, data_bytes / kMaxDeflateExpansion, file_bytes.size(), err))
+      std::longjmp(err.jmp, 1);
+  }
   int color = png_get_color_type(png, info);
   int depth = png_get_bit_depth(png, info);
   if (color == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
@@ -84,10 +117,16 @@ bool decode_png(const std::string& file_bytes, PngPixels& out, ErrBuf& err) {
   return true;
 }
 
+// A refused header's reason stands alone; anything else the decoder stopped at is corruption.
+[[noreturn]] void fail_decoding(const std::filesystem::path& file, const char* format, const ErrBuf& err) {
+  if (err.refused) fail(file.string(), ": ", err.msg);
+  fail(file.string(), ": corrupt ", format, " (", err.msg, ")");
+}
+
 PngPixels load_png(const std::filesystem::path& file, const std::string& bytes) {
   PngPixels px;
   ErrBuf err;
-  if (!decode_png(bytes, px, err)) fail(file.string(), ": corrupt PNG (", err.msg, ")");
+  if (!decode_png(bytes, px, err)) fail_decoding(file, "PNG", err);
   if (px.channels < 1 || px.channels > 4) fail(file.string(), ": unsupported PNG channel count ", px.channels);
   return px;
 }
@@ -111,6 +150,16 @@ bool decode_jpeg(const std::string& bytes, Image8& out, ErrBuf& err) {
   jpeg_create_decompress(&cinfo);
   jpeg_mem_src(&cinfo, reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
   jpeg_read_header(&cinfo, TRUE);
+  {
+    // Huffman coding spends at least one bit on every 8x8 block of every component (its DC
+    // difference); arithmetic coding can spend less, so only the pixel limit holds for it.
+    uint64_t blocks = 0;
+    for (int c = 0; c < cinfo.num_components; ++c)
+      blocks += uint64_t(cinfo.comp_info[c].width_in_blocks) * cinfo.comp_info[c].height_in_blocks;
+    if (!declared_size_ok("JPEG", cinfo.image_width, cinfo.image_height, cinfo.arith_code ? 0 : blocks / 8,
+                          bytes.size(), err))
+      std::longjmp(err.jmp, 1);
+  }
   if (cinfo.jpeg_color_space != JCS_GRAYSCALE) cinfo.out_color_space = JCS_RGB;
   jpeg_start_decompress(&cinfo);
   out = Image8(int(cinfo.output_width), int(cinfo.output_height), int(cinfo.output_components));
@@ -133,7 +182,7 @@ Image8 read_image8(const std::filesystem::path& file) {
   if (is_jpeg(bytes)) {
     Image8 img;
     ErrBuf err;
-    if (!decode_jpeg(bytes, img, err)) fail(file.string(), ": corrupt JPEG (", err.msg, ")");
+    if (!decode_jpeg(bytes, img, err)) fail_decoding(file, "JPEG", err);
     return img;
   }
   if (!is_png(bytes)) fail(file.string(), ": not a PNG or JPEG file");
@@ -152,9 +201,12 @@ Image16 read_png16(const std::filesystem::path& file) {
   if (!is_png(bytes)) fail(file.string(), ": not a PNG file (16-bit depth must be PNG)");
   PngPixels px = load_png(file, bytes);
   if (px.channels != 1) fail(file.string(), ": expected a 1-channel (depth) PNG, found ", px.channels, " channels");
+  // Read as depth units, 8-bit samples would put every surface within a few centimetres.
+  if (px.bit_depth != 16)
+    fail(file.string(), ": depth PNG has ", px.bit_depth, "-bit samples; depth maps must be 16-bit");
   Image16 img(px.width, px.height, 1);
   for (size_t i = 0; i < img.size(); ++i)
-    img.data()[i] = px.bit_depth == 16 ? uint16_t((px.bytes[2 * i] << 8) | px.bytes[2 * i + 1]) : px.bytes[i];
+    img.data()[i] = uint16_t((px.bytes[2 * i] << 8) | px.bytes[2 * i + 1]);
   return img;
 }
 

@@ -8,9 +8,11 @@
 namespace chungs {
 
 // Reads a PNG or JPEG (by content, not extension) as 8-bit with the file's channels (1, 3 or 4;
-// palette expanded, gray+alpha dropped to gray). 16-bit PNGs are reduced to their high byte.
+// palette expanded, gray+alpha dropped to gray). 16-bit PNGs are reduced to their high byte. A
+// header declaring more than kMaxImagePixels, or more image data than the file's length can hold,
+// is refused before the pixels are allocated.
 Image8 read_image8(const std::filesystem::path& file);
-// Reads a 1-channel PNG as 16-bit (8-bit files are widened without scaling): depth maps.
+// Reads a 1-channel 16-bit PNG: depth maps. An 8-bit file is refused (it cannot hold depth units).
 Image16 read_png16(const std::filesystem::path& file);
 
 // Writers create parent folders; an existing file is replaced.
