@@ -9,6 +9,7 @@
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/checksum.hpp"
 #include "chungs/store/chunk_codec.hpp"
+#include "chungs/store/zstd_limits.hpp"
 
 namespace chungs {
 
@@ -17,7 +18,9 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'C', 'H', 'G', 'S', 'C', 'H', 'N', 'K'};
-constexpr uint64_t kMaxCount = uint64_t(1) << 28;  // far above any chunk; bounds corrupt headers
+// 16.8 M Gaussians, 12 GB in memory: far above any chunk (a chunk must fit the residency budget to be
+// trained, 1.5 M by default), and the most a header may make a reader allocate.
+constexpr uint64_t kMaxCount = uint64_t(1) << 24;
 
 struct Header {
   char magic[8];
@@ -134,7 +137,9 @@ Header read_and_check_header(const FileDescriptor& fd, const fs::path& file, uin
     fail(file.string(), ": header size ", h.header_size, " should be ", sizeof h);
   if (xxh64(&h, kChecksummedHeaderBytes) != h.header_checksum)
     fail(file.string(), ": header checksum mismatch: the file is corrupt");
-  if (h.count > kMaxCount) fail(file.string(), ": implausible Gaussian count ", h.count);
+  if (h.count > kMaxCount)
+    fail(file.string(), ": header's Gaussian count ", h.count, " is more than a chunk may hold (", kMaxCount,
+         ")");
   if (h.sh_degree > uint32_t(kMaxShDegree)) fail(file.string(), ": SH degree ", h.sh_degree, " out of range");
   const uint32_t known = kChunkFlagZstd | kChunkFlagShuffled | (h.version >= 2 ? kChunkFlagsHalf : 0);
   if (h.flags & ~known)
@@ -143,6 +148,8 @@ Header read_and_check_header(const FileDescriptor& fd, const fs::path& file, uin
     fail(file.string(), ": payload of ", h.raw_bytes, " bytes does not fit ", h.count, " Gaussians");
   if (!(h.flags & kChunkFlagZstd) && h.payload_bytes != h.raw_bytes)
     fail(file.string(), ": uncompressed payload of ", h.payload_bytes, " bytes should be ", h.raw_bytes);
+  if (h.flags & kChunkFlagZstd)
+    check_zstd_expansion(file, cat(h.count, " Gaussians"), h.raw_bytes, h.payload_bytes);
   if (size != sizeof h + h.payload_bytes)
     fail(file.string(), ": file has ", size, " bytes but its header announces ", sizeof h + h.payload_bytes,
          " (truncated or trailing data)");
@@ -202,20 +209,26 @@ ChunkFileInfo read_chunk_file(const fs::path& file, GaussianBlock& out) {
   FileDescriptor fd = open_for_reading(file);
   uint64_t size = 0;
   const Header h = read_and_check_header(fd, file, size);
+  // A compressed payload is read and checked before the block is allocated: the file's length bounds
+  // the payload, but only the header speaks for the block.
+  const bool zstd = h.flags & kChunkFlagZstd;
+  std::vector<uint8_t> packed;
+  if (zstd) {
+    packed.resize(h.payload_bytes);
+    read_exact(fd, packed.data(), packed.size(), file);
+    if (xxh64(packed.data(), packed.size()) != h.payload_checksum)
+      fail(file.string(), ": payload checksum mismatch: the file is corrupt");
+    check_zstd_content_size(file, packed.data(), packed.size(), h.raw_bytes);
+  }
   GaussianBlock b;
   b.sh_degree = int(h.sh_degree);
   b.resize(h.count);
   ChunkDecoder decoder(b, h.flags & kChunkFlagsHalf);
   const Arrays& arrays = decoder.arrays();
-  Xxh64 sum;
-  if (h.flags & kChunkFlagZstd) {
-    std::vector<uint8_t> packed(h.payload_bytes);
-    read_exact(fd, packed.data(), packed.size(), file);
-    sum.update(packed.data(), packed.size());
-    if (sum.digest() != h.payload_checksum)
-      fail(file.string(), ": payload checksum mismatch: the file is corrupt");
+  if (zstd) {
     decompress(packed, arrays, h.flags & kChunkFlagShuffled, file);
   } else {
+    Xxh64 sum;
     for (const PayloadArray& a : arrays) {
       read_exact(fd, a.data, a.bytes, file);
       sum.update(a.data, a.bytes);

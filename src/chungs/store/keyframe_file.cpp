@@ -8,6 +8,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/checksum.hpp"
+#include "chungs/store/zstd_limits.hpp"
 
 namespace chungs {
 
@@ -16,7 +17,6 @@ namespace fs = std::filesystem;
 namespace {
 constexpr char kMagic[8] = {'C', 'H', 'G', 'S', 'K', 'F', 'R', 'M'};
 constexpr uint32_t kFlagZstd = 1;
-constexpr int32_t kMaxSide = 1 << 15;
 
 struct Header {
   char magic[8];
@@ -31,7 +31,17 @@ constexpr size_t kChecksummed = offsetof(Header, header_checksum);
 
 bool shape_ok(int32_t w, int32_t h, int32_t c, bool allow_empty) {
   if (allow_empty && w == 0 && h == 0 && c == 0) return true;
-  return w > 0 && h > 0 && w <= kMaxSide && h <= kMaxSide && c >= 1 && c <= 4;
+  return w > 0 && h > 0 && c >= 1 && c <= 4;
+}
+
+// Pixels of an image whose shape passed shape_ok; refused naming the file and the image beyond any
+// image we read (a 32768x32768 keyframe once took 8.6 GB on `run --resume`).
+uint64_t declared_pixels(const std::string& f, const char* image, int32_t w, int32_t h) {
+  const uint64_t pixels = uint64_t(w) * uint64_t(h);
+  if (pixels > kMaxImagePixels)
+    fail(f, ": header's ", image, " of ", w, " x ", h, " pixels is more than the ", kMaxImagePixels,
+         " an image may have");
+  return pixels;
 }
 }  // namespace
 
@@ -91,11 +101,16 @@ uint64_t read_keyframe_file(const fs::path& file, KeyframeImages& out, uint64_t*
   if (!shape_ok(h.color_w, h.color_h, h.color_c, false) || !shape_ok(h.depth_w, h.depth_h, h.depth_c, true) ||
       h.depth_c > 1 || (h.flags & ~kFlagZstd))
     fail(f, ": implausible image shapes or flags in the header");
-  KeyframeImages im;
-  im.color = Image8(h.color_w, h.color_h, h.color_c);
-  if (h.depth_c) im.depth = ImageF(h.depth_w, h.depth_h, 1);
-  if (h.raw_bytes != im.bytes()) fail(f, ": payload size ", h.raw_bytes, " does not match the image shapes");
-  if (!(h.flags & kFlagZstd) && h.payload_bytes != h.raw_bytes)
+  // Every size is checked against the file before anything is allocated for it.
+  const uint64_t raw_bytes = declared_pixels(f, "colour image", h.color_w, h.color_h) * uint64_t(h.color_c) +
+                             declared_pixels(f, "depth map", h.depth_w, h.depth_h) * sizeof(float);
+  if (h.raw_bytes != raw_bytes) fail(f, ": payload size ", h.raw_bytes, " does not match the image shapes");
+  const bool zstd = h.flags & kFlagZstd;
+  if (zstd)
+    check_zstd_expansion(
+        file, cat("colour ", h.color_w, " x ", h.color_h, " and depth ", h.depth_w, " x ", h.depth_h),
+        h.raw_bytes, h.payload_bytes);
+  else if (h.payload_bytes != h.raw_bytes)
     fail(f, ": uncompressed payload of ", h.payload_bytes, " bytes should be ", h.raw_bytes);
   if (size != sizeof h + h.payload_bytes)
     fail(f, ": file has ", size, " bytes but its header announces ", sizeof h + h.payload_bytes);
@@ -103,9 +118,13 @@ uint64_t read_keyframe_file(const fs::path& file, KeyframeImages& out, uint64_t*
   read_exact(fd, payload.data(), payload.size(), file);
   if (xxh64(payload.data(), payload.size()) != h.payload_checksum)
     fail(f, ": payload checksum mismatch: the file is corrupt");
+  if (zstd) check_zstd_content_size(file, payload.data(), payload.size(), h.raw_bytes);
+  KeyframeImages im;
+  im.color = Image8(h.color_w, h.color_h, h.color_c);
+  if (h.depth_c) im.depth = ImageF(h.depth_w, h.depth_h, 1);
   const uint8_t* raw = payload.data();
   std::vector<uint8_t> unpacked;
-  if (h.flags & kFlagZstd) {
+  if (zstd) {
     unpacked.resize(h.raw_bytes);
     const size_t n = ZSTD_decompress(unpacked.data(), unpacked.size(), payload.data(), payload.size());
     if (ZSTD_isError(n) || n != h.raw_bytes) fail(f, ": compressed payload is corrupt");
