@@ -200,3 +200,17 @@ TEST(KittiBadInput, ImageOfOtherSizeNamesTheFile) {
   auto ds = open_dataset("kitti:" + tmp.path().string());
   test::expect_error([&] { ds->frame(1); }, {"image_0/000001.png", "20x12", "16x12"});
 }
+
+TEST(KittiBadInput, PairWhoseCamerasDifferIsRefusedNamingCalibAndBothValues) {
+  // A rectified pair shares one camera matrix: with P1's fx taken for P0's, disparities would be
+  // turned into depth with the wrong focal length and baseline, silently.
+  test::TempDir tmp;
+  make_kitti(tmp.path(), 2);
+  test::write_text(tmp / "calib.txt", "P0: 100 0 8 0 0 100 6 0 0 0 1 0\nP1: 120 0 8 -60 0 100 6 0 0 0 1 0\n");
+  test::expect_error([&] { open_dataset("kitti:" + tmp.path().string()); },
+                     {"calib.txt:2", "fx", "120", "100"});
+  test::write_text(tmp / "calib.txt",
+                   "P0: 100 0 8 0 0 100 6 0 0 0 1 0\nP1: 100 0 8 -50 0 100 7.5 0 0 0 1 0\n");
+  test::expect_error([&] { open_dataset("kitti:" + tmp.path().string()); },
+                     {"calib.txt:2", "cy", "7.5", "6"});
+}

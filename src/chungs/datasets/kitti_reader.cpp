@@ -2,6 +2,9 @@
 // (projection matrices) and optional times.txt; poses in the folder or in the standard
 // poses/NN.txt beside sequences/NN.
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
 #include <map>
 
 #include "chungs/common/log.hpp"
@@ -60,6 +63,23 @@ Projection read_projection(const fs::path& file, int index, int* line_number) {
        " unlabelled lines of 12 numbers)");
 }
 
+// The reader gives both images the left camera and turns disparity into depth with its fx: a pair
+// whose projections differ in K is not rectified as one (the baseline would be wrong, silently).
+// calib.txt prints about 10 digits, so a relative difference beyond 1e-6 is another camera.
+void require_shared_camera(const fs::path& calib, const Layout& layout, const Projection& pl,
+                           const Projection& pr, int line_r) {
+  static const struct {
+    const char* name;
+    int row, col;
+  } entries[] = {{"fx", 0, 0}, {"fy", 1, 1}, {"cx", 0, 2}, {"cy", 1, 2}};
+  for (const auto& e : entries) {
+    const double l = pl(e.row, e.col), r = pr(e.row, e.col);
+    if (std::abs(l - r) > 1e-6 * std::max(std::abs(l), std::abs(r)))
+      fail(calib.string(), ":", line_r, ": P", layout.p_right, "'s ", e.name, " ", std::setprecision(10), r,
+           " differs from P", layout.p_left, "'s ", l, "; a rectified stereo pair shares one camera matrix");
+  }
+}
+
 // times.txt: one stamp in seconds per line, increasing.
 std::vector<double> read_times(const fs::path& file, size_t frames) {
   auto lines = read_text_table(file);
@@ -89,6 +109,7 @@ class KittiDataset : public SequenceDataset {
     int line_l = 0, line_r = 0;
     Projection pl = read_projection(calib, layout.p_left, &line_l);
     Projection pr = read_projection(calib, layout.p_right, &line_r);
+    require_shared_camera(calib, layout, pl, pr, line_r);
     // Rectified projections are K [I | t]: camera centres sit at -t in camera 0's frame, all
     // cameras share one orientation, and the baseline is the x distance between the centres.
     info_.baseline = offset(pl).x() - offset(pr).x();
