@@ -165,3 +165,27 @@ TEST(TumBadInput, BrokenIndexAndGroundTruthNameFileAndLine) {
   fs::remove(dir / "rgb.txt");
   test::expect_error([&] { open_dataset("tum:" + dir.string()); }, {"rgb.txt", "does not exist"});
 }
+
+TEST(TumBadInput, TimestampGoingBackwardsNamesFileAndLine) {
+  // Frames are mapped in the order they are listed: a stamp out of order would be mapped out of time.
+  test::TempDir tmp;
+  fs::path dir = make_tum(tmp.path(), "rgbd_dataset_freiburg2_desk", {320, 240});
+  test::write_text(
+      dir / "rgb.txt",
+      "# colour\n1.000000 rgb/1.000000.png\n1.200000 rgb/1.200000.png\n1.100000 rgb/1.100000.png\n");
+  test::expect_error([&] { open_dataset("tum:" + dir.string()); }, {"rgb.txt:4", "1.1", "1.2"});
+  test::write_text(dir / "rgb.txt", "1.000000 rgb/1.000000.png\n1.000000 rgb/1.100000.png\n");
+  test::expect_error([&] { open_dataset("tum:" + dir.string()); }, {"rgb.txt:2"});
+  test::write_text(dir / "rgb.txt", "1.000000 rgb/1.000000.png\n");
+  test::write_text(dir / "depth.txt", "1.310000 depth/1.310000.png\n1.005000 depth/1.005000.png\n");
+  test::expect_error([&] { open_dataset("tum:" + dir.string()); }, {"depth.txt:2"});
+}
+
+TEST(TumBadInput, EightBitDepthIsRefusedNamingTheFile) {
+  // TUM depth is 16-bit (1/5000 m); an 8-bit PNG read as such would put every surface within 5 cm.
+  test::TempDir tmp;
+  fs::path dir = make_tum(tmp.path(), "rgbd_dataset_freiburg2_desk", {320, 240});
+  write_png(dir / "depth/1.005000.png", Image8(640, 480, 1, 200));
+  auto ds = open_dataset("tum:" + dir.string());
+  test::expect_error([&] { ds->frame(0); }, {"depth/1.005000.png", "16-bit"});
+}

@@ -2,6 +2,8 @@
 // 1/5000 m registered to the colour camera, groundtruth.txt in TUM trajectory format. The
 // Freiburg cameras' intrinsics are known by the folder name; colour and depth are undistorted
 // with the same map so Frame.camera has no distortion and depth stays aligned with colour.
+#include <iomanip>
+
 #include "chungs/common/log.hpp"
 #include "chungs/common/text_file.hpp"
 #include "chungs/datasets/reader_common.hpp"
@@ -25,10 +27,16 @@ Indexed read_index(const fs::path& dir, const std::string& name) {
   fs::path file = dir / name;
   require_file(file, "TUM index file");
   Indexed out;
+  int previous_line = 0;
   for (const auto& l : read_text_table(file)) {
     l.expect_fields(2);
     double t = l.number_at(0);
     if (t < 0) l.fail_here(cat("timestamp ", t, " is negative"));
+    // Frames are mapped in the order listed: one out of time order would be mapped out of time.
+    if (!out.stamps.empty() && !(t > out.stamps.back()))
+      l.fail_here(cat("timestamp ", std::fixed, std::setprecision(6), t, " is not after ", out.stamps.back(),
+                      " on line ", previous_line, "; frames must be listed in time order"));
+    previous_line = l.number;
     out.stamps.push_back(t);
     out.files.push_back(dir / l.tokens[1]);
   }
