@@ -2,9 +2,9 @@
 #include <cstdio>
 
 #include "chungs/common/error.hpp"
-
 #include "chungs/mapping/ply_export.hpp"
 #include "command.hpp"
+#include "map_paths.hpp"
 
 namespace chungs::app {
 namespace {
@@ -22,13 +22,7 @@ const Command cmd{"export", "write a map (whole, one chunk, or a box) as a 3DGS 
   app.add_option("--chunk", a->chunk, "only the chunk with these coordinates: CX CY CZ")->expected(3);
   app.add_option("--box", a->box, "only Gaussians inside: XMIN YMIN ZMIN XMAX YMAX ZMAX (metres)")->expected(6);
   return [a]() {
-    namespace fs = std::filesystem;
-    // The PLY never goes inside the map folder: `--out MAP/manifest.txt` once replaced the manifest.
-    const fs::path map = fs::weakly_canonical(a->map), out = fs::weakly_canonical(a->out);
-    for (fs::path p = out.parent_path(); !p.empty(); p = p.parent_path()) {
-      if (p == map) fail("--out ", a->out, " lies inside the map folder ", a->map, "; write the PLY elsewhere");
-      if (p == p.root_path()) break;
-    }
+    refuse_inside_map(a->out, a->map, "--out");
     ChunkStore store(a->map, reader_config());  // a reader never repairs or rewrites the map
     PlySelection s;
     if (!a->chunk.empty()) s.chunk = chunk_id(ChunkCoord{a->chunk[0], a->chunk[1], a->chunk[2]});

@@ -8,6 +8,7 @@
 #include "chungs/mapping/render_poses.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
+#include "map_paths.hpp"
 
 namespace chungs::app {
 namespace {
@@ -22,13 +23,15 @@ struct RenderArgs {
 int run_render(const RenderArgs& a) {
   if (a.poses_file.empty() == a.dataset.empty()) fail("render: give exactly one of --poses FILE and --dataset KIND:PATH");
   if (a.resolution < 0 || a.resolution > 1) fail("--resolution must be in (0, 1], got ", a.resolution);
+  if (!a.out.empty()) refuse_inside_map(a.out, a.map, "--out");
   Config c = a.config_file.empty() ? Config{} : load_config(a.config_file);
   // The map's own budget unless told otherwise: renders then need no more memory than mapping did.
   const size_t from_report = map_budget_from_report(a.map);
   if (a.budget) c.residency.budget_gaussians = a.budget;
   else if (from_report) c.residency.budget_gaussians = from_report;
   MapRenderer renderer(a.map, c);
-  const std::filesystem::path out = a.out.empty() ? std::filesystem::path(a.map) / "render" : std::filesystem::path(a.out);
+  const std::filesystem::path out =
+      a.out.empty() ? beside_map(a.map, "-renders") : std::filesystem::path(a.out);
   RenderPosesSummary s;
   if (!a.poses_file.empty()) {
     const Trajectory traj = read_trajectory(a.poses_file);
@@ -76,7 +79,8 @@ const Command cmd{"render", "render a map along a trajectory file or a dataset's
   app.add_option("--poses", a->poses_file, "trajectory file (TUM, KITTI or 4x4 per line): render with the map's camera");
   app.add_option("--dataset", a->dataset, "dataset as kind:path: render its frames with its camera and score them");
   app.add_option("--dataset-poses", a->dataset_poses, "with --dataset: gt or a TUM/KITTI trajectory file")->capture_default_str();
-  app.add_option("--out", a->out, "folder for the PNGs (default MAP/render)");
+  app.add_option("--out", a->out,
+                 "folder for the PNGs, outside the map folder (default MAP-renders beside it)");
   app.add_option("--resolution", a->resolution,
                  "image scale in (0, 1]: of the map's camera with --poses (default 1), of the dataset's images with "
                  "--dataset (default the map's mapping resolution)");

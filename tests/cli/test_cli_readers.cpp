@@ -1,5 +1,6 @@
-// export and render only read a map: a PLY is never written inside the map folder, and a map with a
-// listed chunk missing is refused with the file named instead of being "repaired" by the reader.
+// export and render only read a map: a PLY or a render is never written inside the map folder, and a
+// map with a listed chunk missing is refused with the file named instead of being "repaired" by the
+// reader.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -50,6 +51,34 @@ TEST(CliReaders, ExportNeverWritesIntoTheMapNorRepairsIt) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(moved));  // the file that came back is still there
   EXPECT_EQ(read_all(map / "manifest.txt"), manifest);
+}
+
+TEST(CliReaders, RenderWritesBesideTheMapNeverIntoIt) {
+  chungs::test::TempDir dir;
+  const fs::path map = dir / "map";
+  auto r = run_cli(
+      "-q run --dataset synth-street:length=30,width=160,height=48,seed=2 --device cpu --max-frames 12 "
+      "--no-eval --out " +
+      map.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string poses = " --poses " + (map / "trajectory.txt").string() + " --stride 6";
+
+  r = run_cli("-q render --map " + map.string() + poses);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_FALSE(fs::exists(map / "render"));
+  EXPECT_TRUE(fs::exists(dir / "map-renders" / "render_000000.png"));
+  fs::remove_all(dir / "map-renders");
+  r = run_cli("-q render --map " + map.string() + "/" + poses);  // a trailing slash names the same folder
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "map-renders" / "render_000000.png"));
+
+  for (const fs::path& out : {map / "views", map, map / "chunks"}) {
+    r = run_cli("render --map " + map.string() + poses + " --out " + out.string());
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("inside the map folder"), std::string::npos) << r.out;
+  }
+  EXPECT_FALSE(fs::exists(map / "views"));
+  EXPECT_FALSE(fs::exists(map / "chunks" / "render_000000.png"));
 }
 
 }  // namespace
