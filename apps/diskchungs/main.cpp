@@ -2,7 +2,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <map>
+#include <new>
 #include <string>
 
 #include "allocator.hpp"
@@ -21,11 +23,44 @@ std::vector<const Command*>& commands() {
   return list;
 }
 
+namespace {
+
+// The command as typed: what an out-of-memory error names, having no input of its own to name.
+std::string g_command_line;
+std::terminate_handler g_default_terminate = nullptr;
+
+void print_out_of_memory() {
+  std::fprintf(stderr, "diskchungs: error: out of memory running '%s'\n", g_command_line.c_str());
+}
+
+// Out of memory that escapes a thread of its own (a worker, an OpenMP region) ends here: the same
+// one line and exit code as on the main thread. Anything else keeps the default end, core and all.
+void on_terminate() {
+  if (std::exception_ptr e = std::current_exception()) {
+    try {
+      std::rethrow_exception(e);
+    } catch (const std::bad_alloc&) {
+      print_out_of_memory();
+      std::_Exit(1);
+    } catch (...) {
+    }
+  }
+  g_default_terminate();
+}
+
+void report_out_of_memory_as_error(int argc, char** argv) {
+  g_command_line = "diskchungs";
+  for (int i = 1; i < argc; ++i) g_command_line += std::string(" ") + argv[i];
+  g_default_terminate = std::set_terminate(on_terminate);
+}
+
+}  // namespace
 }  // namespace chungs::app
 
 int main(int argc, char** argv) {
   using namespace chungs;
   app::limit_allocator_arenas();
+  app::report_out_of_memory_as_error(argc, argv);
   // Nothing here uses OpenCL; left on, OpenCV probes the platform at its first call, which cost the
   // tracker's first frame 30-280 ms on a GPU host (bench/README.md). The environment may still say.
   setenv("OPENCV_OPENCL_DEVICE", "disabled", 0);
@@ -68,6 +103,9 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const CLI::ParseError& e) {
     return cli.exit(e);
+  } catch (const std::bad_alloc&) {
+    app::print_out_of_memory();
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "diskchungs: error: %s\n", e.what());
     return 1;

@@ -13,8 +13,9 @@ struct CliResult {
   std::string out;  // stdout and stderr together
 };
 
-inline CliResult run_cli(const std::string& args) {
-  std::string cmd = std::string(CHUNGS_CLI) + " " + args + " 2>&1";
+// Runs a shell command line; its stderr joins its stdout.
+inline CliResult run_shell(const std::string& line) {
+  std::string cmd = line + " 2>&1";
   CliResult r;
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
@@ -24,6 +25,13 @@ inline CliResult run_cli(const std::string& args) {
   int status = pclose(p);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+inline CliResult run_cli(const std::string& args) { return run_shell(std::string(CHUNGS_CLI) + " " + args); }
+
+// As run_cli, with the process's address space limited to `megabytes` (the shell's ulimit -v).
+inline CliResult run_cli_with_memory_limit(size_t megabytes, const std::string& args) {
+  return run_shell("ulimit -v " + std::to_string(megabytes * 1024) + " && exec " + CHUNGS_CLI + " " + args);
 }
 
 }  // namespace chungs::test

@@ -1,13 +1,15 @@
 // export and render only read a map: a PLY or a render is never written inside the map folder, and a
 // map with a listed chunk missing is refused with the file named instead of being "repaired" by the
-// reader.
+// reader. Running out of memory ends as one line naming the command, like any other error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "cli/cli_support.hpp"
+#include "png_bytes.hpp"
 #include "test_support.hpp"
 
 using chungs::test::run_cli;
@@ -79,6 +81,22 @@ TEST(CliReaders, RenderWritesBesideTheMapNeverIntoIt) {
   }
   EXPECT_FALSE(fs::exists(map / "views"));
   EXPECT_FALSE(fs::exists(map / "chunks" / "render_000000.png"));
+}
+
+TEST(CliBoundary, OutOfMemoryIsOneLineNamingTheCommand) {
+  // A valid 8192x8192 RGBA PNG decodes to 256 MB; under a 200 MB address space its decode fails.
+  chungs::test::TempDir dir;
+  {
+    std::ofstream f(dir / "big.png", std::ios::binary);
+    f << chungs::test::png_of_zeros(8192, 8192, 6, 8192);
+  }
+  const std::string png = (dir / "big.png").string();
+  auto r = chungs::test::run_cli_with_memory_limit(200, "-q eval images --ref " + png + " --test " + png);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("out of memory"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("eval images"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("big.png"), std::string::npos) << r.out;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
 }
 
 }  // namespace
