@@ -15,6 +15,16 @@
 namespace chungs::synth {
 namespace fs = std::filesystem;
 
+namespace {
+// An image side read as a number: whole and within what the renderer allocates, checked before the
+// cast to int (1e12 used to wrap to a negative size, 100000 x 100000 to a failed allocation).
+int image_side(double v, const std::string& where, const char* what) {
+  if (!(v >= 1 && v <= kMaxImageSide) || v != std::floor(v))
+    fail(where, ": ", what, " must be a whole number of pixels from 1 to ", kMaxImageSide, ", got ", v);
+  return int(v);
+}
+}  // namespace
+
 Camera read_cam_params_json(const fs::path& file, double* depth_scale) {
   require_file(file, "camera parameters");
   std::ifstream in(file);
@@ -29,13 +39,15 @@ Camera read_cam_params_json(const fs::path& file, double* depth_scale) {
     if (!c.contains(key) || !c[key].is_number()) fail(file, ": missing number camera.", key);
     return c[key].get<double>();
   };
-  Camera cam(int(num("w")), int(num("h")), num("fx"), num("fy"), num("cx"), num("cy"));
+  Camera cam(image_side(num("w"), file.string(), "camera.w"), image_side(num("h"), file.string(), "camera.h"),
+             num("fx"), num("fy"), num("cx"), num("cy"));
   cam.validate(file.string());
   if (depth_scale) *depth_scale = c.contains("scale") && c["scale"].is_number() ? c["scale"].get<double>() : 0;
   return cam;
 }
 
 Camera parse_intrinsics(const std::string& spec) {
+  if (spec.empty()) fail("intrinsics are empty: give fx,fy,cx,cy,width,height or a cam_params.json");
   if (spec.find(',') == std::string::npos) return read_cam_params_json(spec);
   std::vector<double> v;
   std::stringstream ss(spec);
@@ -47,9 +59,8 @@ Camera parse_intrinsics(const std::string& spec) {
     v.push_back(x);
   }
   if (v.size() != 6) fail("intrinsics '", spec, "': expected fx,fy,cx,cy,width,height (6 numbers), got ", v.size());
-  if (v[4] != std::floor(v[4]) || v[5] != std::floor(v[5]))
-    fail("intrinsics '", spec, "': width and height must be integers");
-  Camera cam{int(v[4]), int(v[5]), v[0], v[1], v[2], v[3]};
+  const std::string where = "intrinsics '" + spec + "'";
+  Camera cam{image_side(v[4], where, "width"), image_side(v[5], where, "height"), v[0], v[1], v[2], v[3]};
   cam.validate("intrinsics '" + spec + "'");
   return cam;
 }

@@ -1,9 +1,11 @@
 #include "chungs/synth/ply.hpp"
 
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -104,6 +106,7 @@ class Body {
 }  // namespace
 
 Mesh read_ply(const std::filesystem::path& file) {
+  require_file(file, "PLY mesh");  // a FIFO would block the read below forever
   std::ifstream in(file, std::ios::binary);
   if (!in) fail(file, ": cannot open PLY file");
   std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -220,6 +223,11 @@ Mesh read_ply(const std::filesystem::path& file) {
         }
       }
       if (is_vertex) {
+        // NaN or infinite corners pass every triangle test as false: the face would vanish silently.
+        for (int i : {ix, iy, iz})
+          if (!(std::abs(vals[i]) <= std::numeric_limits<float>::max()))
+            fail(body.where(), ": vertex ", k, " has ", e.props[i].name, " = ", vals[i],
+                 ", not a finite float");
         mesh.vertices.emplace_back(float(vals[ix]), float(vals[iy]), float(vals[iz]));
         if (have_colors) {
           auto c8 = [&](int i) {

@@ -28,6 +28,9 @@ void render_frame(Rasterizer& r, Scene& scene, const Camera& cam, const SE3& T_w
 SequenceReport render_sequence(Scene& scene, const Trajectory& traj, const Camera& cam, const SequenceOptions& opt,
                                const std::filesystem::path& out) {
   cam.validate("synthetic camera");
+  if (cam.width > kMaxImageSide || cam.height > kMaxImageSide)
+    fail("synthetic camera: image size ", cam.width, "x", cam.height, " exceeds ", kMaxImageSide,
+         " pixels a side");
   if (traj.empty()) fail("synthetic sequence for ", out, ": the trajectory has no poses");
   const bool stereo = opt.layout == Layout::Kitti;
   if (stereo && !(opt.baseline > 0)) fail("KITTI layout needs a positive stereo baseline, got ", opt.baseline);

@@ -9,6 +9,10 @@
 
 namespace chungs::synth {
 
+// Largest synthetic image side: a 16384 x 16384 frame with depth already takes about 2 GB, so a
+// typed 100000 is refused before buffers are sized for it.
+constexpr int kMaxImageSide = 16384;
+
 struct SequenceOptions {
   Layout layout = Layout::Tum;
   double baseline = 0.1;  // metres between the rectified stereo centres (KITTI layout)

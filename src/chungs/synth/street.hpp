@@ -34,6 +34,9 @@ struct StreetOptions {
 // point at the image centre. Stereo baseline 0.54 m.
 Camera kitti_camera(int width = 1241, int height = 376);
 constexpr double kKittiBaseline = 0.54;
+// Longest route a street may have (1000 km): beyond any drive we map, and a typo's 1e308 or inf
+// is refused instead of building route nodes without end.
+constexpr double kMaxStreetLengthM = 1e6;
 
 class StreetWorld : public Scene {
  public:

@@ -15,9 +15,9 @@ struct StreetDataset::Renderer {
 StreetDataset::StreetDataset(const StreetDatasetOptions& o) : options_(o) {
   if (!(o.street.length_m > 0))
     fail("synthetic street: length must be positive, got ", o.street.length_m, " m");
-  if (o.width < 16 || o.height < 16 || o.width > 16384 || o.height > 16384)
-    fail("synthetic street: image size ", o.width, "x", o.height,
-         " is out of range (16 to 16384 pixels a side)");
+  if (o.width < 16 || o.height < 16 || o.width > kMaxImageSide || o.height > kMaxImageSide)
+    fail("synthetic street: image size ", o.width, "x", o.height, " is out of range (16 to ", kMaxImageSide,
+         " pixels a side)");
   trajectory_ = street_trajectory(o.street, o.max_frames);
   if (trajectory_.empty()) fail("synthetic street: the route of ", o.street.length_m, " m has no frames");
   info_.kind = "synth-street";

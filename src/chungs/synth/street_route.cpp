@@ -163,6 +163,8 @@ std::vector<Eigen::Vector2i> street_route_nodes(const StreetOptions& opt) {
 
 Trajectory street_trajectory(const StreetOptions& o, size_t max_frames) {
   if (!(o.step_m > 0) || !(o.rate_hz > 0)) fail("street route: step and rate must be positive");
+  if (!(o.length_m > 0 && o.length_m <= kMaxStreetLengthM))
+    fail("street route: length must be in (0, ", kMaxStreetLengthM, "] m, got ", o.length_m);
   const auto nodes = street_route_nodes(o);
   const auto pieces = build_path(o, nodes);
   double total = 0;
