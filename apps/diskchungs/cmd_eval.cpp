@@ -9,6 +9,7 @@
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/image/image_io.hpp"
 #include "command.hpp"
+#include "flag_checks.hpp"
 
 namespace chungs::app {
 namespace {
@@ -100,7 +101,13 @@ const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality
   images->add_flag("--json", args->json, "print the results as JSON (infinite PSNR as null)");
 
   return [args, ate, images]() -> int {
-    if (ate->parsed()) return run_ate(*args);
+    if (ate->parsed()) {
+      // Checked here, with the flag named: the metrics' own checks named neither flag nor file.
+      require_flag(std::isfinite(args->max_dt) && args->max_dt >= 0, "--max-dt", "0 or more seconds",
+                   args->max_dt);
+      require_flag(args->rpe_delta >= 1, "--rpe-delta", "at least 1 frame", args->rpe_delta);
+      return run_ate(*args);
+    }
     if (images->parsed()) return run_images(*args);
     return 2;
   };

@@ -94,9 +94,10 @@ const Command cmd{
           require_flag(a->max_frames >= 1, "--max-frames", "at least 1", a->max_frames);
           a->o.max_frames = size_t(a->max_frames);
         }
-        if (!a->pacing.empty()) c.mapper.pacing = a->pacing;
-        if (!a->depth.empty()) c.mapper.depth = a->depth;
-        if (!a->device.empty()) c.mapper.device = a->device;
+        // Given means typed, even empty: `--pacing ""` is refused by the check below, not ignored.
+        if (given(app, "--pacing")) c.mapper.pacing = a->pacing;
+        if (given(app, "--depth")) c.mapper.depth = a->depth;
+        if (given(app, "--device")) c.mapper.device = a->device;
         c.validate();
         a->o.evaluate = !a->no_eval;
         a->o.tracker.local_ba = !a->no_ba;

@@ -1,5 +1,6 @@
 // `diskchungs synth room|street|mesh|check-office0`: the synthetic sequence generator (the embedded
 // default scene and the long-drive data), written in the TUM or KITTI layout the readers load.
+#include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
@@ -9,13 +10,14 @@
 #include "chungs/synth/sequence.hpp"
 #include "chungs/synth/street.hpp"
 #include "command.hpp"
+#include "flag_checks.hpp"
 
 namespace chungs::app {
 namespace {
 
 struct SynthArgs {
   std::string out, layout = "tum", mesh, traj, intrinsics, data;
-  size_t frames = 300, every = 1, max_frames = 0;
+  long long frames = 300, every = 1, max_frames = 0;  // signed: a typed -1 is refused, not wrapped
   uint64_t seed = 1;
   int width = 0, height = 0;
   double length_m = 1000, baseline = 0.1, rate_hz = 30;
@@ -27,10 +29,33 @@ void report(const synth::SequenceReport& r, const std::string& out) {
               out.c_str(), r.seconds, r.frames / std::max(r.render_seconds, 1e-9), r.max_triangles_drawn);
 }
 
+// The flags a scene was given, range-checked with the flag named before anything is rendered (a
+// typed --frames -3 used to wrap to 2^64 - 3 and end, gigabytes later, in bad_alloc).
+void check_flags(const CLI::App& s, const SynthArgs& a) {
+  for (const auto& [flag, v] : {std::pair{"--width", a.width}, std::pair{"--height", a.height}})
+    if (given(s, flag))
+      require_flag(v >= 1 && v <= synth::kMaxImageSide, flag, cat("1 to ", synth::kMaxImageSide, " pixels"),
+                   v);
+  if (given(s, "--frames")) {
+    if (s.get_name() == "room")
+      require_flag(a.frames >= 1, "--frames", "at least 1", a.frames);
+    else
+      require_flag(a.max_frames >= 0, "--frames", "0 (all) or more", a.max_frames);
+  }
+  if (given(s, "--baseline"))
+    require_flag(std::isfinite(a.baseline) && a.baseline > 0, "--baseline", "a positive number of metres",
+                 a.baseline);
+  if (given(s, "--length-m"))
+    require_flag(a.length_m > 0 && a.length_m <= synth::kMaxStreetLengthM, "--length-m",
+                 cat("in (0, ", synth::kMaxStreetLengthM, "] metres"), a.length_m);
+  if (given(s, "--every")) require_flag(a.every >= 1, "--every", "at least 1", a.every);
+  if (given(s, "--rate"))
+    require_flag(std::isfinite(a.rate_hz) && a.rate_hz > 0, "--rate", "a positive number of Hz", a.rate_hz);
+}
+
 int run_room(const SynthArgs& a) {
   synth::RoomOptions o;
   o.seed = a.seed;
-  if (a.frames == 0) fail("--frames must be positive");
   Camera cam = synth::tum_camera(a.width ? a.width : 640, a.height ? a.height : 480);
   synth::MeshScene scene(synth::build_room(o), synth::Environment::indoor());
   synth::SequenceOptions so;
@@ -38,7 +63,7 @@ int run_room(const SynthArgs& a) {
   so.baseline = a.baseline;
   so.kitti_depth = !a.no_depth;
   so.render.far = 30;
-  report(synth::render_sequence(scene, synth::room_trajectory(o, a.frames), cam, so, a.out), a.out);
+  report(synth::render_sequence(scene, synth::room_trajectory(o, size_t(a.frames)), cam, so, a.out), a.out);
   return 0;
 }
 
@@ -46,7 +71,6 @@ int run_street(const SynthArgs& a) {
   synth::StreetOptions o;
   o.seed = a.seed;
   o.length_m = a.length_m;
-  if (!(a.length_m > 0)) fail("--length-m must be positive, got ", a.length_m);
   Camera cam = synth::kitti_camera(a.width ? a.width : 1241, a.height ? a.height : 376);
   synth::StreetWorld world(o);
   synth::SequenceOptions so;
@@ -54,7 +78,7 @@ int run_street(const SynthArgs& a) {
   so.baseline = synth::kKittiBaseline;
   so.kitti_depth = !a.no_depth;
   so.render.far = o.far;
-  auto rep = synth::render_sequence(world, synth::street_trajectory(o, a.max_frames), cam, so, a.out);
+  auto rep = synth::render_sequence(world, synth::street_trajectory(o, size_t(a.max_frames)), cam, so, a.out);
   report(rep, a.out);
   std::printf("street: %zu distinct blocks, %zu triangles over them, at most %zu held at once\n",
               world.distinct_blocks(), world.distinct_triangles(), rep.max_scene_triangles);
@@ -70,8 +94,8 @@ int run_mesh(const SynthArgs& a) {
   s.seq.layout = synth::parse_layout(a.layout);
   s.seq.baseline = a.baseline;
   s.seq.kitti_depth = !a.no_depth;
-  s.every = a.every;
-  s.max_frames = a.max_frames;
+  s.every = size_t(a.every);
+  s.max_frames = size_t(a.max_frames);
   s.rate_hz = a.rate_hz;
   report(synth::render_mesh_sequence(s), a.out);
   return 0;
@@ -98,7 +122,8 @@ const Command synth_cmd("synth", "render synthetic sequences (room, street, a me
   auto size_opts = [a](CLI::App* s) {
     s->add_option("--width", a->width, "image width (default per scene)");
     s->add_option("--height", a->height, "image height (default per scene)");
-    s->add_option("--seed", a->seed, "random seed: same seed, same bytes");
+    // The check reads the typed text: converted first, -1 would become 2^64 - 1 without a word.
+    s->add_option("--seed", a->seed, "random seed: same seed, same bytes")->check(CLI::NonNegativeNumber);
     s->add_flag("--no-depth", a->no_depth, "KITTI layout: leave out depth/ (uint16, metres * 256)");
   };
   auto* room = app.add_subcommand("room", "furnished textured room, RGB-D (TUM layout, 640x480, 30 Hz)");
@@ -127,6 +152,8 @@ const Command synth_cmd("synth", "render synthetic sequences (room, street, a me
   check->add_option("--data", a->data, "the replica_office0 folder")->required();
   check->add_flag("--json", a->json, "print JSON");
   return [a, room, street, mesh, check]() -> int {
+    for (const CLI::App* s : {room, street, mesh})
+      if (s->parsed()) check_flags(*s, *a);
     if (room->parsed()) return run_room(*a);
     if (street->parsed()) return run_street(*a);
     if (mesh->parsed()) return run_mesh(*a);

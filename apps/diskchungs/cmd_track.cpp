@@ -2,6 +2,7 @@
 // the dataset has ground truth, prints the ATE after rigid alignment.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -14,17 +15,32 @@
 #include "chungs/mapping/tracker_feed.hpp"
 #include "chungs/tracking/visual_tracker.hpp"
 #include "command.hpp"
+#include "flag_checks.hpp"
 
 namespace chungs::app {
 namespace {
 
 struct TrackArgs {
   std::string dataset, out, format = "tum";
-  size_t max_frames = 0;
+  long long max_frames = 0;  // signed: a typed -1 is refused, not wrapped to "all frames"
   bool no_ba = false, no_loop = false, json = false;
   int kf_min_interval = -1, kf_max_interval = -1;
   double rgbd_baseline = 0;
 };
+
+// Range checks with the flag named; the intervals' -1 means "the tracker's default" only when not typed.
+void check_flags(const CLI::App& app, const TrackArgs& a) {
+  if (given(app, "--max-frames"))
+    require_flag(a.max_frames >= 0, "--max-frames", "0 (all) or more", a.max_frames);
+  if (given(app, "--kf-min-interval"))
+    require_flag(a.kf_min_interval >= 0, "--kf-min-interval", "0 or more frames", a.kf_min_interval);
+  if (given(app, "--kf-max-interval"))
+    require_flag(a.kf_max_interval >= 0, "--kf-max-interval", "0 (no limit) or more frames",
+                 a.kf_max_interval);
+  if (given(app, "--rgbd-baseline"))
+    require_flag(std::isfinite(a.rgbd_baseline) && a.rgbd_baseline > 0, "--rgbd-baseline",
+                 "a positive number of metres", a.rgbd_baseline);
+}
 
 int run_track(const TrackArgs& a) {
   auto ds = open_dataset(a.dataset);
@@ -36,7 +52,7 @@ int run_track(const TrackArgs& a) {
   if (a.kf_min_interval >= 0) opt.min_keyframe_interval = a.kf_min_interval;
   if (a.kf_max_interval >= 0) opt.max_keyframe_interval = a.kf_max_interval;
   tracking::VisualTracker tracker(opt);
-  const size_t n = a.max_frames ? std::min(a.max_frames, ds->size()) : ds->size();
+  const size_t n = a.max_frames ? std::min(size_t(a.max_frames), ds->size()) : ds->size();
   Trajectory gt;
   size_t lost = 0, keyframes = 0, loops = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -99,7 +115,10 @@ const Command track_cmd("track", "visual SLAM tracking of a stereo or RGB-D data
   app.add_option("--kf-max-interval", args->kf_max_interval, "a keyframe at least every N frames (0: no limit)");
   app.add_option("--rgbd-baseline", args->rgbd_baseline, "RGB-D: virtual stereo baseline (m) that weights the depth residual");
   app.add_flag("--json", args->json, "print the summary as JSON");
-  return [args] { return run_track(*args); };
+  return [args, &app] {
+    check_flags(app, *args);
+    return run_track(*args);
+  };
 });
 
 }  // namespace

@@ -49,8 +49,8 @@ std::unique_ptr<Dataset> open_street(const std::string& spec, const std::string&
     if (!seen.insert(key).second) fail("dataset '", spec, "': key '", key, "' is given twice");
     if (key == "length") {
       o.street.length_m = number(spec, key, value);
-      if (!(o.street.length_m > 0) || o.street.length_m > 1e6)
-        fail("dataset '", spec, "': length ", value, " m must be in (0, 1000000]");
+      if (!(o.street.length_m > 0) || o.street.length_m > synth::kMaxStreetLengthM)
+        fail("dataset '", spec, "': length ", value, " m must be in (0, ", synth::kMaxStreetLengthM, "]");
     } else if (key == "width") {
       o.width = int(whole(spec, key, value, 16384));
       have_width = true;

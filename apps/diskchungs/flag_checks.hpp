@@ -1,16 +1,22 @@
 // Numbers given on the command line are checked where they are read: a value out of range is refused
 // with the flag named, never replaced by a default; a flag not given leaves the setting alone.
 #pragma once
+#include <string>
+
 #include "chungs/common/error.hpp"
 #include "command.hpp"
 
 namespace chungs::app {
 
-inline bool given(const CLI::App& app, const char* flag) { return app.count(flag) > 0; }
+// False also where `app` has no such flag, so checks shared by sibling commands may ask for any.
+inline bool given(const CLI::App& app, const char* flag) {
+  const CLI::Option* option = app.get_option_no_throw(flag);
+  return option && option->count() > 0;
+}
 
 // Throws Error "FLAG must be WHAT, got VALUE" unless ok.
 template <class T>
-void require_flag(bool ok, const char* flag, const char* what, const T& value) {
+void require_flag(bool ok, const char* flag, const std::string& what, const T& value) {
   if (!ok) fail(flag, " must be ", what, ", got ", value);
 }
 

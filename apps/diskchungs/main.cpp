@@ -78,17 +78,24 @@ int main(int argc, char** argv) {
     sub->fallthrough();  // -q / -v also after the subcommand, where users type them
     actions[sub] = c->setup(*sub);
   }
-  // A mistyped command: CLI11 would only say that a subcommand is required.
+  // A mistyped command, or a mistyped kind of one (`synth castle`): CLI11 would only say that a
+  // subcommand is required.
+  CLI::App* level = &cli;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (!arg.empty() && arg[0] == '-') continue;  // global flags before the command
-    if (std::none_of(cmds.begin(), cmds.end(), [&](auto* c) { return c->name == arg; })) {
+    const auto subs = level->get_subcommands([](CLI::App*) { return true; });
+    if (subs.empty()) break;
+    const auto it = std::find_if(subs.begin(), subs.end(), [&](CLI::App* s) { return s->get_name() == arg; });
+    if (it == subs.end()) {
+      const std::string what = level == &cli ? "command" : level->get_name() + " command";
       std::string names;
-      for (const auto* c : cmds) names += (names.empty() ? "" : ", ") + c->name;
-      std::fprintf(stderr, "diskchungs: error: unknown command '%s' (commands: %s)\n", arg.c_str(), names.c_str());
+      for (const auto* s : subs) names += (names.empty() ? "" : ", ") + s->get_name();
+      std::fprintf(stderr, "diskchungs: error: unknown %s '%s' (%ss: %s)\n", what.c_str(), arg.c_str(),
+                   what.c_str(), names.c_str());
       return 2;
     }
-    break;
+    level = *it;
   }
   try {
     cli.parse(argc, argv);

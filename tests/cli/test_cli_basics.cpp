@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <vector>
 
 #include "cli/cli_support.hpp"
 #include "test_support.hpp"
@@ -40,6 +41,19 @@ TEST(Cli, AnUnknownCommandIsNamedWithTheCommandsThereAre) {
     EXPECT_NE(r.code, 0) << r.out;
     EXPECT_NE(r.out.find("unknown command 'frobnicate'"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("run"), std::string::npos) << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  }
+}
+
+TEST(Cli, AnUnknownKindOfACommandIsNamedWithTheKindsThereAre) {
+  // `synth castle` used to say only that a subcommand is required.
+  for (const auto& [args, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"synth castle --out x",
+            "unknown synth command 'castle' (synth commands: room, street, mesh, check-office0)"},
+           {"-q eval speed --gt a --est b", "unknown eval command 'speed' (eval commands: ate, images)"}}) {
+    auto r = run_cli(args);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_NE(r.out.find(expected), std::string::npos) << r.out;
     EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
   }
 }

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <vector>
 
 #include "cli/cli_support.hpp"
 #include "test_support.hpp"
@@ -62,6 +64,81 @@ TEST(CliNumbers, DemoRefusesOutOfRangeValuesNamingTheFlag) {
            {"--chunk-size 0", "--chunk-size"}, {"--iterations -1", "--iterations"},
            {"--scene room --frames 0", "--frames"}})
     expect_refused(demo + args, flag, out);
+}
+
+TEST(CliNumbers, SynthRefusesOutOfRangeValuesNamingTheFlag) {
+  // --frames -3 wrapped to 2^64 - 3 (2.5 GB, then bad_alloc), --width 100000 ended in bad_alloc, and
+  // --seed -1, --length-m inf, --every -1 or --rate 0 were taken without a word.
+  chungs::test::TempDir dir;
+  const auto out = dir / "seq";
+  {
+    std::ofstream(dir / "m.ply")
+        << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+           "end_header\n-1 -1 0\n1 -1 0\n0 1 0\n3 0 1 2\n";
+    std::ofstream(dir / "t.txt") << "0 0 0 -2 0 0 0 1\n";
+  }
+  const std::string room = "synth room --out " + out.string() + " --width 32 --height 32 ";
+  const std::string street = "synth street --out " + out.string() + " --width 32 --height 32 ";
+  const std::string mesh = "synth mesh --mesh " + (dir / "m.ply").string() + " --traj " +
+                           (dir / "t.txt").string() + " --intrinsics 50,50,16,16,32,32 --out " +
+                           out.string() + " ";
+  for (const auto& [args, flag] : std::vector<std::pair<std::string, std::string>>{
+           {room + "--frames -3", "--frames"},
+           {room + "--frames 0", "--frames"},
+           {"synth room --out " + out.string() + " --frames 1 --height 32 --width 100000", "--width"},
+           {"synth room --out " + out.string() + " --frames 1 --width 32 --height 0", "--height"},
+           {room + "--frames 2 --layout kitti --baseline inf", "--baseline"},
+           {street + "--frames -1 --length-m 20", "--frames"},
+           {street + "--frames 2 --length-m inf", "--length-m"},
+           {street + "--frames 2 --length-m 1e308", "--length-m"},
+           {mesh + "--every -1", "--every"},
+           {mesh + "--rate 0", "--rate"},
+           {mesh + "--rate nan", "--rate"},
+           {mesh + "--baseline -1", "--baseline"},
+           {mesh + "--frames -1", "--frames"}})
+    expect_refused(args, flag, out);
+  auto r = run_cli(room + "--frames 2 --seed -1");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("--seed"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST(CliNumbers, TrackRefusesOutOfRangeValuesNamingTheFlag) {
+  // A typed -1 meant "all frames" or "the default" before; NaN and infinite baselines were ignored.
+  chungs::test::TempDir dir;
+  auto r = run_cli("synth room --out " + (dir / "room").string() + " --frames 3 --width 64 --height 48");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string track =
+      "track --dataset tum:" + (dir / "room").string() + " --out " + (dir / "t.txt").string() + " ";
+  for (const auto& [args, flag] :
+       std::vector<std::pair<std::string, std::string>>{{"--max-frames -1", "--max-frames"},
+                                                        {"--kf-min-interval -5", "--kf-min-interval"},
+                                                        {"--kf-max-interval -1", "--kf-max-interval"},
+                                                        {"--rgbd-baseline nan", "--rgbd-baseline"},
+                                                        {"--rgbd-baseline inf", "--rgbd-baseline"},
+                                                        {"--rgbd-baseline -1", "--rgbd-baseline"}})
+    expect_refused(track + args, flag, dir / "t.txt");
+}
+
+TEST(CliNumbers, EvalDemoAndRunNameTheFlagAtFault) {
+  chungs::test::TempDir dir;
+  std::ofstream(dir / "t.txt")
+      << "0 0 0 0 0 0 0 1\n0.1 1 0 0 0 0 0 1\n0.2 2 0 0 0 0 0 1\n0.3 3 0 0 0 0 0 1\n";
+  const std::string ate =
+      "eval ate --gt " + (dir / "t.txt").string() + " --est " + (dir / "t.txt").string() + " ";
+  for (const auto& [args, flag] : std::vector<std::pair<std::string, std::string>>{
+           {ate + "--max-dt -1", "--max-dt"},
+           {ate + "--max-dt nan", "--max-dt"},
+           {ate + "--rpe-delta 0", "--rpe-delta"},
+           {"demo --out " + (dir / "demo").string() + " --seed -1", "--seed"}})
+    expect_refused(args, flag, dir / "demo");
+  // An empty --pacing was taken as not given.
+  auto r = run_cli("run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --out " +
+                   (dir / "map").string() + " --pacing ''");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("pacing must be fixed or anytime, got ''"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "map"));
 }
 
 }  // namespace
