@@ -81,3 +81,40 @@ TEST(Config, StoreAndResidencyValuesOutOfRangeAreRefusedNamingTheKey) {
   }
   EXPECT_NO_THROW(chungs::config_from_yaml("store: {zstd_level: 22}\nresidency: {flush_threads: 1}", "t.yaml"));
 }
+
+TEST(Config, RepeatedKeysAndSectionsAreRefusedNotDropped) {
+  // yaml-cpp keeps both of two equal keys and lookups saw the first: the second value was dropped.
+  for (const auto& [yaml, needle] : std::vector<std::pair<std::string, std::string>>{
+           {"store:\n  chunk_size: 2\n  chunk_size: 3\n", "t.yaml:3: 'store.chunk_size' is given twice"},
+           {"store:\n  chunk_size: 2\nstore:\n  sh_degree: 1\n", "t.yaml:3: 'store' is given twice"},
+           {"? [a, b]\n: 1\n", "t.yaml:1: a key of the file is not a word"},
+           {"store:\n  ? [a]\n  : 1\n", "t.yaml:2: a key of section 'store' is not a word"}}) {
+    try {
+      chungs::config_from_yaml(yaml, "t.yaml");
+      ADD_FAILURE() << yaml << " accepted";
+    } catch (const chungs::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << yaml << ": " << e.what();
+    }
+  }
+}
+
+TEST(Config, CullingAndKeyframeValuesOutOfRangeAreRefusedNamingTheKey) {
+  // Neither section had a check: a file's near: -1 or zstd_level: 9999 reached the culler and the store.
+  for (const auto& [yaml, needle] : std::vector<std::pair<std::string, std::string>>{
+           {"culling: {near: -1}", "t.yaml: culling: near must be"},
+           {"culling: {far: .nan}", "culling: far must be"},
+           {"culling: {near: 10, far: 1}", "culling: far must be"},
+           {"culling: {max_distance: 0}", "culling: max_distance must be"},
+           {"culling: {cache_translation: .inf}", "culling: cache_translation must be"},
+           {"culling: {cache_rotation_rad: -1}", "culling: cache_rotation_rad must be"},
+           {"keyframes: {zstd_level: 9999}", "keyframes: zstd_level must be"}}) {
+    try {
+      chungs::config_from_yaml(yaml, "t.yaml");
+      ADD_FAILURE() << yaml << " accepted";
+    } catch (const chungs::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << yaml << ": " << e.what();
+    }
+  }
+  EXPECT_NO_THROW(
+      chungs::config_from_yaml("culling: {near: 0.1, far: 50}\nkeyframes: {zstd_level: 3}", "t.yaml"));
+}

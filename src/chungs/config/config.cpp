@@ -2,7 +2,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include "chungs/common/text_file.hpp"
 
@@ -200,6 +203,26 @@ struct Printer {
   }
 };
 
+// The keys of a mapping with their line numbers. yaml-cpp keeps both of two equal keys and lookups
+// see the first, so a repeated key (or section) was dropped without a word: it is refused, as is a
+// key that is not a plain word (a list as a key failed with a bare "bad conversion").
+std::vector<std::pair<std::string, int>> keys_of(const YAML::Node& map, const std::string& source,
+                                                 const std::string& prefix) {
+  std::vector<std::pair<std::string, int>> keys;
+  std::set<std::string> seen;
+  for (const auto& kv : map) {
+    const int line = kv.first.Mark().line + 1;
+    if (!kv.first.IsScalar())
+      fail(source, ":", line, ": a key of ",
+           prefix.empty() ? std::string("the file") : "section '" + prefix.substr(0, prefix.size() - 1) + "'",
+           " is not a word");
+    const auto k = kv.first.as<std::string>();
+    if (!seen.insert(k).second) fail(source, ":", line, ": '", prefix, k, "' is given twice");
+    keys.emplace_back(k, line);
+  }
+  return keys;
+}
+
 struct Loader {
   YAML::Node root;
   std::string source;
@@ -232,13 +255,31 @@ struct Loader {
     if (!node.IsMap()) fail(source, ": section '", name, "' must be a mapping of key: value");
     section_name = name;
     seen_keys.clear();
+    const auto keys = keys_of(node, source, section_name + ".");
     fields(*this, s);
-    for (const auto& kv : node) {
-      auto k = kv.first.as<std::string>();
-      if (!seen_keys.count(k)) fail(source, ":", kv.first.Mark().line + 1, ": unknown key '", name, ".", k, "'");
-    }
+    for (const auto& [k, line] : keys)
+      if (!seen_keys.count(k)) fail(source, ":", line, ": unknown key '", name, ".", k, "'");
   }
 };
+
+// culling and keyframes have no checks of their own (CullerConfig, KeyframeStoreConfig), and only a
+// file sets them, so they are checked where a file is read: `culling: {near: -1}` and
+// `keyframes: {zstd_level: 9999}` used to pass.
+void validate_sections_without_checks(const Config& c) {
+  const CullerConfig& k = c.culling;
+  if (!(std::isfinite(k.near) && k.near > 0))
+    fail("culling: near must be a positive number of metres, got ", k.near);
+  if (!(std::isfinite(k.far) && k.far > k.near))
+    fail("culling: far must be a finite number of metres beyond near (", k.near, "), got ", k.far);
+  if (!(k.max_distance > 0)) fail("culling: max_distance must be positive, got ", k.max_distance);
+  if (!(std::isfinite(k.cache_translation) && k.cache_translation >= 0))
+    fail("culling: cache_translation must be 0 or more, got ", k.cache_translation);
+  if (!(std::isfinite(k.cache_rotation_rad) && k.cache_rotation_rad >= 0))
+    fail("culling: cache_rotation_rad must be 0 or more, got ", k.cache_rotation_rad);
+  const KeyframeStoreConfig& f = c.keyframes;
+  if (f.zstd_level < 1 || f.zstd_level > 22)
+    fail("keyframes: zstd_level must be in [1, 22], got ", f.zstd_level);
+}
 
 }  // namespace
 
@@ -253,13 +294,13 @@ Config config_from_yaml(const std::string& text, const std::string& source, cons
   }
   if (l.root.IsNull()) return c;
   if (!l.root.IsMap()) fail(source, ": expected a mapping of sections (store:, residency:, ...)");
+  const auto sections_given = keys_of(l.root, source, "");
   sections(l, c);
-  for (const auto& kv : l.root) {
-    auto k = kv.first.as<std::string>();
-    if (!l.seen_sections.count(k)) fail(source, ":", kv.first.Mark().line + 1, ": unknown section '", k, "'");
-  }
+  for (const auto& [k, line] : sections_given)
+    if (!l.seen_sections.count(k)) fail(source, ":", line, ": unknown section '", k, "'");
   try {
     c.validate();
+    validate_sections_without_checks(c);
   } catch (const Error& e) {
     fail(source, ": ", e.what());
   }
