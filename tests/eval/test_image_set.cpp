@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fstream>
 #include <random>
@@ -157,4 +158,19 @@ TEST(Report, TrajectoryResultsSerialise) {
   EXPECT_EQ(ja["errors"].size(), 3u);
   EXPECT_FALSE(to_json(ate).contains("errors"));
   EXPECT_TRUE(json_number(std::numeric_limits<double>::quiet_NaN()).is_null());
+}
+
+TEST(ImageSet, AFifoOrFolderNamedLikeAnImageIsRefusedByItsName) {
+  // Skipped before, so its partner reported "test/y.*: missing" for a file that was there.
+  std::mt19937 rng(34);
+  test::TempDir dir;
+  write_png(dir / "ref/y.png", random_image8(30, 20, 3, rng));
+  std::filesystem::create_directories(dir / "test");
+  ASSERT_EQ(::mkfifo((dir / "test/y.png").c_str(), 0600), 0);
+  std::string msg = message_of([&] { match_image_pairs(dir / "ref", dir / "test"); });
+  EXPECT_NE(msg.find("test/y.png: expected a PNG or JPEG image, found a FIFO"), std::string::npos) << msg;
+  std::filesystem::remove(dir / "test/y.png");
+  std::filesystem::create_directories(dir / "test/y.png");
+  msg = message_of([&] { match_image_pairs(dir / "ref", dir / "test"); });
+  EXPECT_NE(msg.find("test/y.png: expected a PNG or JPEG image, found a folder"), std::string::npos) << msg;
 }

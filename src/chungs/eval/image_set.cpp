@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 
+#include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/image/image_io.hpp"
@@ -24,7 +25,10 @@ bool is_image_file(const fs::path& p) {
 std::map<std::string, fs::path> images_by_stem(const fs::path& dir) {
   std::map<std::string, fs::path> out;
   for (const auto& e : fs::directory_iterator(dir)) {
-    if (!e.is_regular_file() || !is_image_file(e.path())) continue;
+    if (!is_image_file(e.path())) continue;
+    // Named like an image but a FIFO, a device or a folder: refused by its name (it used to be
+    // skipped, and its partner then reported the image as missing).
+    require_file(e.path(), "PNG or JPEG image");
     auto [it, fresh] = out.emplace(e.path().stem().string(), e.path());
     if (!fresh) fail(e.path().string(), ": same name as ", it->second.string(), " (pairs are matched by name)");
   }
