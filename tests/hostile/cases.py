@@ -47,7 +47,7 @@ def err(name, cmd, says, setup=None, **kw):
 def naming(flag, value=""):
     """The words that name a flag at fault: the flag itself, or the setting it sets (`--max-dt` sets
     max_dt), or a typed value that is not a number (a word or a file name)."""
-    words = (flag, flag[2:], flag[2:].replace("-", "_"))
+    words = tuple(dict.fromkeys((flag, flag[2:], flag[2:].replace("-", "_"))))
     try:
         float(value)
         return words

@@ -132,6 +132,10 @@ def run_process(argv, cwd: Path, timeout: float, lock_file=None):
     return code, usage.ru_maxrss, seconds
 
 
+def spelled(word) -> str:
+    return " or ".join(map(repr, word)) if isinstance(word, tuple) else repr(word)
+
+
 def said(stderr: str, word) -> bool:
     """A word of `says` is a string, or a tuple of strings any one of which will do."""
     return any(w in stderr for w in word) if isinstance(word, tuple) else word in stderr
@@ -152,7 +156,7 @@ def problems(case, code, rss_kb, small, stderr, changed):
     if changed:
         found.append(("changed", "folder changed: " + ", ".join(changed)))
     if case.expect == "error" and code == 0:
-        found.append(("accepted", "exit 0; expected an error naming " + " / ".join(map(str, case.says))))
+        found.append(("accepted", "exit 0; expected an error naming " + ", ".join(map(spelled, case.says))))
     if case.expect == "ok" and code != 0:
         found.append(("refused", "valid input refused"))
     # error_or_warning: a writer may repair damage and go on, but its warning must name what it dropped.
@@ -161,8 +165,7 @@ def problems(case, code, rss_kb, small, stderr, changed):
         text = warned if case.expect == "error_or_warning" and code == 0 else stderr
         missing = [w for w in case.says if not said(text, w)]
         if missing or not text.strip():
-            found.append(("unclear", "message lacks " + ", ".join(
-                " or ".join(map(repr, w)) if isinstance(w, tuple) else repr(w) for w in missing)))
+            found.append(("unclear", "message lacks " + ", ".join(map(spelled, missing))))
     return found
 
 
