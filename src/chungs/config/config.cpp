@@ -153,6 +153,13 @@ void fields(V& v, KeyframeSelectorConfig& c) {
     "least share of the image that resident part must explain, else a window keyframe is trained");
 }
 template <class V>
+void fields(V& v, SkyConfig& c) {
+  v("enabled", c.enabled, "a colour per direction behind the Gaussians, trained by every step (outdoor preset: on)");
+  v("width", c.width, "texels over 360 degrees of azimuth");
+  v("height", c.height, "texels over 180 degrees of elevation");
+  v("lr", c.lr, "Adam step on texel colours");
+}
+template <class V>
 void fields(V& v, StereoDepthConfig& c) {
   v("num_disparities", c.num_disparities, "search range, pixels at full resolution (at most 256)");
   v("p1", c.p1, "semi-global matching: penalty of a 1-pixel disparity step between neighbours");
@@ -182,6 +189,7 @@ void sections(V& v, Config& c) {
   v.section("sampler", c.sampler);
   v.section("selector", c.selector);
   v.section("stereo", c.stereo);
+  v.section("sky", c.sky);
 }
 
 struct Printer {

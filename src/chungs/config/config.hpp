@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <string>
 
+#include "chungs/common/error.hpp"
 #include "chungs/depth/stereo_depth.hpp"
 #include "chungs/mapping/keyframe_selector.hpp"
 #include "chungs/mapping/mapper_config.hpp"
@@ -12,6 +13,7 @@
 #include "chungs/optim/loss_config.hpp"
 #include "chungs/optim/prune.hpp"
 #include "chungs/render/raster_config.hpp"
+#include "chungs/render/sky.hpp"
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
 #include "chungs/store/chunk_store.hpp"
@@ -32,6 +34,7 @@ struct Config {
   SamplerConfig sampler;
   KeyframeSelectorConfig selector;
   StereoDepthConfig stereo;
+  SkyConfig sky;
 
   // Each section's own checks. Inline, so that the mapping library, which takes the whole tree,
   // needs only the section modules it already links and not the YAML code of this module.
@@ -46,6 +49,9 @@ struct Config {
     sampler.validate();
     selector.validate();
     stereo.validate();
+    sky.validate();
+    if (sky.enabled && (raster.background[0] != 0 || raster.background[1] != 0 || raster.background[2] != 0))
+      fail("sky: enabled, it is the background: raster.background must stay 0 0 0");
   }
 };
 

@@ -7,15 +7,30 @@ namespace chungs {
 CpuOptimBackend::CpuOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster)
     : pool_(capacity, sh_degree), raster_(raster) {}
 
+void CpuOptimBackend::set_sky(const SkyTexture& sky, double lr) {
+  sky.check();
+  sky_ = sky;
+  sky_lr_ = lr;
+}
+
 RenderOutput<float> CpuOptimBackend::render(std::span<const uint32_t> slots,
                                             const RenderCamera<float>& camera) {
-  return raster_.forward(view_of(pool_.params()), slots, camera);
+  RenderOutput<float> out = raster_.forward(view_of(pool_.params()), slots, camera);
+  if (sky_) {
+    sky_colours(*sky_, camera, sky_px_);
+    compose_sky(sky_px_, out.alpha, out.rgb);
+  }
+  return out;
 }
 
 ImageF CpuOptimBackend::sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                                              const SamplerConfig& sampler, const ImageF& image) {
   const RenderOutput<float>& r = raster_.forward(view_of(pool_.params()), slots, camera);
-  return chungs::sampling_probability(sampler, image, &r.rgb, &r.alpha);
+  if (!sky_) return chungs::sampling_probability(sampler, image, &r.rgb, &r.alpha);
+  sky_colours(*sky_, camera, sky_px_);
+  composed_.rgb = r.rgb;
+  compose_sky(sky_px_, r.alpha, composed_.rgb);
+  return chungs::sampling_probability(sampler, image, &composed_.rgb, &r.alpha);
 }
 
 LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
@@ -24,8 +39,22 @@ LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCam
   to_prune.clear();
   const HostTargets t = host_targets(*targets.load(), targets.depth);
   const RenderOutput<float>& out = raster_.forward(view_of(pool_.params()), slots, camera);
-  const LossTerms terms = mapping_loss<float>(loss, out, t.rgb, t.depth ? &t.inv_depth : nullptr,
+  const RenderOutput<float>* scored = &out;
+  if (sky_) {
+    sky_colours(*sky_, camera, sky_px_);
+    composed_.rgb = out.rgb;
+    composed_.inv_depth = out.inv_depth;
+    compose_sky(sky_px_, out.alpha, composed_.rgb);
+    scored = &composed_;
+  }
+  const LossTerms terms = mapping_loss<float>(loss, *scored, t.rgb, t.depth ? &t.inv_depth : nullptr,
                                               t.depth ? &t.mask : nullptr, &dloss_, targets.pixel_mask);
+  if (sky_) {
+    // The alpha gradient the sky adds reaches the Gaussians through the rasterizer's backward.
+    sky_grad_.assign(3 * sky_->texels(), 0.f);
+    sky_backward(*sky_, camera, sky_px_, out.alpha, dloss_.rgb, dloss_.alpha, sky_grad_);
+    sky_adam_step(*sky_, sky_grad_, sky_lr_);
+  }
   if (slots.empty()) return terms;
   raster_.backward(dloss_, grads_);
   sparse_adam_step(adam, mut_view_of(pool_.params()), adam_state_of(pool_.storage()), slots, out.visible,

@@ -16,12 +16,19 @@ class CpuOptimBackend final : public OptimBackend {
                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;
   ImageF sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                               const SamplerConfig& sampler, const ImageF& image) override;
+  void set_sky(const SkyTexture& sky, double lr) override;
+  std::optional<SkyTexture> sky() const override { return sky_; }
 
  private:
   CpuGaussianPool pool_;
   CpuRasterizer<float> raster_;
   RenderGrads<float> dloss_;
   GaussianGrads<float> grads_;
+  std::optional<SkyTexture> sky_;
+  double sky_lr_ = 0;
+  ImageF sky_px_;                  // the sky's colour per pixel of the last render
+  RenderOutput<float> composed_;   // rgb with the sky behind it (and the inverse depth), for the loss
+  std::vector<float> sky_grad_;
 };
 
 }  // namespace chungs

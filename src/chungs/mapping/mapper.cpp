@@ -11,6 +11,7 @@
 
 #include "chungs/common/log.hpp"
 #include "chungs/common/stopwatch.hpp"
+#include "chungs/mapping/sky_file.hpp"
 #include "chungs/store/atomic_file.hpp"
 
 namespace chungs {
@@ -75,6 +76,11 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     for (uint64_t id : keyframe_store_->ids())
       if (std::find(known.begin(), known.end(), id) == known.end()) keyframe_store_->erase(id);
     update_training_window();
+  }
+  // A map made with a sky keeps it (and its training) whatever the settings say now.
+  if (resume && fs::exists(folder / "sky.bin")) {
+    backend_->set_sky(read_sky_file(folder / "sky.bin"), config_.sky.lr);
+    sky_on_ = true;
   }
   if (resume && fs::exists(folder / "run_state.json")) {
     const fs::path file = folder / "run_state.json";
@@ -192,6 +198,15 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   const uint32_t id = keyframes_.empty() ? 0 : keyframes_.back().id + 1;
+  if (config_.sky.enabled && !sky_on_) {
+    // Its pole is the first keyframe's up: the camera's -y, cameras being held level.
+    const Eigen::Matrix3d rot = pose.rotation();
+    double R[9];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) R[3 * r + c] = rot(r, c);
+    backend_->set_sky(make_sky(config_.sky, R), config_.sky.lr);
+    sky_on_ = true;
+  }
   keyframe_store_->put(id, KeyframeImages{color, depth ? *depth : ImageF()});
   SampleStats stats;
   if (depth && std::none_of(depth->data(), depth->data() + depth->pixels(),
@@ -352,6 +367,9 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
         backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
                        config_.adam, prune ? &config_.prune : nullptr, to_prune_);
     step_times_.backend_ms += ms_since(t1);
+    if (!std::isfinite(terms.total) && nonfinite_losses_++ == 0)
+      log::warn("keyframe ", kf.id, ": a step's loss is not finite (", terms.total, ", L1 ", terms.l1, ", SSIM ",
+                terms.ssim, ", depth ", terms.depth, "): the render or the target holds a non-finite value");
     st.loss = terms.total;
     st.rendered = slots_.size();
     st.chunks = chunks.size();
@@ -419,7 +437,7 @@ void Mapper::recover_checkpoint_files() {
     char rest[64] = {};
     if (std::sscanf(name.c_str(), "checkpoint-%llu-%63s", &seq, rest) != 2) continue;
     const std::string final_name = rest;
-    if (final_name != "keyframes.txt" && final_name != "run_state.json") continue;
+    if (final_name != "keyframes.txt" && final_name != "run_state.json" && final_name != "sky.bin") continue;
     if (tag && seq == checkpoint_seq_)
       fs::rename(e.path(), folder_ / final_name);
     else
@@ -436,6 +454,8 @@ void Mapper::checkpoint(const nlohmann::json& run_state, bool behind) {
   }
   const fs::path keyframes_file = checkpoint_file(folder_, seq, "keyframes.txt");
   const fs::path state_file = checkpoint_file(folder_, seq, "run_state.json");
+  const fs::path sky_file = checkpoint_file(folder_, seq, "sky.bin");
+  std::optional<SkyTexture> sky = sky_on_ ? backend_->sky() : std::nullopt;  // as it is now
   nlohmann::json j = run_state;
   j["iterations"] = iterations_;
   j["keyframe_chunks"] = keyframe_chunks_.to_json();
@@ -445,15 +465,18 @@ void Mapper::checkpoint(const nlohmann::json& run_state, bool behind) {
   const bool durable = config_.store.durable;
   // Everything the commit names is written first, under numbered names (see above). Behind the
   // caller this runs on a writer thread: hence the copies.
-  auto write_state = [this, keyframes_file, state_file, durable, behind, records = keyframes_, j = std::move(j)] {
+  auto write_state = [this, keyframes_file, state_file, sky_file, durable, behind, records = keyframes_,
+                      j = std::move(j), sky = std::move(sky)] {
     // The keyframe list about to be committed must not name a keyframe whose file could be lost.
     keyframe_store_->commit(!behind);
     write_keyframe_records(keyframes_file, records, durable);
     write_json_atomically(state_file, j, durable);
+    if (sky) write_sky_file(sky_file, *sky, durable);
   };
-  auto publish = [this, keyframes_file, state_file, durable] {
+  auto publish = [this, keyframes_file, state_file, sky_file, durable, has_sky = sky_on_] {
     fs::rename(keyframes_file, folder_ / "keyframes.txt");
     fs::rename(state_file, folder_ / "run_state.json");
+    if (has_sky) fs::rename(sky_file, folder_ / "sky.bin");
     if (durable) sync_directory(folder_);
   };
   store_->set_config("checkpoint", std::to_string(seq));

@@ -166,6 +166,8 @@ class Mapper {
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views
   std::unordered_map<uint32_t, ViewCoverage> coverage_;             // of the cell's views (partial steps)
   bool loop_batch_allowed_ = true;
+  bool sky_on_ = false;
+  uint64_t nonfinite_losses_ = 0;  // steps whose loss was NaN or infinite (warned once)  // the backend holds a sky (render/sky.hpp), saved with each checkpoint
 };
 
 }  // namespace chungs

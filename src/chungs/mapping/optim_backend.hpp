@@ -17,6 +17,7 @@
 #include "chungs/render/raster_config.hpp"
 #include "chungs/render/render_camera.hpp"
 #include "chungs/render/render_output.hpp"
+#include "chungs/render/sky.hpp"
 #include "chungs/residency/gaussian_pool.hpp"
 
 namespace chungs {
@@ -47,6 +48,11 @@ class OptimBackend {
   // render lives.
   virtual ImageF sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                                       const SamplerConfig& sampler, const ImageF& image) = 0;
+  // The sky behind the Gaussians (render/sky.hpp): once set, renders, sampling maps and steps
+  // composite it, and each step trains it with Adam at `lr`. sky() is a host copy (for checkpoints);
+  // none before set_sky().
+  virtual void set_sky(const SkyTexture& sky, double lr) = 0;
+  virtual std::optional<SkyTexture> sky() const = 0;
   // Device memory now, on a GPU backend; none on the CPU.
   virtual std::optional<DeviceMemory> device_memory() const { return std::nullopt; }
 };

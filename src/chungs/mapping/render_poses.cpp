@@ -10,6 +10,7 @@
 #include "chungs/mapping/evaluation.hpp"
 #include "chungs/mapping/frame_source.hpp"
 #include "chungs/mapping/mapper.hpp"
+#include "chungs/mapping/sky_file.hpp"
 #include "chungs/render/cpu/rasterizer.hpp"
 #include "chungs/render/gaussian_view.hpp"
 #include "chungs/render/render_camera.hpp"
@@ -26,6 +27,8 @@ struct MapRenderer::Impl {
   Residency residency;
   FrustumCuller culler;
   CpuRasterizer<float> raster;
+  std::optional<SkyTexture> sky;  // the map's sky.bin, when it has one
+  ImageF sky_px;
   Impl(const fs::path& folder, const Config& c)
       : store(folder, reader_config(c.store)),  // rendering never repairs or rewrites the map
         pool(c.residency.budget_gaussians, store.sh_degree()),
@@ -38,6 +41,7 @@ MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
   if (!fs::exists(folder / "manifest.txt")) fail(folder.string(), ": not a map folder (no manifest.txt)");
   impl_ = std::make_unique<Impl>(folder, config);
   if (fs::exists(folder / "keyframes.txt")) keyframes_ = read_keyframe_records(folder / "keyframes.txt");
+  if (fs::exists(folder / "sky.bin")) impl_->sky = read_sky_file(folder / "sky.bin");
 }
 
 MapRenderer::~MapRenderer() = default;
@@ -84,7 +88,12 @@ RenderOutput<float> MapRenderer::render(const Camera& camera, const SE3& pose) {
   try {
     std::vector<uint32_t> slots;
     res.append_slots(chunks, slots);
-    out = impl_->raster.forward(view_of(impl_->pool.params()), slots, make_render_camera<float>(camera, pose));
+    const RenderCamera<float> rc = make_render_camera<float>(camera, pose);
+    out = impl_->raster.forward(view_of(impl_->pool.params()), slots, rc);
+    if (impl_->sky) {
+      sky_colours(*impl_->sky, rc, impl_->sky_px);
+      compose_sky(impl_->sky_px, out.alpha, out.rgb);
+    }
   } catch (...) {
     res.unpin(chunks);
     throw;

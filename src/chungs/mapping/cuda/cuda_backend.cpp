@@ -28,10 +28,24 @@ const DeviceRenderOutput& CudaOptimBackend::forward(std::span<const uint32_t> sl
 
 RenderOutput<float> CudaOptimBackend::render(std::span<const uint32_t> slots,
                                              const RenderCamera<float>& camera) {
-  forward(slots, camera);
+  const DeviceRenderOutput& r = forward(slots, camera);
   RenderOutput<float> out;
   raster_.download(out);
+  if (!sky_.empty())
+    copy_to_host(out.rgb.data(), sky_.compose(r, camera), out.rgb.size() * sizeof(float), "render with the sky");
   return out;
+}
+
+void CudaOptimBackend::set_sky(const SkyTexture& sky, double lr) {
+  sky_.upload(sky);
+  sky_lr_ = lr;
+}
+
+std::optional<SkyTexture> CudaOptimBackend::sky() const {
+  if (sky_.empty()) return std::nullopt;
+  SkyTexture s;
+  sky_.download(s);
+  return s;
 }
 
 ImageF CudaOptimBackend::sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
@@ -44,7 +58,8 @@ ImageF CudaOptimBackend::sampling_probability(std::span<const uint32_t> slots, c
   // The keyframe goes up once and only the 1-channel map comes back (not the render's images).
   target_rgb_.upload(image.data(), image.size());
   probability_.resize(size_t(image.width()) * image.height());
-  log_probability_.sampling_probability(target_rgb_.data(), image.channels(), out.rgb, out.alpha, out.width,
+  const float* rgb = sky_.empty() ? out.rgb : sky_.compose(out, camera);
+  log_probability_.sampling_probability(target_rgb_.data(), image.channels(), rgb, out.alpha, out.width,
                                         out.height, sampler.density, sampler.empty_floor, probability_.data());
   ImageF p(image.width(), image.height(), 1);
   probability_.download(p.vec());
@@ -68,11 +83,20 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
            " does not match the ", t.width, "x", t.height, " target");
     pixel_mask_.upload(targets.pixel_mask->data(), targets.pixel_mask->pixels());
   }
-  const LossTerms terms = loss_.evaluate(loss, out, target_rgb_.data(), depth ? target_inv_.data() : nullptr,
-                                         depth ? mask_.data() : nullptr, !slots.empty(),
+  const bool sky = !sky_.empty();
+  DeviceRenderOutput scored = out;
+  if (sky) scored.rgb = sky_.compose(out, camera);
+  const LossTerms terms = loss_.evaluate(loss, scored, target_rgb_.data(), depth ? target_inv_.data() : nullptr,
+                                         depth ? mask_.data() : nullptr, sky || !slots.empty(),
                                          targets.pixel_mask ? pixel_mask_.data() : nullptr);
+  DeviceRenderGrads grads = loss_.grads();
+  if (sky) {
+    // The alpha gradient the sky adds reaches the Gaussians through the rasterizer's backward.
+    grads.alpha = sky_.backward(grads.rgb, out, camera);
+    sky_.adam_step(sky_lr_);
+  }
   if (slots.empty()) return terms;
-  const DeviceGaussianGrads& g = raster_.backward(loss_.grads());
+  const DeviceGaussianGrads& g = raster_.backward(grads);
   const PoolDeviceArrays& d = pool_.device_arrays();
   const AdamState state{params_of(d, 1), params_of(d, 2), d.adam_steps, d.lr_position_factor, d.capacity};
   sparse_adam_step(adam, params_of(d, 0), state, ids_.data(), out.visible, slots.size(), g);

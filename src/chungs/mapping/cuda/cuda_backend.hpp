@@ -10,6 +10,7 @@
 #include "chungs/optim/cuda/loss.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
 #include "chungs/render/cuda/rasterizer.hpp"
+#include "chungs/render/cuda/sky.hpp"
 #include "chungs/residency/cuda/gaussian_pool.hpp"
 
 namespace chungs::cuda {
@@ -26,6 +27,8 @@ class CudaOptimBackend final : public OptimBackend {
   ImageF sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                               const SamplerConfig& sampler, const ImageF& image) override;
   std::optional<DeviceMemory> device_memory() const override;
+  void set_sky(const SkyTexture& sky, double lr) override;
+  std::optional<SkyTexture> sky() const override;
 
  private:
   const DeviceRenderOutput& forward(std::span<const uint32_t> slots, const RenderCamera<float>& camera);
@@ -34,6 +37,8 @@ class CudaOptimBackend final : public OptimBackend {
   CudaRasterizer raster_;
   CudaMappingLoss loss_;
   CudaLogProbability log_probability_;
+  CudaSky sky_;
+  double sky_lr_ = 0;
   DeviceTargetCache targets_;
   DeviceArray<uint32_t> ids_;
   DeviceArray<float> target_rgb_, target_inv_, probability_;
