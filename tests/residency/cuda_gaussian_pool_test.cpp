@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "chungs/cuda/devices.hpp"
 #include "chungs/residency/cuda/gaussian_pool.hpp"
@@ -109,6 +111,37 @@ TEST(CudaGaussianPool, DeviceArraysHoldScatteredSlots) {
   EXPECT_EQ(sh, blk.params.sh);
   EXPECT_EQ(m, blk.adam_m.mean);
   EXPECT_EQ(steps, blk.adam_steps);
+}
+
+// The arrays grow on demand (issue 21): a growth copies every slot into bigger arrays behind the
+// scatters still in flight on the pool's stream, and device_arrays() then names the new arrays.
+TEST(CudaGaussianPool, GrowsKeepingEverySlotAndScattersInFlight) {
+  CHUNGS_REQUIRE_GPU();
+  std::mt19937 rng(5);
+  cuda::CudaGaussianPool pool(50'000, 3);
+  EXPECT_EQ(pool.allocated(), GaussianPool::kInitialSlots);
+  EXPECT_EQ(pool.device_arrays().capacity, GaussianPool::kInitialSlots);
+  std::vector<std::pair<std::vector<uint32_t>, GaussianBlock>> loaded;
+  std::vector<size_t> sizes;
+  for (size_t n : {3000, 3000, 20'000, 10'000}) {
+    const auto slots = pool.allocate(n);  // no wait: the last scatter may still be in flight
+    loaded.emplace_back(slots, random_block(n, rng));
+    pool.scatter(loaded.back().second, slots);
+    sizes.push_back(pool.allocated());
+    EXPECT_EQ(pool.device_arrays().capacity, pool.allocated());
+  }
+  EXPECT_EQ(sizes, (std::vector<size_t>{4096, 8192, 50'000, 50'000}));
+  for (const auto& [slots, block] : loaded) {
+    GaussianBlock out;
+    pool.gather(slots, out);
+    expect_same(out, block);
+  }
+  // The raw arrays after growth hold what was scattered before it.
+  pool.wait_uploads();
+  const uint32_t slot = loaded[0].first[1234];
+  float opacity = 0;
+  ASSERT_EQ(cudaMemcpy(&opacity, pool.device_arrays().opacity[0] + slot, 4, cudaMemcpyDeviceToHost), cudaSuccess);
+  EXPECT_EQ(opacity, loaded[0].second.params.opacity[1234]);
 }
 
 }  // namespace

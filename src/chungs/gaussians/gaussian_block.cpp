@@ -30,6 +30,14 @@ void GaussianParams::resize(size_t n) {
   sh.resize(size_t(kShFloats) * n);
 }
 
+void GaussianParams::reserve(size_t n) {
+  mean.reserve(3 * n);
+  log_scale.reserve(3 * n);
+  rotation.reserve(4 * n);
+  opacity.reserve(n);
+  sh.reserve(size_t(kShFloats) * n);
+}
+
 void GaussianParams::append(const GaussianParams& o, size_t i) {
   append_n(mean, o.mean, i, 3);
   append_n(log_scale, o.log_scale, i, 3);
@@ -62,6 +70,16 @@ void GaussianBlock::resize(size_t n) {
   created_by_keyframe.resize(n);
   created_at_step.resize(n);
   lr_position_factor.resize(n, 1.0f);
+}
+
+void GaussianBlock::reserve(size_t n) {
+  params.reserve(n);
+  adam_m.reserve(n);
+  adam_v.reserve(n);
+  adam_steps.reserve(n);
+  created_by_keyframe.reserve(n);
+  created_at_step.reserve(n);
+  lr_position_factor.reserve(n);
 }
 
 void GaussianBlock::append(const GaussianBlock& o, size_t i) {

@@ -26,6 +26,7 @@ struct GaussianParams {
 
   size_t size() const { return opacity.size(); }
   void resize(size_t n);
+  void reserve(size_t n);  // room for n Gaussians in every array; sizes unchanged
   void clear() { resize(0); }
   void append(const GaussianParams& o, size_t i);  // copies Gaussian i of o to the end
   void append_range(const GaussianParams& o, size_t first, size_t n);  // Gaussians [first, first + n) of o
@@ -43,6 +44,9 @@ struct GaussianBlock {
 
   size_t size() const { return params.size(); }
   void resize(size_t n);
+  // Room for n Gaussians in every array, sizes unchanged: a resize(n) after it cannot throw, so a
+  // caller that must not be left with arrays of different lengths reserves first.
+  void reserve(size_t n);
   void append(const GaussianBlock& o, size_t i);
   void append_range(const GaussianBlock& o, size_t first, size_t n);
   void swap_remove(size_t i);

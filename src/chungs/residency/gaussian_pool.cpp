@@ -7,21 +7,33 @@
 
 namespace chungs {
 
-GaussianPool::GaussianPool(size_t capacity, int sh_degree) : sh_degree_(sh_degree), in_use_(capacity, 0) {
-  if (capacity > size_t(UINT32_MAX)) fail("Gaussian pool: capacity ", capacity, " exceeds 32-bit slot indices");
+GaussianPool::GaussianPool(size_t capacity, int sh_degree)
+    : capacity_(capacity), allocated_(std::min(capacity, kInitialSlots)), sh_degree_(sh_degree) {
+  if (capacity > kMaxCapacity) fail("Gaussian pool: capacity ", capacity, " exceeds 32-bit slot indices");
   if (sh_degree < 0 || sh_degree > kMaxShDegree) fail("Gaussian pool: SH degree ", sh_degree, " out of range");
-  free_.resize(capacity);
-  for (size_t i = 0; i < capacity; ++i) free_[i] = uint32_t(capacity - 1 - i);
+  in_use_.assign(allocated_, 0);
 }
 
 std::vector<uint32_t> GaussianPool::allocate(size_t n) {
-  if (n > free_.size())
-    fail("Gaussian pool: ", n, " slots requested but only ", free_.size(), " of ", capacity(), " are free");
-  std::vector<uint32_t> out(free_.end() - std::ptrdiff_t(n), free_.end());
-  std::reverse(out.begin(), out.end());
-  free_.resize(free_.size() - n);
+  if (n > free_count())
+    fail("Gaussian pool: ", n, " slots requested but only ", free_count(), " of ", capacity(), " are free");
+  const size_t reused = std::min(n, free_.size());
+  // Grown before anything changes, so a failed growth leaves the pool as it was.
+  if (fresh_ + (n - reused) > allocated_) grow_to_hold(fresh_ + (n - reused));
+  std::vector<uint32_t> out(free_.rbegin(), free_.rbegin() + std::ptrdiff_t(reused));
+  free_.resize(free_.size() - reused);
+  out.reserve(n);
+  while (out.size() < n) out.push_back(uint32_t(fresh_++));
   for (uint32_t s : out) in_use_[s] = 1;
   return out;
+}
+
+void GaussianPool::grow_to_hold(size_t slots) {
+  size_t next = std::max(slots, 2 * allocated_);
+  if (next > capacity_ / 2) next = capacity_;  // the last step: see the header
+  in_use_.resize(next, 0);  // first: a failed grow_impl leaves only zeros beyond allocated_
+  grow_impl(next);
+  allocated_ = next;
 }
 
 void GaussianPool::release(std::span<const uint32_t> slots) {
@@ -43,7 +55,7 @@ void GaussianPool::release(std::span<const uint32_t> slots) {
 void GaussianPool::check_allocated(std::span<const uint32_t> slots, const char* what) const {
   for (uint32_t s : slots) {
     if (s >= capacity()) fail("Gaussian pool: ", what, " of slot ", s, " beyond capacity ", capacity());
-    if (!in_use_[s]) fail("Gaussian pool: ", what, " of slot ", s, ", which is free");
+    if (!in_use(s)) fail("Gaussian pool: ", what, " of slot ", s, ", which is free");
   }
 }
 
@@ -102,7 +114,12 @@ void copy_block(GaussianBlock& a, const GaussianBlock& b, std::span<const uint32
 
 CpuGaussianPool::CpuGaussianPool(size_t capacity, int sh_degree) : GaussianPool(capacity, sh_degree) {
   storage_.sh_degree = sh_degree;
-  storage_.resize(capacity);
+  storage_.resize(allocated());
+}
+
+void CpuGaussianPool::grow_impl(size_t slots) {
+  storage_.reserve(slots);  // may throw, with every array as it was
+  storage_.resize(slots);
 }
 
 void CpuGaussianPool::scatter_impl(const GaussianBlock& block, std::span<const uint32_t> slots) {

@@ -36,7 +36,11 @@ std::array<Ptr, kArrays> arrays_of(Block& b) {
 }  // namespace
 
 CudaGaussianPool::CudaGaussianPool(size_t capacity, int sh_degree) : GaussianPool(capacity, sh_degree) {
-  dev_ = detail::pool_device_create(capacity, kWidths.data(), kArrays);
+  dev_ = detail::pool_device_create(allocated(), kWidths.data(), kArrays);
+  refresh_arrays(allocated());
+}
+
+void CudaGaussianPool::refresh_arrays(size_t slots) {
   auto f = [&](int a) { return static_cast<float*>(detail::pool_device_array(dev_, a)); };
   for (int s = 0; s < 3; ++s) {
     arrays_.mean[s] = f(5 * s);
@@ -49,7 +53,17 @@ CudaGaussianPool::CudaGaussianPool(size_t capacity, int sh_degree) : GaussianPoo
   arrays_.created_by_keyframe = static_cast<uint32_t*>(detail::pool_device_array(dev_, 16));
   arrays_.created_at_step = static_cast<uint32_t*>(detail::pool_device_array(dev_, 17));
   arrays_.lr_position_factor = f(18);
-  arrays_.capacity = capacity;
+  arrays_.capacity = slots;
+}
+
+void CudaGaussianPool::grow_impl(size_t slots) {
+  try {
+    detail::pool_device_grow(dev_, slots);
+  } catch (...) {
+    refresh_arrays(allocated());  // some arrays may have moved, each still holding allocated() slots
+    throw;
+  }
+  refresh_arrays(slots);
 }
 
 CudaGaussianPool::~CudaGaussianPool() { detail::pool_device_destroy(dev_); }

@@ -1,7 +1,8 @@
 // The Gaussian pool in VRAM: the same slots and free list as every GaussianPool, with the arrays in
-// device memory (plain cudaMalloc, one array per kind). scatter() (chunk load) and gather() (chunk
-// eviction) move data through pinned staging buffers on the pool's own stream, so they overlap with
-// rendering and optimisation queued on the default stream; they are ordered after that work.
+// device memory (plain cudaMalloc, one array per kind; growth copies them into bigger ones).
+// scatter() (chunk load) and gather() (chunk eviction) move data through pinned staging buffers on
+// the pool's own stream, so they overlap with rendering and optimisation queued on the default
+// stream; they are ordered after that work.
 // Include only from C++ files: no CUDA headers here.
 #pragma once
 #include <cstdint>
@@ -25,7 +26,7 @@ struct PoolDeviceArrays {
   uint32_t* created_by_keyframe;
   uint32_t* created_at_step;
   float* lr_position_factor;
-  size_t capacity;
+  size_t capacity;  // slots the arrays hold now: the pool's allocated(), not its capacity()
 };
 
 class CudaGaussianPool final : public GaussianPool {
@@ -34,6 +35,7 @@ class CudaGaussianPool final : public GaussianPool {
   explicit CudaGaussianPool(size_t capacity, int sh_degree = kMaxShDegree);
   ~CudaGaussianPool() override;
 
+  // Its pointers hold until the next allocate() (which may grow the arrays): read them per step.
   const PoolDeviceArrays& device_arrays() const { return arrays_; }
   // Work queued on the default stream after this call sees every scatter made before it.
   void wait_uploads();
@@ -41,10 +43,13 @@ class CudaGaussianPool final : public GaussianPool {
   void synchronize();
 
  protected:
+  void grow_impl(size_t slots) override;
   void scatter_impl(const GaussianBlock& block, std::span<const uint32_t> slots) override;
   void gather_impl(std::span<const uint32_t> slots, GaussianBlock& out) const override;
 
  private:
+  void refresh_arrays(size_t slots);
+
   detail::PoolDevice* dev_ = nullptr;
   PoolDeviceArrays arrays_{};
 };

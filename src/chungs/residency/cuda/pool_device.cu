@@ -151,6 +151,28 @@ PoolDevice* pool_device_create(size_t capacity, const int* widths, int count) {
   return d;
 }
 
+void pool_device_grow(PoolDevice* d, size_t capacity) {
+  if (capacity <= d->capacity) return;
+  // Behind the renders and updates queued on the default stream and the pool's own scatters; rare
+  // (the pool doubles), so host waits are cheap here.
+  d->after_compute();
+  check(cudaStreamSynchronize(d->stream), "growth wait");
+  // Array by array, so the device holds the old arrays and the new ones together only for one
+  // kind at a time (at most ~1/4 of the old pool beyond the new one).
+  for (size_t a = 0; a < d->arrays.size(); ++a) {
+    void* p = nullptr;
+    check(cudaMalloc(&p, capacity * size_t(d->widths[a]) * 4), "array growth");
+    const size_t bytes = d->capacity * size_t(d->widths[a]) * 4;
+    cudaError_t e = cudaMemcpyAsync(p, d->arrays[a], bytes, cudaMemcpyDeviceToDevice, d->stream);
+    if (e == cudaSuccess) e = cudaStreamSynchronize(d->stream);  // the old array is freed next
+    if (e != cudaSuccess) cudaFree(p);
+    check(e, "array growth copy");
+    cudaFree(d->arrays[a]);
+    d->arrays[a] = static_cast<uint32_t*>(p);
+  }
+  d->capacity = capacity;
+}
+
 void pool_device_destroy(PoolDevice* d) { delete d; }
 
 void* pool_device_array(PoolDevice* d, int array) { return d->arrays.at(size_t(array)); }

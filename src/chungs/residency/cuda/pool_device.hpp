@@ -12,6 +12,10 @@ struct PoolDevice;  // arrays, a non-blocking copy stream, pinned staging buffer
 PoolDevice* pool_device_create(size_t capacity, const int* widths, int count);
 void pool_device_destroy(PoolDevice* d);
 void* pool_device_array(PoolDevice* d, int array);
+// Replaces every array by one of `capacity` slots holding the old slots' contents, after all work
+// queued on the default stream and the pool's stream; the old pointers are invalid afterwards, also
+// when it throws (device memory short): then some arrays may have grown, each with its contents.
+void pool_device_grow(PoolDevice* d, size_t capacity);
 
 // Copies host_arrays[a][i * width_a ..] of n Gaussians into slots[i] of every array. Returns once
 // the host data is staged (the caller may reuse it); the upload and the scatter run on the pool's
