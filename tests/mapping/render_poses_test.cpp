@@ -2,6 +2,8 @@
 // scored, bounded memory under a small budget, PNGs along a trajectory, and errors that name the folder.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "chungs/common/log.hpp"
 #include "chungs/image/image_io.hpp"
 #include "chungs/mapping/render_poses.hpp"
@@ -134,6 +136,40 @@ TEST(RenderPoses, RefusesAFolderWithoutAMapAndNamesIt) {
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("nomap"), std::string::npos) << e.what();
+  }
+}
+
+// render takes the map's budget from report.json: a damaged value is refused naming the file and
+// the key (-5 was taken as 2^64 - 5 and ended in "cannot create std::vector larger than max_size()",
+// a string in a bare json type_error).
+TEST(RenderPoses, ADamagedBudgetInTheReportIsRefusedNamingFileAndKey) {
+  test::TempDir dir;
+  const auto report = dir / "report.json";
+  auto put = [&](const std::string& text) { std::ofstream(report) << text; };
+  EXPECT_EQ(map_budget_from_report(dir.path()), 0u);  // no report: the config's budget
+  put(R"({"settings": {"budget_gaussians": 250000}})");
+  EXPECT_EQ(map_budget_from_report(dir.path()), 250'000u);
+  put(R"({"settings": {}})");
+  EXPECT_EQ(map_budget_from_report(dir.path()), 0u);
+  for (const char* bad : {"-5", "0", "1.5", "\"many\"", "null", "99999999999999999999", "4294967296"}) {
+    put(std::string(R"({"settings": {"budget_gaussians": )") + bad + "}}");
+    try {
+      map_budget_from_report(dir.path());
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("report.json"), std::string::npos) << m;
+      EXPECT_NE(m.find("settings.budget_gaussians"), std::string::npos) << m;
+    }
+  }
+  for (const char* bad : {"[1]", R"({"settings": 3})"}) {
+    put(bad);
+    try {
+      map_budget_from_report(dir.path());
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("report.json"), std::string::npos) << e.what();
+    }
   }
 }
 

@@ -107,8 +107,18 @@ size_t map_budget_from_report(const fs::path& folder) {
   const fs::path f = folder / "report.json";
   if (!fs::exists(f)) return 0;
   const nlohmann::json j = read_json_file(f);
-  if (!j.contains("settings") || !j["settings"].contains("budget_gaussians")) return 0;
-  return j["settings"]["budget_gaussians"].get<size_t>();
+  if (!j.is_object()) fail(f.string(), ": not a run report (a JSON object), got ", j.type_name());
+  if (!j.contains("settings")) return 0;
+  const nlohmann::json& s = j["settings"];
+  if (!s.is_object()) fail(f.string(), ": 'settings' must be an object, got ", s.dump());
+  if (!s.contains("budget_gaussians")) return 0;
+  // Checked here, naming the file: json's get<size_t>() wraps -5 to 2^64 - 5 and truncates 1.5, and
+  // a budget beyond the pool's slots ended in a bare type_error or "vector larger than max_size()".
+  const nlohmann::json& b = s["budget_gaussians"];
+  if (!b.is_number_unsigned() || b.get<uint64_t>() < 1 || b.get<uint64_t>() > GaussianPool::kMaxCapacity)
+    fail(f.string(), ": 'settings.budget_gaussians' must be a whole number in [1, ",
+         GaussianPool::kMaxCapacity, "], got ", b.dump());
+  return b.get<size_t>();
 }
 
 nlohmann::json RenderPosesSummary::to_json() const {
