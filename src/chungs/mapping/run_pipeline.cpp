@@ -75,9 +75,6 @@ nlohmann::json run_mapping(const RunOptions& o) {
 nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const Config& cfg = o.config;
   cfg.mapper.validate();
-  // The chunks in flight at their limits, made resident now and kept: host RSS stays level once
-  // the budget is reached instead of rising each time a queue first fills (common/heap.hpp).
-  keep_heap_for_reuse(in_flight_max_gaussians(cfg.residency) * kBlockBytesPerGaussian);
   const MapperConfig& mc = cfg.mapper;
   const Dataset* dataset = &data;
   const DatasetInfo& info = dataset->info();
@@ -86,15 +83,16 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     fail("dataset ", o.dataset,
          ": depth source 'none' places Gaussians only at a tracker's sparse points, "
          "and mapping on given poses has none; use an RGB-D or stereo dataset");
+  const int width = std::max(1, int(std::lround(info.camera.width * mc.resolution)));
+  const int height = std::max(1, int(std::lround(info.camera.height * mc.resolution)));
   {
     // The loss's SSIM window and the tracker's feature pyramid need some image: refused before the
     // folder is touched (a 2x1 mapping image used to fail only at the evaluation, after mapping).
     constexpr int kMinSide = 16;
-    const int w = std::max(1, int(std::lround(info.camera.width * mc.resolution)));
-    const int h = std::max(1, int(std::lround(info.camera.height * mc.resolution)));
-    if (w < kMinSide || h < kMinSide)
-      fail("dataset ", o.dataset, ": its ", info.camera.width, "x", info.camera.height, " images at resolution ",
-           mc.resolution, " are ", w, "x", h, ", below the ", kMinSide, "x", kMinSide, " that mapping needs");
+    if (width < kMinSide || height < kMinSide)
+      fail("dataset ", o.dataset, ": its ", info.camera.width, "x", info.camera.height,
+           " images at resolution ", mc.resolution, " are ", width, "x", height, ", below the ", kMinSide,
+           "x", kMinSide, " that mapping needs");
   }
   const bool tracked = o.poses == "track";
   if (tracked && o.resume)
@@ -128,6 +126,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     log::info("resuming ", o.out.string(), " at frame ", start, " with ", mapper.keyframes().size(),
               " keyframes and ", mapper.total_gaussians(), " Gaussians");
   }
+  // The chunks in flight at their limits, made resident now and kept: host RSS stays level once
+  // the budget is reached instead of rising each time a queue first fills (common/heap.hpp). Only
+  // where the map can outgrow the budget (a keyframe adds at most one Gaussian per pixel): a small
+  // dataset never pays for a reserve sized to the budget (204 MB at the default one).
+  const uint64_t can_hold =
+      mapper.total_gaussians() + uint64_t(n - std::min(start, n)) * uint64_t(width) * uint64_t(height);
+  const bool can_fill = can_hold > cfg.residency.budget_gaussians;
+  keep_heap_for_reuse(can_fill ? in_flight_max_gaussians(cfg.residency) * kBlockBytesPerGaussian : 0);
   log::info("mapping ", o.dataset, " (", n, " frames, ", info.camera.width, "x", info.camera.height, " x ",
             mc.resolution, ", depth ", depth_mode_name(mode), ", poses ", o.poses, ", budget ",
             cfg.residency.budget_gaussians, " Gaussians, chunks of ", cfg.store.chunk_size, " m, device ",

@@ -57,7 +57,8 @@ struct ChunkBatch {
 ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, const ImageF* render,
                             const ImageF* render_alpha);
 
-// Samples Gaussians for a keyframe. image: float colour (1 or 3 channels, [0,1]); depth: metres,
+// Samples Gaussians for a keyframe, at most one per pixel (run_mapping counts on it to tell whether
+// a dataset can fill the budget). image: float colour (1 or 3 channels, [0,1]); depth: metres,
 // 0 invalid, same size. Points falling in a chunk of `exclude` are not taken (the map holds that
 // place but the render that set the probability left it out); of the rest at most max_new (0: no
 // cap; config.max_per_keyframe caps too), a uniform random subset. Returns batches by chunk in
