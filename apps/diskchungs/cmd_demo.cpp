@@ -171,9 +171,7 @@ const Command cmd{"demo", "synthetic street (or room) -> map larger than its bud
     if (given(app, "--resolution"))
       require_flag(std::isfinite(a->resolution) && a->resolution > 0 && a->resolution <= 1, "--resolution",
                    "in (0, 1]", a->resolution);
-    if (given(app, "--chunk-size"))
-      require_flag(std::isfinite(a->chunk_size) && a->chunk_size > 0, "--chunk-size", "a positive number of metres",
-                   a->chunk_size);
+    if (given(app, "--chunk-size")) require_chunk_size_flag(a->chunk_size);
     require_flag(a->seed >= 0, "--seed", "0 or more", a->seed);
     require_flag(a->iterations >= 0, "--iterations", "0 or more", a->iterations);
     require_flag(a->final_iterations >= 0, "--final-iterations", "0 or more", a->final_iterations);

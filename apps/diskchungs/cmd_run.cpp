@@ -64,8 +64,7 @@ const Command cmd{
           c.residency.budget_gaussians = size_t(a->budget);
         }
         if (given(app, "--chunk-size")) {
-          require_flag(std::isfinite(a->chunk_size) && a->chunk_size > 0, "--chunk-size", "a positive number of metres",
-                       a->chunk_size);
+          require_chunk_size_flag(a->chunk_size);
           c.store.chunk_size = a->chunk_size;
         }
         if (given(app, "--resolution")) {

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/store/chunk_id.hpp"
 #include "command.hpp"
 
 namespace chungs::app {
@@ -18,6 +19,13 @@ inline bool given(const CLI::App& app, const char* flag) {
 template <class T>
 void require_flag(bool ok, const char* flag, const std::string& what, const T& value) {
   if (!ok) fail(flag, " must be ", what, ", got ", value);
+}
+
+// run's and demo's --chunk-size: within the range a map's chunks may have (chunk_id.hpp), so that the
+// chunk ids of the scene cannot run out in the middle of a run.
+inline void require_chunk_size_flag(double metres) {
+  require_flag(metres >= kMinChunkSize && metres <= kMaxChunkSize, "--chunk-size",
+               cat("in [", kMinChunkSize, ", ", kMaxChunkSize, "] metres"), metres);
 }
 
 }  // namespace chungs::app

@@ -25,13 +25,21 @@ TEST(CliNumbers, RunRefusesOutOfRangeValuesNamingTheFlag) {
   const auto out = dir / "map";
   const std::string run = "run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --out " +
                           out.string() + " ";
-  for (const auto& [args, flag] : std::vector<std::pair<std::string, std::string>>{
-           {"--resolution 0", "--resolution"}, {"--resolution nan", "--resolution"},
-           {"--resolution 1.5", "--resolution"}, {"--budget 0", "--budget"}, {"--budget -3", "--budget"},
-           {"--chunk-size -1", "--chunk-size"}, {"--iterations -5", "--iterations"},
-           {"--final-iterations -1", "--final-iterations"}, {"--speed inf", "--speed"}, {"--speed 0", "--speed"},
-           {"--fill-depth -2", "--fill-depth"}, {"--max-frames 0", "--max-frames"},
-           {"--max-frames -5", "--max-frames"}})
+  for (const auto& [args, flag] :
+       std::vector<std::pair<std::string, std::string>>{{"--resolution 0", "--resolution"},
+                                                        {"--resolution nan", "--resolution"},
+                                                        {"--resolution 1.5", "--resolution"},
+                                                        {"--budget 0", "--budget"},
+                                                        {"--budget -3", "--budget"},
+                                                        {"--chunk-size -1", "--chunk-size"},
+                                                        {"--chunk-size 1e-9", "--chunk-size"},
+                                                        {"--iterations -5", "--iterations"},
+                                                        {"--final-iterations -1", "--final-iterations"},
+                                                        {"--speed inf", "--speed"},
+                                                        {"--speed 0", "--speed"},
+                                                        {"--fill-depth -2", "--fill-depth"},
+                                                        {"--max-frames 0", "--max-frames"},
+                                                        {"--max-frames -5", "--max-frames"}})
     expect_refused(run + args, flag, out);
 }
 
@@ -59,10 +67,14 @@ TEST(CliNumbers, DemoRefusesOutOfRangeValuesNamingTheFlag) {
   chungs::test::TempDir dir;
   const auto out = dir / "demo";
   const std::string demo = "demo --out " + out.string() + " ";
-  for (const auto& [args, flag] : std::vector<std::pair<std::string, std::string>>{
-           {"--budget 0", "--budget"}, {"--budget -2", "--budget"}, {"--resolution 0", "--resolution"},
-           {"--chunk-size 0", "--chunk-size"}, {"--iterations -1", "--iterations"},
-           {"--scene room --frames 0", "--frames"}})
+  for (const auto& [args, flag] :
+       std::vector<std::pair<std::string, std::string>>{{"--budget 0", "--budget"},
+                                                        {"--budget -2", "--budget"},
+                                                        {"--resolution 0", "--resolution"},
+                                                        {"--chunk-size 0", "--chunk-size"},
+                                                        {"--chunk-size 1e-9", "--chunk-size"},
+                                                        {"--iterations -1", "--iterations"},
+                                                        {"--scene room --frames 0", "--frames"}})
     expect_refused(demo + args, flag, out);
 }
 

@@ -67,6 +67,7 @@ TEST(Config, StoreAndResidencyValuesOutOfRangeAreRefusedNamingTheKey) {
            {"store: {zstd_level: 9999}", "zstd_level"},
            {"store: {zstd_level: 0}", "zstd_level"},
            {"store: {chunk_size: .nan}", "chunk_size"},
+           {"store: {chunk_size: 1e-9}", "chunk_size"},  // chunk ids end 1 mm from the origin
            {"store: {sh_degree: 4}", "sh_degree"},
            {"residency: {flush_threads: -5}", "flush_threads"},
            {"residency: {checkpoint_threads: 0}", "checkpoint_threads"},

@@ -1,12 +1,14 @@
 // LoG probability, sampling probability and placement of new Gaussians.
+#include "chungs/mapping/sampler.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 #include <unordered_set>
 
+#include "chungs/common/error.hpp"
 #include "chungs/mapping/log_probability.hpp"
-#include "chungs/mapping/sampler.hpp"
 
 namespace chungs {
 namespace {
@@ -185,6 +187,23 @@ TEST(Sampler, SkipsPointsInExcludedChunksAndCapsTheRestEvenly) {
   SampleStats both;
   sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &both, nullptr, 300);
   EXPECT_EQ(both.kept, 120u);
+}
+
+TEST(Sampler, APointOutsideTheChunkIdRangeIsAnErrorOnTheCallersThread) {
+  // Chunks of a nanometre put a point 6 m away at chunk 6e9, beyond the ids' 2^20 per axis: the
+  // error was thrown inside the OpenMP region and ended the process (terminate called recursively).
+  const Camera cam(64, 48, 50, 50, 31.5, 23.5);
+  const ImageF img(64, 48, 3, 0.5f), depth(64, 48, 1, 6.f), prob(64, 48, 1, 1.f);
+  SamplerConfig c;
+  c.min_per_chunk = 1;
+  std::mt19937_64 rng(5);
+  try {
+    sample_gaussians(c, img, depth, prob, cam, SE3(), 1e-9, 0, 0, rng);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("outside the id range"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("chunk size 1e-09"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <map>
 #include <unordered_map>
 
@@ -81,8 +82,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   const int rows = (image.height() + s - 1) / s;
   std::vector<std::vector<Pick>> band_picks(kBands);
   std::vector<SampleStats> band_stats(kBands);
-#pragma omp parallel for schedule(dynamic, 1) num_threads(4)
-  for (int band = 0; band < kBands; ++band) {
+  auto sample_band = [&](int band) {
     std::vector<Pick>& picks = band_picks[size_t(band)];
     SampleStats& bs = band_stats[size_t(band)];
     for (int r = band * rows / kBands; r < (band + 1) * rows / kBands; ++r) {
@@ -92,7 +92,8 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
       for (int x = 0; x < image.width(); x += s) {
         const float p = prow[x];
         // With a stride each visited pixel stands for s^2 pixels.
-        if (p <= 0 || counter_uniform(key, uint64_t(y) * uint64_t(image.width()) + uint64_t(x)) >= p) continue;
+        if (p <= 0 || counter_uniform(key, uint64_t(y) * uint64_t(image.width()) + uint64_t(x)) >= p)
+          continue;
         ++bs.candidates;
         float z = drow[x];
         if (!(z > 0) || !std::isfinite(z)) {
@@ -110,7 +111,20 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
         picks.push_back({x, y, p, z, pw, id});
       }
     }
+  };
+  // An exception must not leave an OpenMP region (it ends the process): each band keeps its own,
+  // and the first band's is thrown here, so the error is the same whatever the threads did.
+  std::vector<std::exception_ptr> band_error(kBands);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(4)
+  for (int band = 0; band < kBands; ++band) {
+    try {
+      sample_band(band);
+    } catch (...) {
+      band_error[size_t(band)] = std::current_exception();
+    }
   }
+  for (const std::exception_ptr& e : band_error)
+    if (e) std::rethrow_exception(e);
   std::vector<Pick> picks;
   for (int band = 0; band < kBands; ++band) {
     const SampleStats& bs = band_stats[size_t(band)];

@@ -16,6 +16,11 @@ constexpr int kChunkAxisBits = 21;
 constexpr int32_t kChunkCoordOffset = 1 << 20;
 constexpr int32_t kChunkCoordMin = -kChunkCoordOffset;
 constexpr int32_t kChunkCoordMax = kChunkCoordOffset - 1;
+// The chunk edges a map may have, in metres. Ids reach 2^20 chunks from the origin per axis, so
+// 1 cm chunks span +-10 km, more than one session maps; much smaller ones run out of ids within
+// metres, with nothing gained (a Gaussian is rarely smaller than a millimetre).
+constexpr double kMinChunkSize = 0.01;
+constexpr double kMaxChunkSize = 10000;
 
 struct ChunkCoord {
   int32_t x = 0, y = 0, z = 0;

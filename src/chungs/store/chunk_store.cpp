@@ -1,7 +1,5 @@
 #include "chungs/store/chunk_store.hpp"
 
-#include <cmath>
-
 #include <fcntl.h>
 #include <sys/file.h>
 #include <unistd.h>
@@ -20,8 +18,8 @@ namespace chungs {
 namespace fs = std::filesystem;
 
 void ChunkStoreConfig::validate() const {
-  if (!(std::isfinite(chunk_size) && chunk_size > 0 && chunk_size <= 10000))
-    fail("store: chunk_size must be in (0, 10000] metres, got ", chunk_size);
+  if (!(chunk_size >= kMinChunkSize && chunk_size <= kMaxChunkSize))
+    fail("store: chunk_size must be in [", kMinChunkSize, ", ", kMaxChunkSize, "] metres, got ", chunk_size);
   if (sh_degree < 0 || sh_degree > kMaxShDegree) fail("store: sh_degree must be in [0, ", kMaxShDegree, "], got ", sh_degree);
   if (zstd_level < 1 || zstd_level > 22) fail("store: zstd_level must be in [1, 22], got ", zstd_level);
 }

@@ -1,13 +1,13 @@
 #include "chungs/store/manifest.hpp"
 
 #include <cinttypes>
-#include <cmath>
 #include <cstdio>
 #include <sstream>
 
 #include "chungs/common/error.hpp"
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/checksum.hpp"
+#include "chungs/store/chunk_file.hpp"
 
 namespace chungs {
 
@@ -98,7 +98,8 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
         bad(cat("manifest version ", version, " is not supported (this build reads versions 1 to ",
                 kManifestVersion, ")"));
     } else if (key == "chunk_size") {
-      if (!(ls >> m.chunk_size) || !(m.chunk_size > 0) || !std::isfinite(m.chunk_size)) bad("bad chunk_size");
+      if (!(ls >> m.chunk_size) || !(m.chunk_size >= kMinChunkSize && m.chunk_size <= kMaxChunkSize))
+        bad(cat("bad chunk_size (a map's is in [", kMinChunkSize, ", ", kMaxChunkSize, "] metres)"));
       have_size = true;
     } else if (key == "sh_degree") {
       if (!(ls >> m.sh_degree) || m.sh_degree < 0 || m.sh_degree > 3) bad("bad sh_degree");
