@@ -115,4 +115,37 @@ TEST(ChunkStoreReadOnly, AFolderWithoutAMapIsRefusedAndNotCreated) {
   EXPECT_FALSE(fs::exists(none));
 }
 
+TEST(ChunkStoreReadOnly, AChunkWhoseHeaderDisagreesWithTheManifestIsRefusedNamingBoth) {
+  // Readers took the header's word: export wrote the file's 40 Gaussians where the manifest listed 7.
+  test::TempDir dir;
+  make_map(dir.path());
+  const fs::path manifest_file = dir / "manifest.txt";
+  const Manifest good = Manifest::read(manifest_file);
+  const fs::path file = ChunkStore(dir.path(), reader()).chunk_path(kA);
+  auto refused = [&](const Manifest& m, const std::string& says) {
+    m.write(manifest_file, false);
+    ChunkStore s(dir.path(), reader());
+    try {
+      s.load(kA);
+      ADD_FAILURE() << "loaded a chunk that disagrees with the manifest: " << says;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  Manifest m = good;
+  m.chunks[kA].count = 7;
+  refused(m, "40 Gaussians, the manifest lists 7");
+  m = good;
+  m.chunks[kA].file_bytes = 12;
+  refused(m, cat(good.chunks.at(kA).file_bytes, " bytes, the manifest lists 12"));
+  // A file of SH degree 1 in a map of degree 3, the manifest otherwise matching it.
+  GaussianBlock b = test::random_block(40, 1);
+  b.sh_degree = 1;
+  const ChunkFileInfo info = write_chunk_file(file, kA, b, {});
+  m = good;
+  m.chunks[kA] = {info.count, info.file_bytes, info.payload_checksum, good.chunks.at(kA).generation};
+  refused(m, "SH degree 1, the map's is 3");
+}
+
 }  // namespace

@@ -1,7 +1,15 @@
+#include "chungs/store/manifest.hpp"
+
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
 
 #include "chungs/common/error.hpp"
-#include "chungs/store/manifest.hpp"
 #include "test_support.hpp"
 
 using namespace chungs;
@@ -56,4 +64,43 @@ TEST(Manifest, RefusesKeysAndValuesThatWouldNotReadBack) {
   m.config.clear();
   m.config.emplace("k", std::string("two\nlines"));
   EXPECT_THROW(m.serialize(), Error);
+}
+
+TEST(Manifest, ACountNoChunkMayHoldIsRefusedNamingTheLine) {
+  // 2^64 - 1 Gaussians passed, and render printed "18446744073709551615 Gaussians".
+  Manifest m = sample();
+  m.chunks.begin()->second.count = ~uint64_t(0);
+  try {
+    Manifest::parse(m.serialize(), "/maps/a/manifest.txt");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/maps/a/manifest.txt:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("18446744073709551615"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Manifest, AFifoIsRefusedByNameInsteadOfBlockingTheRead) {
+  test::TempDir dir;
+  const std::filesystem::path fifo = dir / "manifest.txt";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  // Without the check the read blocks until a writer comes: this one comes after a second, opens
+  // without blocking (it fails at once where no reader waits) and closes, so the read ends at EOF.
+  std::atomic<bool> done{false};
+  std::thread writer([&] {
+    for (int i = 0; i < 100 && !done; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+    if (fd >= 0) ::close(fd);
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string what;
+  try {
+    Manifest::read(fifo);
+  } catch (const Error& e) {
+    what = e.what();
+  }
+  done = true;
+  writer.join();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(500))
+      << "the read waited for a writer";
+  EXPECT_NE(what.find(fifo.string() + ": expected a file, found a FIFO"), std::string::npos) << what;
 }

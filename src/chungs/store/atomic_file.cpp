@@ -63,6 +63,10 @@ FileDescriptor& FileDescriptor::operator=(FileDescriptor&& o) noexcept {
 }
 
 FileDescriptor open_for_reading(const fs::path& file) {
+  // Opening a FIFO blocks until a writer comes and a device may never end: a map file that is not a
+  // regular file is refused by name. A missing one is left to open(), whose error names it.
+  std::error_code ec;
+  if (fs::exists(file, ec)) require_file(file);
   int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) fail(file.string(), ": cannot open for reading: ", why());
   return FileDescriptor(fd);

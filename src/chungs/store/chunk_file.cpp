@@ -18,9 +18,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'C', 'H', 'G', 'S', 'C', 'H', 'N', 'K'};
-// 16.8 M Gaussians, 12 GB in memory: far above any chunk (a chunk must fit the residency budget to be
-// trained, 1.5 M by default), and the most a header may make a reader allocate.
-constexpr uint64_t kMaxCount = uint64_t(1) << 24;
 
 struct Header {
   char magic[8];
@@ -137,9 +134,9 @@ Header read_and_check_header(const FileDescriptor& fd, const fs::path& file, uin
     fail(file.string(), ": header size ", h.header_size, " should be ", sizeof h);
   if (xxh64(&h, kChecksummedHeaderBytes) != h.header_checksum)
     fail(file.string(), ": header checksum mismatch: the file is corrupt");
-  if (h.count > kMaxCount)
-    fail(file.string(), ": header's Gaussian count ", h.count, " is more than a chunk may hold (", kMaxCount,
-         ")");
+  if (h.count > kMaxChunkGaussians)
+    fail(file.string(), ": header's Gaussian count ", h.count, " is more than a chunk may hold (",
+         kMaxChunkGaussians, ")");
   if (h.sh_degree > uint32_t(kMaxShDegree)) fail(file.string(), ": SH degree ", h.sh_degree, " out of range");
   const uint32_t known = kChunkFlagZstd | kChunkFlagShuffled | (h.version >= 2 ? kChunkFlagsHalf : 0);
   if (h.flags & ~known)

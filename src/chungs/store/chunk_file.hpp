@@ -26,6 +26,9 @@ constexpr uint32_t kChunkFlagsHalf = (1u << 2) | (1u << 3);  // kChunkFlagHalfMo
 // At full precision: 3 x 59 floats (parameters and both Adam moments) + 4 bookkeeping words per
 // Gaussian.
 constexpr uint64_t kChunkBytesPerGaussian = 3 * kParamFloats * 4 + 4 * 4;
+// 16.8 M Gaussians, 12 GB in memory: far above any chunk (a chunk must fit the residency budget to be
+// trained, 1.5 M by default), and the most a header or a manifest may make a reader allocate.
+constexpr uint64_t kMaxChunkGaussians = uint64_t(1) << 24;
 
 struct ChunkWriteOptions {
   bool compress = false;  // zstd; pays off mostly on fresh Gaussians (zero SH, zero Adam state)

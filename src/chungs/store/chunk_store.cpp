@@ -166,8 +166,14 @@ Manifest ChunkStore::manifest() const {
 }
 
 GaussianBlock ChunkStore::load(ChunkId id) const {
-  if (!contains(id)) fail(folder_.string(), ": ", chunk_name(id), " is not in this map");
-  const fs::path file = chunk_path(id);
+  ManifestEntry entry;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = manifest_.chunks.find(id);
+    if (it == manifest_.chunks.end()) fail(folder_.string(), ": ", chunk_name(id), " is not in this map");
+    entry = it->second;
+  }
+  const fs::path file = chunk_file(id, entry.generation);
   GaussianBlock b;
   ChunkFileInfo info;
   {
@@ -176,6 +182,14 @@ GaussianBlock ChunkStore::load(ChunkId id) const {
   }
   if (info.id != id)
     fail(file.string(), ": header names ", chunk_name(info.id), ", expected ", chunk_name(id));
+  // Budgets, pools and totals go by the manifest: a file that disagrees with it is not the chunk the
+  // map lists (render printed the manifest's count, export wrote the file's).
+  if (info.count != entry.count)
+    fail(file.string(), ": holds ", info.count, " Gaussians, the manifest lists ", entry.count);
+  if (info.file_bytes != entry.file_bytes)
+    fail(file.string(), ": has ", info.file_bytes, " bytes, the manifest lists ", entry.file_bytes);
+  if (info.sh_degree != sh_degree_)
+    fail(file.string(), ": has SH degree ", info.sh_degree, ", the map's is ", sh_degree_);
   counters_.loads++;
   counters_.bytes_read += info.file_bytes;
   return b;

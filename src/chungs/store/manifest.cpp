@@ -129,6 +129,10 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
       } catch (const Error& err) {
         bad(err.what());
       }
+      // Readers size pools and budgets by these counts before any chunk file is opened.
+      if (e.count > kMaxChunkGaussians)
+        bad(cat(chunk_name(id), " is listed with ", e.count, " Gaussians, more than a chunk may hold (",
+                kMaxChunkGaussians, ")"));
       if (!m.chunks.emplace(id, e).second) bad("repeated " + chunk_name(id));
     } else {
       bad("unknown entry '" + key + "'");
