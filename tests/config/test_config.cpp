@@ -119,3 +119,19 @@ TEST(Config, CullingAndKeyframeValuesOutOfRangeAreRefusedNamingTheKey) {
   EXPECT_NO_THROW(
       chungs::config_from_yaml("culling: {near: 0.1, far: 50}\nkeyframes: {zstd_level: 3}", "t.yaml"));
 }
+
+TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
+  // speed: .inf was taken; beta1: 1.5 said "betas must be in [0, 1)", stereo said "disparities".
+  for (const auto& [yaml, needle] : std::vector<std::pair<std::string, std::string>>{
+           {"mapper: {speed: .inf}", "mapper: speed must be"},
+           {"adam: {beta1: 1.5}", "beta1 must be in [0, 1), got 1.5"},
+           {"adam: {beta2: -0.5}", "beta2 must be in [0, 1), got -0.5"},
+           {"stereo: {num_disparities: 1000}", "num_disparities must be in [16, 256], got 1000"}}) {
+    try {
+      chungs::config_from_yaml(yaml, "t.yaml");
+      ADD_FAILURE() << yaml << " accepted";
+    } catch (const chungs::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << yaml << ": " << e.what();
+    }
+  }
+}

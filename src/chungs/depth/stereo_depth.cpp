@@ -13,8 +13,10 @@
 namespace chungs {
 
 void StereoDepthConfig::validate() const {
-  if (num_disparities < 16) fail("stereo depth: num_disparities must be at least 16, got ", num_disparities);
-  sgm_params().validate();  // the range of disparities, the penalties, the uniqueness margin
+  // Checked here, not only by the matcher, so the message names this section's key.
+  if (num_disparities < 16 || num_disparities > kSgmMaxDisparities)
+    fail("stereo depth: num_disparities must be in [16, ", kSgmMaxDisparities, "], got ", num_disparities);
+  sgm_params().validate();  // the penalties, the uniqueness margin
   if (speckle_window < 0 || speckle_range < 0)
     fail("stereo depth: speckle_window and speckle_range must be >= 0, got ", speckle_window, " and ", speckle_range);
   if (!(min_depth > 0) || !(max_depth > min_depth))

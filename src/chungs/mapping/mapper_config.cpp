@@ -12,7 +12,8 @@ void MapperConfig::validate() const {
   if (iterations_per_keyframe < 0)
     fail("mapper: iterations_per_keyframe must be >= 0, got ", iterations_per_keyframe);
   if (final_iterations < 0) fail("mapper: final_iterations must be >= 0, got ", final_iterations);
-  if (!(speed > 0)) fail("mapper: speed must be > 0, got ", speed);
+  // An infinite speed would make every frame arrive at once: anytime pacing would train on none.
+  if (!(speed > 0) || !std::isfinite(speed)) fail("mapper: speed must be a finite number > 0, got ", speed);
   if (keyframe_every < 0) fail("mapper: keyframe_every must be >= 0, got ", keyframe_every);
   if (!(keyframe_translation >= 0) || !(keyframe_parallax >= 0) || !(keyframe_rotation_deg >= 0))
     fail("mapper: keyframe_translation, keyframe_parallax and keyframe_rotation_deg must be >= 0");

@@ -19,7 +19,8 @@ void AdamConfig::validate() const {
     fail("Adam config: position_decay must be in (0, 1], got ", position_decay);
   if (!(position_lr_floor >= 0 && position_lr_floor <= 1))
     fail("Adam config: position_lr_floor must be in [0, 1], got ", position_lr_floor);
-  if (!(beta1 >= 0 && beta1 < 1) || !(beta2 >= 0 && beta2 < 1)) fail("Adam config: betas must be in [0, 1)");
+  for (auto [v, name] : {std::pair{beta1, "beta1"}, {beta2, "beta2"}})
+    if (!(v >= 0 && v < 1)) fail("Adam config: ", name, " must be in [0, 1), got ", v);
   if (!(eps > 0)) fail("Adam config: eps must be > 0, got ", eps);
 }
 
