@@ -46,6 +46,23 @@ TEST(SE3, FromMatrixRejectsNonRotation) {
   }
 }
 
+TEST(SE3, FromMatrixRejectsABottomRowOtherThan0001) {
+  // A 3DMatch pose file whose last row read "0 0 5 1" was taken as a pose.
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m(3, 2) = 5;
+  try {
+    SE3::from_matrix(m, "frame-000002.pose.txt");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "frame-000002.pose.txt: bottom row is (0, 0, 5, 1), expected (0, 0, 0, 1)"),
+              std::string::npos)
+        << e.what();
+  }
+  m(3, 2) = 0;
+  EXPECT_NO_THROW(SE3::from_matrix(m, "frame-000002.pose.txt"));
+}
+
 TEST(Sim3, InverseAndApplyAreConsistent) {
   std::mt19937 rng(3);
   for (int i = 0; i < 50; ++i) {

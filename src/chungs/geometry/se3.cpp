@@ -28,6 +28,10 @@ SE3::SE3(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation)
 
 SE3 SE3::from_matrix(const Eigen::Matrix4d& m, const char* what, double tol) {
   if (!m.allFinite()) fail(what, ": matrix has non-finite entries");
+  // A rigid transform's last row is 0 0 0 1; anything else is not a pose, whatever R and t say.
+  if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > tol)
+    fail(what, ": bottom row is (", m(3, 0), ", ", m(3, 1), ", ", m(3, 2), ", ", m(3, 3),
+         "), expected (0, 0, 0, 1)");
   Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
   double err = (r.transpose() * r - Eigen::Matrix3d::Identity()).norm();
   if (err > tol || r.determinant() < 0)

@@ -15,7 +15,8 @@ struct SE3 {
   SE3(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation);
 
   // From a 4x4 or 3x4 matrix; the rotation block is projected onto SO(3) (nearest rotation), and a
-  // block far from a rotation (|R^T R - I| > tol) throws Error naming `what`.
+  // block far from a rotation (|R^T R - I| > tol) or a bottom row other than 0 0 0 1 (within tol)
+  // throws Error naming `what`.
   static SE3 from_matrix(const Eigen::Matrix4d& m, const char* what = "pose", double tol = 1e-3);
   static SE3 exp(const Eigen::Matrix<double, 6, 1>& xi);  // xi = (rho, phi): translation, rotation
 
