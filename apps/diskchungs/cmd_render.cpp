@@ -1,5 +1,6 @@
 // `diskchungs render`: a map folder rendered along a trajectory file or a dataset's poses, chunks
 // streamed under the budget; with a dataset, each render is also scored against its image.
+#include <cmath>
 #include <cstdio>
 
 #include "chungs/common/error.hpp"
@@ -8,6 +9,7 @@
 #include "chungs/mapping/render_poses.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
+#include "flag_checks.hpp"
 #include "map_paths.hpp"
 
 namespace chungs::app {
@@ -15,20 +17,22 @@ namespace {
 
 struct RenderArgs {
   std::string map, poses_file, dataset, dataset_poses = "gt", out, config_file;
-  double resolution = 0;
-  size_t stride = 1, budget = 0;
+  double resolution = 0;             // 0: not given (the map's or the dataset's default)
+  long long stride = 1, budget = 0;  // signed, so that a typed -1 is refused instead of wrapped
   bool stack = false, json = false;
 };
 
 int run_render(const RenderArgs& a) {
-  if (a.poses_file.empty() == a.dataset.empty()) fail("render: give exactly one of --poses FILE and --dataset KIND:PATH");
-  if (a.resolution < 0 || a.resolution > 1) fail("--resolution must be in (0, 1], got ", a.resolution);
+  if (a.poses_file.empty() == a.dataset.empty())
+    fail("render: give exactly one of --poses FILE and --dataset KIND:PATH");
   if (!a.out.empty()) refuse_inside_map(a.out, a.map, "--out");
   Config c = a.config_file.empty() ? Config{} : load_config(a.config_file);
   // The map's own budget unless told otherwise: renders then need no more memory than mapping did.
   const size_t from_report = map_budget_from_report(a.map);
-  if (a.budget) c.residency.budget_gaussians = a.budget;
-  else if (from_report) c.residency.budget_gaussians = from_report;
+  if (a.budget)
+    c.residency.budget_gaussians = size_t(a.budget);
+  else if (from_report)
+    c.residency.budget_gaussians = from_report;
   MapRenderer renderer(a.map, c);
   const std::filesystem::path out =
       a.out.empty() ? beside_map(a.map, "-renders") : std::filesystem::path(a.out);
@@ -38,7 +42,7 @@ int run_render(const RenderArgs& a) {
     if (traj.empty()) fail(a.poses_file, ": no poses");
     const Camera cam = renderer.mapping_camera().scaled(a.resolution > 0 ? a.resolution : 1.0);
     log::info("rendering ", traj.size(), " poses of ", a.poses_file, " at ", cam.width, "x", cam.height);
-    s = render_trajectory(renderer, traj, cam, out, a.stride);
+    s = render_trajectory(renderer, traj, cam, out, size_t(a.stride));
   } else {
     const auto dataset = open_dataset_spec(a.dataset);
     // By default the resolution the map was made at, so scores match the mapper's evaluation.
@@ -49,7 +53,7 @@ int run_render(const RenderArgs& a) {
     const auto poses = frame_poses(*dataset, a.dataset_poses);
     log::info("rendering ", a.dataset, " (", dataset->size(), " frames) at ", f, " of ",
               dataset->info().camera.width, "x", dataset->info().camera.height);
-    s = render_dataset(renderer, *dataset, poses, f, out, a.stride, a.stack);
+    s = render_dataset(renderer, *dataset, poses, f, out, size_t(a.stride), a.stack);
   }
   const IoStats io = renderer.io_stats();
   if (a.json) {
@@ -89,7 +93,14 @@ const Command cmd{"render", "render a map along a trajectory file or a dataset's
   app.add_option("--config", a->config_file, "YAML configuration (culling, raster, residency)");
   app.add_flag("--stack", a->stack, "with --dataset: write the render above the image");
   app.add_flag("--json", a->json, "print a JSON summary");
-  return [a]() { return run_render(*a); };
+  return [a, &app]() {
+    if (given(app, "--budget")) require_flag(a->budget >= 1, "--budget", "at least 1 Gaussian", a->budget);
+    if (given(app, "--resolution"))
+      require_flag(std::isfinite(a->resolution) && a->resolution > 0 && a->resolution <= 1, "--resolution",
+                   "in (0, 1]", a->resolution);
+    if (given(app, "--stride")) require_flag(a->stride >= 1, "--stride", "at least 1", a->stride);
+    return run_render(*a);
+  };
 }};
 
 }  // namespace

@@ -153,4 +153,28 @@ TEST(CliNumbers, EvalDemoAndRunNameTheFlagAtFault) {
   EXPECT_FALSE(std::filesystem::exists(dir / "map"));
 }
 
+TEST(CliNumbers, RenderAndExportRefuseOutOfRangeValuesNamingTheFlag) {
+  // All were taken: --budget 0 and --resolution 0 as "the default", --resolution nan as 1, --stride -1
+  // wrapped to 2^64 - 1 (one view), --budget -1 ended in "cannot create std::vector larger than
+  // max_size()", and a box with NaN, infinite or swapped corners exported 0 Gaussians without a word.
+  // The flags are checked before the map is opened, so no map is needed here.
+  chungs::test::TempDir dir;
+  const auto out = dir / "out";
+  const std::string render =
+      "render --map " + (dir / "map").string() + " --poses t.txt --out " + out.string() + " ";
+  const std::string ply = "export --map " + (dir / "map").string() + " --out " + out.string() + " ";
+  for (const auto& [args, flag] :
+       std::vector<std::pair<std::string, std::string>>{{render + "--budget 0", "--budget"},
+                                                        {render + "--budget -1", "--budget"},
+                                                        {render + "--resolution 0", "--resolution"},
+                                                        {render + "--resolution nan", "--resolution"},
+                                                        {render + "--resolution 2", "--resolution"},
+                                                        {render + "--stride 0", "--stride"},
+                                                        {render + "--stride -1", "--stride"},
+                                                        {ply + "--box nan 0 0 1 1 1", "--box"},
+                                                        {ply + "--box 0 0 0 inf 1 1", "--box"},
+                                                        {ply + "--box 0 0 0 -1 1 1", "--box"}})
+    expect_refused(args, flag, out);
+}
+
 }  // namespace
