@@ -1,12 +1,12 @@
 #include "chungs/mapping/map_state.hpp"
 
 #include <cmath>
-
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
 #include "chungs/common/text_file.hpp"
+#include "chungs/image/image.hpp"
 #include "chungs/store/atomic_file.hpp"
 
 namespace chungs {
@@ -42,9 +42,19 @@ std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& f
     double t[3], q[4];
     ls >> r.id >> r.frame >> r.stamp >> r.camera.width >> r.camera.height >> r.camera.fx >> r.camera.fy >>
         r.camera.cx >> r.camera.cy >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3] >> r.uses >> r.last_loss;
-    if (!ls) fail(file.string(), ":", lineno, ": expected 18 numbers (a keyframe record)");
-    r.pose = SE3(Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
-    r.camera.validate(cat(file.string(), ":", lineno));
+    const std::string where = cat(file.string(), ":", lineno);
+    if (!ls) fail(where, ": expected 18 numbers (a keyframe record)");
+    // The writer stores unit quaternions; a zero one would normalise to NaNs and render nothing.
+    const Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);
+    if (!(std::abs(rotation.norm() - 1) <= 1e-2))
+      fail(where, ": quaternion (", q[0], ", ", q[1], ", ", q[2], ", ", q[3], ") is not unit length (norm ",
+           rotation.norm(), ")");
+    r.pose = SE3(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+    r.camera.validate(where);
+    // Renders and keyframe images are allocated at this size: no more than an image file may hold.
+    if (uint64_t(r.camera.width) * uint64_t(r.camera.height) > kMaxImagePixels)
+      fail(where, ": image size ", r.camera.width, "x", r.camera.height, " is more than the ",
+           kMaxImagePixels, " pixels an image may have");
     out.push_back(r);
   }
   return out;
@@ -80,6 +90,17 @@ void validate_run_state(const nlohmann::json& j, const std::filesystem::path& fi
   if (j.contains("finished") && !j["finished"].is_boolean()) bad("finished", "true or false");
   for (const char* key : {"timeline", "keyframe_chunks"})
     if (j.contains(key) && !(j[key].is_array() || j[key].is_object())) bad(key, "an array or object");
+}
+
+size_t resume_frame(const nlohmann::json& state, const std::filesystem::path& file, size_t frames) {
+  // Every checkpoint of a run writes it; without it the run would map the dataset again from frame 0
+  // on top of the map. (Its type was checked by validate_run_state.)
+  if (!state.contains("next_frame"))
+    fail(file.string(), ": 'next_frame' is missing, so --resume cannot tell where the run stopped");
+  const size_t next = state["next_frame"].get<size_t>();
+  if (next > frames)
+    fail(file.string(), ": 'next_frame' ", next, " lies beyond the dataset's ", frames, " frames");
+  return next;
 }
 
 namespace {

@@ -33,6 +33,9 @@ nlohmann::json read_json_file(const std::filesystem::path& file);
 // finished: true/false; timeline, keyframe_chunks: arrays or objects). Throws Error naming the file
 // and the first key at fault, so a damaged state never becomes a wrapped-around frame number.
 void validate_run_state(const nlohmann::json& state, const std::filesystem::path& file);
+// The frame a resumed run continues at: a validated state's next_frame. Throws Error naming the file
+// and the key when it is missing or lies beyond the dataset's `frames`.
+size_t resume_frame(const nlohmann::json& state, const std::filesystem::path& file, size_t frames);
 
 // Resident set size of this process now and its peak, in bytes (0 where /proc is unavailable).
 uint64_t current_rss_bytes();

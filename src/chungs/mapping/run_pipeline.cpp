@@ -113,10 +113,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (prev.value("dataset", std::string()) != o.dataset)
       fail(o.out.string(), ": the map was made from ", prev.value("dataset", std::string("?")), ", not ",
            o.dataset);
-    start = prev.value("next_frame", size_t(0));  // checked by the mapper (validate_run_state)
-    if (start > dataset->size())
-      fail(o.out.string(), "/run_state.json: 'next_frame' ", start, " lies beyond the dataset's ", dataset->size(),
-           " frames");
+    start = resume_frame(prev, o.out / "run_state.json", dataset->size());
     carried_seconds = prev.value("seconds", 0.0);
     try {
       if (prev.contains("timeline")) timeline = timeline_from_json(prev["timeline"]);
