@@ -3,11 +3,14 @@
 // and the renaming of the keyframe list and run state finishes the renaming on open.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <map>
 #include <set>
+#include <sstream>
 
 #include "chungs/common/log.hpp"
-#include "chungs/mapping/mapper.hpp"
 #include "chungs/mapping/map_state.hpp"
+#include "chungs/mapping/mapper.hpp"
 #include "chungs/store/chunk_store.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
@@ -138,6 +141,74 @@ TEST(MapperCheckpoint, ClosingWithoutACheckpointLeavesTheLastOne) {
   const auto ids = creators(b);
   ASSERT_FALSE(ids.empty());
   for (uint32_t k : ids) ASSERT_LT(k, 4u) << "a Gaussian of keyframe " << k << " outlived its run's last checkpoint";
+}
+
+// Every file but the lock, by name: a hash of its contents.
+std::map<std::string, size_t> contents(const fs::path& folder) {
+  std::map<std::string, size_t> out;
+  for (const auto& e : fs::recursive_directory_iterator(folder)) {
+    if (!e.is_regular_file() || e.path().filename() == "lock") continue;
+    std::ifstream f(e.path(), std::ios::binary);
+    std::stringstream s;
+    s << f.rdbuf();
+    out[fs::relative(e.path(), folder).string()] = std::hash<std::string>()(s.str());
+  }
+  return out;
+}
+
+TEST(MapperCheckpoint, ARunEndedByAnErrorLeavesTheFolderAsItsLastCheckpointDid) {
+  // --resume on a map with a damaged keyframe file failed, but the keyframes stored before the
+  // damage was read stayed behind (keyframes/4.keyframe), as did chunk files written by evictions.
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(10);
+  Config c = small_config();
+  c.residency.budget_gaussians = 3000;  // evictions write chunks between the checkpoints
+  const fs::path b = dir / "b";
+  std::map<std::string, size_t> at_checkpoint;
+  {
+    Mapper m(b, c, false);
+    add_frames(m, seq, 0, 4);
+    m.checkpoint({{"next_frame", 4}});
+    at_checkpoint = contents(b);
+    add_frames(m, seq, 4, 9);  // then an error ends the run: no checkpoint
+    size_t new_chunk_files = 0;
+    for (const auto& [name, hash] : contents(b))
+      new_chunk_files += name.rfind("chunks/", 0) == 0 && !at_checkpoint.count(name);
+    ASSERT_GT(new_chunk_files, 0u) << "no chunk was evicted after the checkpoint";
+  }
+  EXPECT_EQ(contents(b), at_checkpoint);
+  {
+    Mapper m(b, c, true);
+    EXPECT_EQ(m.keyframes().size(), 4u);
+    add_frames(m, seq, 4, 6);
+  }
+  EXPECT_EQ(contents(b), at_checkpoint) << "a resumed run that ends without a checkpoint";
+}
+
+TEST(MapperCheckpoint, AKeyframeChunkIndexOfTheWrongTypeIsNamedWithItsFile) {
+  // It said only "keyframe chunk index: expected an object, got array".
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(4);
+  const Config c = small_config();
+  const fs::path b = dir / "b";
+  {
+    Mapper m(b, c, false);
+    add_frames(m, seq, 0, 2);
+    m.checkpoint({{"next_frame", 2}});
+  }
+  nlohmann::json state = read_json_file(b / "run_state.json");
+  state["keyframe_chunks"] = {1, 2};
+  write_json_atomically(b / "run_state.json", state, false);
+  try {
+    Mapper m(b, c, true);
+    FAIL() << "resumed with a damaged keyframe chunk index";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find((b / "run_state.json").string() + ": 'keyframe_chunks'"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // A checkpoint written behind training: the folder, copied at any moment after it committed while

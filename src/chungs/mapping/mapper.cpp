@@ -91,7 +91,7 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     try {
       if (resumed_state_.contains("keyframe_chunks"))
         keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
-    } catch (const nlohmann::json::exception& e) {
+    } catch (const std::exception& e) {  // a JSON type error, or the index's own Error
       fail(file.string(), ": 'keyframe_chunks' is damaged (", e.what(), ")");
     }
     if (resumed_state_.contains("rng")) {
@@ -100,6 +100,7 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
       if (!s) fail(file.string(), ": 'rng' is not a saved random state");
     }
   }
+  keyframes_in_checkpoint_ = keyframes_.size();
   // A map saved before the index existed: a loop correction then visits every chunk.
   if (!keyframes_.empty() && !resumed_state_.contains("keyframe_chunks")) keyframe_chunks_.set_incomplete();
   if (store_->open_report().repaired())
@@ -114,6 +115,21 @@ Mapper::~Mapper() {
     residency_->finish_checkpoint();
   } catch (const std::exception& e) {
     log::error("mapper: the checkpoint in flight failed: ", e.what());
+  }
+  remove_keyframes_after_checkpoint();
+}
+
+// A run that ends without a checkpoint (an error) leaves the folder as its last checkpoint did,
+// as the chunk store does with its chunk files: the keyframe files stored since go now, where
+// --resume would have dropped them on open. Ids only grow, so they are the ids after the last
+// keyframe that checkpoint names.
+void Mapper::remove_keyframes_after_checkpoint() {
+  const uint64_t first_new = keyframes_in_checkpoint_ ? keyframes_[keyframes_in_checkpoint_ - 1].id + 1 : 0;
+  try {
+    for (uint64_t id : keyframe_store_->ids())
+      if (id >= first_new) keyframe_store_->erase(id);
+  } catch (const std::exception& e) {
+    log::error("mapper: could not remove the keyframes stored after the last checkpoint: ", e.what());
   }
 }
 
@@ -448,6 +464,7 @@ void Mapper::recover_checkpoint_files() {
 void Mapper::checkpoint(const nlohmann::json& run_state, bool behind) {
   residency_->finish_checkpoint();  // its files are renamed, its sequence number is taken
   const uint64_t seq = checkpoint_seq_ + 1;
+  keyframes_in_checkpoint_ = keyframes_.size();
   for (auto& k : keyframes_) {
     k.uses = selector_.usage(k.id).uses;
     k.last_loss = selector_.usage(k.id).last_loss;

@@ -160,7 +160,11 @@ class Mapper {
     return const_cast<KeyframeRecord*>(std::as_const(*this).find_keyframe(id));
   }
   uint64_t checkpoint_seq_ = 0;  // the last committed checkpoint (see recover_checkpoint_files)
+  // Keyframes the newest checkpoint begun (or the one resumed) names: those after them are removed
+  // on close, since no committed checkpoint can name them.
+  size_t keyframes_in_checkpoint_ = 0;
   void recover_checkpoint_files();
+  void remove_keyframes_after_checkpoint();
   std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views

@@ -99,10 +99,29 @@ void ChunkStore::refuse_write(const char* what) const {
 ChunkStore::~ChunkStore() {
   if (config_.read_only) return;
   try {
-    if (config_.adopt_uncommitted) commit();
+    if (config_.adopt_uncommitted)
+      commit();
+    else
+      remove_uncommitted_files();
   } catch (const std::exception& e) {
-    log::error(folder_.string(), ": could not write the manifest on close: ", e.what());
+    log::error(folder_.string(), ": could not ",
+               config_.adopt_uncommitted ? "write the manifest" : "roll back", " on close: ", e.what());
   }
+}
+
+void ChunkStore::remove_uncommitted_files() const {
+  // The manifest on disk, not committed_: what the next open goes by, even after a commit that
+  // failed late (the manifest renamed, its folder not flushed).
+  const Manifest durable = Manifest::read(manifest_path());
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(chunk_dir_, ec)) {
+    const auto name = parse_chunk_file_name(e.path().filename().string());
+    if (!name) continue;
+    const auto it = durable.chunks.find(name->id);
+    if (name->tombstone || it == durable.chunks.end() || it->second.generation != name->generation)
+      remove_file(e.path(), false);
+  }
+  if (ec) fail(chunk_dir_.string(), ": cannot list chunk files: ", ec.message());
 }
 
 fs::path ChunkStore::chunk_path(ChunkId id) const {

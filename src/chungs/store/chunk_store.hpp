@@ -87,7 +87,9 @@ class ChunkStore {
   // manifest, a chunk file whose header names another chunk, or a folder open elsewhere.
   explicit ChunkStore(std::filesystem::path folder, const ChunkStoreConfig& config = {});
   // Commits a changed manifest (errors are logged: destructors must not throw); with
-  // adopt_uncommitted = false it does not, since the caller commits what belongs together.
+  // adopt_uncommitted = false it does not, since the caller commits what belongs together, and
+  // removes the chunk files written since the last commit instead (the next open would roll them
+  // back), so a session that ends in an error leaves the folder as its last commit did.
   ~ChunkStore();
   ChunkStore(const ChunkStore&) = delete;
   ChunkStore& operator=(const ChunkStore&) = delete;
@@ -152,6 +154,7 @@ class ChunkStore {
   };
   void reconcile(bool have_manifest);
   void open_read_only();
+  void remove_uncommitted_files() const;
   void refuse_write(const char* what) const;  // throws when opened read-only
   bool is_committed(ChunkId id, uint64_t generation) const;
   // Writes the chunk's next generation (not yet named anywhere): the generation and the file.
