@@ -36,6 +36,7 @@ void ChunkStore::reconcile(bool have_manifest) {
     return ManifestEntry{info.count, info.file_bytes, info.payload_checksum, generation};
   };
   std::map<ChunkId, ManifestEntry> chosen;
+  std::vector<fs::path> missing;  // files the manifest names that are gone, their chunks dropped
   for (auto& [id, generations] : found) {
     auto listed = manifest_.chunks.find(id);
     const ManifestEntry* named = listed == manifest_.chunks.end() ? nullptr : &listed->second;
@@ -104,14 +105,24 @@ void ChunkStore::reconcile(bool have_manifest) {
     if (keep && config_.durable && (!named || *keep != named->generation)) unsynced_.insert({id, *keep});
     if (named) committed_[id] = *named;
     const auto c = chosen.find(id);
-    if (!named && c != chosen.end())
+    if (!named && c != chosen.end()) {
       ++report_.entries_adopted;
-    else if (named && c == chosen.end())
+    } else if (named && c == chosen.end()) {
       ++report_.entries_dropped;
-    else if (named && !(c->second == *named))
+      if (!generations.count(named->generation)) missing.push_back(chunk_file(id, named->generation));
+    } else if (named && !(c->second == *named)) {
       ++report_.entries_updated;
+    }
   }
   manifest_.chunks = std::move(chosen);
+  // Damage rather than an interrupted session (a committed file goes only after a commit that no
+  // longer names it), so each is named; a few suffice when a whole folder of them is gone.
+  constexpr size_t kNamed = 10;
+  for (size_t i = 0; i < missing.size() && i < kNamed; ++i)
+    log::warn(missing[i].string(), ": listed in the manifest but missing; its chunk is dropped from the map");
+  if (missing.size() > kNamed)
+    log::warn(folder_.string(), ": ", missing.size() - kNamed,
+              " more chunk files listed in the manifest are missing");
   if (have_manifest && (report_.repaired() || report_.files_rejected))
     log::warn(folder_.string(), ": manifest was behind the chunk files (interrupted session): adopted ",
               report_.entries_adopted, ", updated ", report_.entries_updated, ", dropped ",
