@@ -41,7 +41,7 @@ LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCam
   const RenderOutput<float>& out = raster_.forward(view_of(pool_.params()), slots, camera);
   const RenderOutput<float>* scored = &out;
   if (sky_) {
-    sky_colours(*sky_, camera, sky_px_);
+    sky_colours(*sky_, camera, sky_px_, &sky_taps_);
     composed_.rgb = out.rgb;
     composed_.inv_depth = out.inv_depth;
     compose_sky(sky_px_, out.alpha, composed_.rgb);
@@ -52,7 +52,7 @@ LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCam
   if (sky_) {
     // The alpha gradient the sky adds reaches the Gaussians through the rasterizer's backward.
     sky_grad_.assign(3 * sky_->texels(), 0.f);
-    sky_backward(*sky_, camera, sky_px_, out.alpha, dloss_.rgb, dloss_.alpha, sky_grad_);
+    sky_backward(*sky_, camera, sky_px_, out.alpha, dloss_.rgb, dloss_.alpha, sky_grad_, &sky_taps_);
     sky_adam_step(*sky_, sky_grad_, sky_lr_);
   }
   if (slots.empty()) return terms;

@@ -29,6 +29,7 @@ class CpuOptimBackend final : public OptimBackend {
   ImageF sky_px_;                  // the sky's colour per pixel of the last render
   RenderOutput<float> composed_;   // rgb with the sky behind it (and the inverse depth), for the loss
   std::vector<float> sky_grad_;
+  std::vector<SkyTap> sky_taps_;  // of the last step's camera, shared by its forward and backward
 };
 
 }  // namespace chungs

@@ -1,5 +1,7 @@
 #include "chungs/render/sky.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -51,13 +53,16 @@ SkyTexture make_sky(const SkyConfig& config, const double R_wc[9]) {
   return s;
 }
 
-void sky_colours(const SkyTexture& sky, const RenderCamera<float>& camera, ImageF& out) {
+void sky_colours(const SkyTexture& sky, const RenderCamera<float>& camera, ImageF& out,
+                 std::vector<SkyTap>* taps) {
   if (out.width() != camera.width || out.height() != camera.height || out.channels() != 3)
     out = ImageF(camera.width, camera.height, 3);
+  if (taps) taps->resize(size_t(camera.width) * size_t(camera.height));
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < camera.height; ++v)
     for (int u = 0; u < camera.width; ++u) {
       const SkyTap t = sky_pixel_tap(sky.axes, sky.width, sky.height, camera, u, v);
+      if (taps) (*taps)[size_t(v) * size_t(camera.width) + size_t(u)] = t;
       for (int c = 0; c < 3; ++c) {
         float s = 0;
         for (int k = 0; k < 4; ++k) s += t.weight[k] * sky.rgb[3 * size_t(t.index[k]) + size_t(c)];
@@ -79,32 +84,44 @@ void compose_sky(const ImageF& sky_rgb, const ImageF& alpha, ImageF& rgb) {
 
 void sky_backward(const SkyTexture& sky, const RenderCamera<float>& camera, const ImageF& sky_rgb,
                   const ImageF& alpha, const ImageF& grad_rgb, ImageF& grad_alpha,
-                  std::vector<float>& grad_texels) {
+                  std::vector<float>& grad_texels, const std::vector<SkyTap>* taps) {
   const int W = camera.width, H = camera.height;
   if (grad_rgb.width() != W || grad_rgb.height() != H || !sky_rgb.same_size(grad_rgb) || alpha.width() != W ||
       alpha.height() != H)
     fail("sky: gradient, sky and alpha images differ from the ", W, "x", H, " camera");
   if (grad_texels.size() != 3 * sky.texels()) fail("sky: texel gradient has ", grad_texels.size(), " values");
+  if (taps && taps->size() != size_t(W) * size_t(H))
+    fail("sky: ", taps->size(), " taps for a ", W, "x", H, " camera");
   if (grad_alpha.width() != W || grad_alpha.height() != H || grad_alpha.channels() != 1)
     grad_alpha = ImageF(W, H, 1);
-  // Serial: texels are shared by many pixels (a scatter), and the image is small beside the render.
-  for (int v = 0; v < H; ++v)
-    for (int u = 0; u < W; ++u) {
-      const float clear = 1 - alpha(u, v);
-      const float g[3] = {grad_rgb(u, v, 0), grad_rgb(u, v, 1), grad_rgb(u, v, 2)};
-      if (!sky_pixel_usable(g, clear)) {
-        grad_alpha(u, v) = 0;
-        continue;
+  const int threads = omp_get_max_threads();
+  std::vector<std::vector<float>> sums(static_cast<size_t>(threads));
+#pragma omp parallel num_threads(threads)
+  {
+    // Texels are shared by many pixels (a scatter): each thread sums into its own copy.
+    std::vector<float>& mine = sums[size_t(omp_get_thread_num())];
+    mine.assign(grad_texels.size(), 0.f);
+#pragma omp for schedule(static)
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u) {
+        const float clear = 1 - alpha(u, v);
+        const float g[3] = {grad_rgb(u, v, 0), grad_rgb(u, v, 1), grad_rgb(u, v, 2)};
+        if (!sky_pixel_usable(g, clear)) {
+          grad_alpha(u, v) = 0;
+          continue;
+        }
+        float ga = 0;
+        for (int c = 0; c < 3; ++c) ga -= g[c] * sky_rgb(u, v, c);
+        grad_alpha(u, v) = ga;
+        if (clear <= 0 || (g[0] == 0 && g[1] == 0 && g[2] == 0)) continue;
+        const SkyTap t = taps ? (*taps)[size_t(v) * size_t(W) + size_t(u)]
+                              : sky_pixel_tap(sky.axes, sky.width, sky.height, camera, u, v);
+        for (int k = 0; k < 4; ++k)
+          for (int c = 0; c < 3; ++c) mine[3 * size_t(t.index[k]) + size_t(c)] += t.weight[k] * clear * g[c];
       }
-      float ga = 0;
-      for (int c = 0; c < 3; ++c) ga -= g[c] * sky_rgb(u, v, c);
-      grad_alpha(u, v) = ga;
-      if (clear <= 0) continue;
-      const SkyTap t = sky_pixel_tap(sky.axes, sky.width, sky.height, camera, u, v);
-      for (int k = 0; k < 4; ++k)
-        for (int c = 0; c < 3; ++c)
-          grad_texels[3 * size_t(t.index[k]) + size_t(c)] += t.weight[k] * clear * grad_rgb(u, v, c);
-    }
+  }
+  for (const std::vector<float>& part : sums)
+    for (size_t i = 0; i < part.size(); ++i) grad_texels[i] += part[i];
 }
 
 void sky_adam_step(SkyTexture& sky, const std::vector<float>& grad, double lr) {

@@ -117,15 +117,18 @@ CHUNGS_SKY_HD inline void sky_adam_texel(float* rgb, float* m1, float* m2, uint3
   }
 }
 
-// The sky's colour at every pixel of the camera (3 channels).
-void sky_colours(const SkyTexture& sky, const RenderCamera<float>& camera, ImageF& out);
+// The sky's colour at every pixel of the camera (3 channels). With `taps`, every pixel's taps
+// (row-major) are kept for sky_backward of the same camera, which then needs no trigonometry.
+void sky_colours(const SkyTexture& sky, const RenderCamera<float>& camera, ImageF& out,
+                 std::vector<SkyTap>* taps = nullptr);
 // rgb += (1 - alpha) * sky_rgb.
 void compose_sky(const ImageF& sky_rgb, const ImageF& alpha, ImageF& rgb);
 // Given dL/d(composed rgb): grad_alpha = -dL/drgb . sky_rgb (written: the alpha gradient the
 // rasterizer takes) and dL/d(texels) accumulated into grad_texels (3 per texel, sized by the caller).
+// Per-thread sums, added in thread order, so the result does not depend on the timing.
 void sky_backward(const SkyTexture& sky, const RenderCamera<float>& camera, const ImageF& sky_rgb,
                   const ImageF& alpha, const ImageF& grad_rgb, ImageF& grad_alpha,
-                  std::vector<float>& grad_texels);
+                  std::vector<float>& grad_texels, const std::vector<SkyTap>* taps = nullptr);
 // Adam (betas 0.9, 0.999) on the texels whose gradient is non-zero (the others were not seen, and
 // keep their moments); colours kept in [0, 1].
 void sky_adam_step(SkyTexture& sky, const std::vector<float>& grad, double lr);
