@@ -173,6 +173,27 @@ TEST(KeyframeStore, AFailedBackgroundWriteFailsEveryLaterWriteAndCommit) {
   EXPECT_EQ(s.get(9)->color.vec(), random_keyframe(8, 8, 9).color.vec());  // still held in memory
 }
 
+// The caller reports what it was thrown (the CLI prints one error line); a second report of the same
+// failure when the store closes would read as a second fault.
+TEST(KeyframeStore, AFailedWriteThatACallerWasToldOfIsNotLoggedAgainOnClose) {
+  test::TempDir dir;
+  testing::internal::CaptureStderr();
+  {
+    KeyframeStore s(dir / "kf", small(4));
+    fs::remove_all(dir / "kf");
+    s.put(9, random_keyframe(8, 8, 9));
+    EXPECT_THROW(s.commit(), Error);
+  }
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  testing::internal::CaptureStderr();
+  {
+    KeyframeStore s(dir / "kf2", small(4));
+    fs::remove_all(dir / "kf2");
+    s.put(9, random_keyframe(8, 8, 9));  // fails behind; nobody asks again
+  }
+  EXPECT_NE(testing::internal::GetCapturedStderr().find("kf2"), std::string::npos);
+}
+
 TEST(KeyframeStore, WritesOnTheCallersThreadWhenAskedTo) {
   test::TempDir dir;
   KeyframeStoreConfig c = small(1);

@@ -45,7 +45,7 @@ KeyframeStore::~KeyframeStore() {
   }
   wake_.notify_all();
   for (auto& t : threads_) t.join();
-  if (error_) {
+  if (error_ && !error_reported_) {
     try {
       std::rethrow_exception(error_);
     } catch (const std::exception& e) {
@@ -73,7 +73,9 @@ void KeyframeStore::cache_locked(uint64_t id, Images images) {
 // Sticky: after a failed write the store cannot promise what it holds on disk, so every later
 // put and commit fails with the same error (get still serves what it has).
 void KeyframeStore::rethrow_locked() {
-  if (error_) std::rethrow_exception(error_);
+  if (!error_) return;
+  error_reported_ = true;
+  std::rethrow_exception(error_);
 }
 
 void KeyframeStore::write_now(uint64_t id, const KeyframeImages& images, bool durable) {

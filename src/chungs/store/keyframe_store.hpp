@@ -89,6 +89,7 @@ class KeyframeStore {
   int busy_ = 0;  // jobs being worked on
   bool stop_ = false;
   std::exception_ptr error_;
+  bool error_reported_ = false;  // a caller got error_: closing need not log it again
   std::vector<std::thread> threads_;
   mutable IoCounters counters_;
 };
