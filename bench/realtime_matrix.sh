@@ -12,7 +12,7 @@
 # GPU, so they share it alike); the 10 km drive at 72 km/h runs alone, after KITTI.
 # Env: BUNDLE (default .gpu/rt, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/rt`), DATA (a
 # folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1,
-# SKIP_KITTI=1, PACINGS (default "a72 a36 fixed": the groups of the matrix to run).
+# SKIP_KITTI=1, PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none).
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bundle=${BUNDLE:-$root/.gpu/rt}
@@ -47,6 +47,7 @@ all() {
   # The fast intakes first: the slowest group (fixed pacing) last.
   for pacing in ${PACINGS:-a72 a36 fixed}; do
     case $pacing in
+    none) continue ;;
     fixed) args=() ;;
     a36) args=(--pacing anytime) ;;
     a72) args=(--pacing anytime --speed 2) ;;

@@ -14,6 +14,7 @@
 
 #include "chungs/cuda/devices.hpp"
 #include "chungs/residency/cuda/gaussian_pool.hpp"
+#include "chungs/residency/cuda/pool_device.hpp"
 
 namespace chungs {
 namespace {
@@ -111,6 +112,30 @@ TEST(CudaGaussianPool, DeviceArraysHoldScatteredSlots) {
   EXPECT_EQ(sh, blk.params.sh);
   EXPECT_EQ(m, blk.adam_m.mean);
   EXPECT_EQ(steps, blk.adam_steps);
+}
+
+// Batches larger than the fixed staging buffers move in pieces; slots in shuffled order so that a
+// piece boundary falling in the wrong place would put Gaussians in the wrong slots.
+TEST(CudaGaussianPool, MovesBatchesLargerThanItsStagingInPieces) {
+  CHUNGS_REQUIRE_GPU();
+  std::mt19937 rng(6);
+  const size_t piece = cuda::detail::pool_device_piece();
+  const size_t n = 2 * piece + 1234;
+  cuda::CudaGaussianPool gpu(n + 100, 1);
+  CpuGaussianPool cpu(n + 100, 1);
+  auto slots = gpu.allocate(n + 100);
+  ASSERT_EQ(slots, cpu.allocate(n + 100));
+  std::shuffle(slots.begin(), slots.end(), rng);
+  slots.resize(n);
+  const GaussianBlock blk = random_block(n, rng);
+  gpu.scatter(blk, slots);
+  cpu.scatter(blk, slots);
+  std::shuffle(slots.begin(), slots.end(), rng);
+  GaussianBlock a, b;
+  gpu.gather(slots, a);
+  cpu.gather(slots, b);
+  ASSERT_EQ(a.size(), n);
+  expect_same(a, b);
 }
 
 // The arrays grow on demand (issue 21): a growth copies every slot into bigger arrays behind the

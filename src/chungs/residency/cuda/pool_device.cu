@@ -1,7 +1,10 @@
 // Transfers of the CUDA Gaussian pool: a chunk's arrays are packed into a pinned staging buffer
 // (array after array), copied in one transfer on the pool's own non-blocking stream, and scattered
 // into their slots by one kernel (gathered the reverse way), so loads and evictions overlap with
-// the optimiser's work on the default stream. Two staging buffers alternate.
+// the optimiser's work on the default stream. Two staging buffers alternate. They have a fixed size,
+// allocated with the pool, and larger batches move in pieces: staging that grew to the largest
+// batch seen raised host RSS by ~80 MB in one step, minutes into a long run, at the first burst of
+// chunk loads (pinned pages are resident), where memory must stay level once the budget is full.
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -16,6 +19,9 @@ namespace chungs::cuda::detail {
 namespace {
 
 constexpr int kMaxArrays = 24;
+// ~12 MB of pinned memory per staging buffer at SH degree 3 with Adam moments: a transfer of that
+// size already runs near the link's rate, and a typical chunk moves in one piece.
+constexpr size_t kPieceGaussians = size_t(1) << 14;
 
 void check(cudaError_t e, const char* what) {
   if (e != cudaSuccess) fail("CUDA Gaussian pool: ", what, ": ", cudaGetErrorString(e));
@@ -79,21 +85,23 @@ struct PoolDevice {
     if (stream) cudaStreamDestroy(stream);
   }
 
-  // A staging buffer of at least `elems` (plus n slot indices), free of pending transfers.
-  Staging& take(size_t elems) {
+  // Both staging buffers, each for one piece of pool_device_piece() Gaussians and their slots.
+  void allocate_staging() {
+    size_t elems = kPieceGaussians;
+    for (int w : widths) elems += kPieceGaussians * size_t(w);
+    for (auto& s : staging) {
+      check(cudaMallocHost(&s.host, elems * 4), "pinned staging allocation");
+      check(cudaMalloc(&s.device, elems * 4), "device staging allocation");
+      s.capacity = elems;
+      check(cudaEventCreateWithFlags(&s.done, cudaEventDisableTiming), "event");
+    }
+  }
+
+  // The next staging buffer, free of pending transfers.
+  Staging& take() {
     Staging& s = staging[next];
     next ^= 1;
-    if (s.done) check(cudaEventSynchronize(s.done), "staging wait");
-    if (s.capacity < elems) {
-      cudaFreeHost(s.host);
-      cudaFree(s.device);
-      s.host = nullptr, s.device = nullptr, s.capacity = 0;
-      const size_t want = elems + elems / 4;
-      check(cudaMallocHost(&s.host, want * 4), "pinned staging allocation");
-      check(cudaMalloc(&s.device, want * 4), "device staging allocation");
-      s.capacity = want;
-    }
-    if (!s.done) check(cudaEventCreateWithFlags(&s.done, cudaEventDisableTiming), "event");
+    check(cudaEventSynchronize(s.done), "staging wait");
     return s;
   }
 
@@ -144,6 +152,7 @@ PoolDevice* pool_device_create(size_t capacity, const int* widths, int count) {
     check(cudaStreamCreateWithFlags(&d->stream, cudaStreamNonBlocking), "stream");
     check(cudaEventCreateWithFlags(&d->compute_done, cudaEventDisableTiming), "event");
     check(cudaEventCreateWithFlags(&d->uploads_done, cudaEventDisableTiming), "event");
+    d->allocate_staging();
   } catch (...) {
     delete d;
     throw;
@@ -177,35 +186,45 @@ void pool_device_destroy(PoolDevice* d) { delete d; }
 
 void* pool_device_array(PoolDevice* d, int array) { return d->arrays.at(size_t(array)); }
 
+size_t pool_device_piece() { return kPieceGaussians; }
+
 void pool_device_scatter(PoolDevice* d, const void* const* host_arrays, const uint32_t* slots, size_t n) {
-  if (n == 0) return;
-  size_t total = 0;
-  const Layout L = d->layout(n, total);
-  Staging& s = d->take(total + n);
-  for (int a = 0; a < d->count; ++a)
-    std::memcpy(s.host + L.offset[a], host_arrays[a], n * size_t(d->widths[a]) * 4);
-  std::memcpy(s.host + total, slots, n * 4);
-  check(cudaMemcpyAsync(s.device, s.host, (total + n) * 4, cudaMemcpyHostToDevice, d->stream), "upload");
-  d->after_compute();  // slots being overwritten may still be read by queued renders
-  d->launch(true, L, s.device, s.device + total, n);
-  check(cudaEventRecord(s.done, d->stream), "event record");
-  check(cudaEventRecord(d->uploads_done, d->stream), "event record");
+  for (size_t first = 0; first < n; first += kPieceGaussians) {
+    const size_t m = std::min(kPieceGaussians, n - first);
+    size_t total = 0;
+    const Layout L = d->layout(m, total);
+    Staging& s = d->take();
+    for (int a = 0; a < d->count; ++a) {
+      const size_t w = size_t(d->widths[a]);
+      std::memcpy(s.host + L.offset[a], static_cast<const uint32_t*>(host_arrays[a]) + first * w, m * w * 4);
+    }
+    std::memcpy(s.host + total, slots + first, m * 4);
+    check(cudaMemcpyAsync(s.device, s.host, (total + m) * 4, cudaMemcpyHostToDevice, d->stream), "upload");
+    d->after_compute();  // slots being overwritten may still be read by queued renders
+    d->launch(true, L, s.device, s.device + total, m);
+    check(cudaEventRecord(s.done, d->stream), "event record");
+    check(cudaEventRecord(d->uploads_done, d->stream), "event record");
+  }
 }
 
 void pool_device_gather(PoolDevice* d, void* const* host_arrays, const uint32_t* slots, size_t n) {
-  if (n == 0) return;
-  size_t total = 0;
-  const Layout L = d->layout(n, total);
-  Staging& s = d->take(total + n);
-  std::memcpy(s.host + total, slots, n * 4);
-  check(cudaMemcpyAsync(s.device + total, s.host + total, n * 4, cudaMemcpyHostToDevice, d->stream), "slots");
-  d->after_compute();  // the optimiser's queued updates come first
-  d->launch(false, L, s.device, s.device + total, n);
-  check(cudaMemcpyAsync(s.host, s.device, total * 4, cudaMemcpyDeviceToHost, d->stream), "download");
-  check(cudaEventRecord(s.done, d->stream), "event record");
-  check(cudaEventSynchronize(s.done), "download wait");
-  for (int a = 0; a < d->count; ++a)
-    std::memcpy(host_arrays[a], s.host + L.offset[a], n * size_t(d->widths[a]) * 4);
+  for (size_t first = 0; first < n; first += kPieceGaussians) {
+    const size_t m = std::min(kPieceGaussians, n - first);
+    size_t total = 0;
+    const Layout L = d->layout(m, total);
+    Staging& s = d->take();
+    std::memcpy(s.host + total, slots + first, m * 4);
+    check(cudaMemcpyAsync(s.device + total, s.host + total, m * 4, cudaMemcpyHostToDevice, d->stream), "slots");
+    d->after_compute();  // the optimiser's queued updates come first
+    d->launch(false, L, s.device, s.device + total, m);
+    check(cudaMemcpyAsync(s.host, s.device, total * 4, cudaMemcpyDeviceToHost, d->stream), "download");
+    check(cudaEventRecord(s.done, d->stream), "event record");
+    check(cudaEventSynchronize(s.done), "download wait");
+    for (int a = 0; a < d->count; ++a) {
+      const size_t w = size_t(d->widths[a]);
+      std::memcpy(static_cast<uint32_t*>(host_arrays[a]) + first * w, s.host + L.offset[a], m * w * 4);
+    }
+  }
 }
 
 void pool_device_wait_uploads(PoolDevice* d) {

@@ -17,6 +17,8 @@ void* pool_device_array(PoolDevice* d, int array);
 // when it throws (device memory short): then some arrays may have grown, each with its contents.
 void pool_device_grow(PoolDevice* d, size_t capacity);
 
+// Gaussians per transfer: larger batches move in pieces of this many through fixed staging buffers.
+size_t pool_device_piece();
 // Copies host_arrays[a][i * width_a ..] of n Gaussians into slots[i] of every array. Returns once
 // the host data is staged (the caller may reuse it); the upload and the scatter run on the pool's
 // stream after the work already queued on the default stream (which may still read those slots).
