@@ -1,4 +1,4 @@
-// `diskchungs eval ate|images`: trajectory accuracy (ATE, RPE) and image quality (PSNR, SSIM).
+// `diskchungs eval ate|images`: trajectory accuracy (ATE, RPE) and image quality (PSNR, SSIM, LPIPS).
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -18,7 +18,7 @@ struct EvalArgs {
   std::string gt, est, align = "se3";
   double max_dt = 0.02;
   int rpe_delta = 1;
-  std::string ref, test, mask;
+  std::string ref, test, mask, lpips_weights;
   bool json = false;
 };
 
@@ -63,7 +63,8 @@ int run_images(const EvalArgs& a) {
   const auto pairs = match_image_pairs(a.ref, a.test);
   Image8 mask;
   if (!a.mask.empty()) mask = read_mask(a.mask);
-  const ImageSetResult r = evaluate_image_pairs(pairs, a.mask.empty() ? nullptr : &mask);
+  const LpipsSetting lpips = lpips_setting(a.lpips_weights, "--lpips-weights");
+  const ImageSetResult r = evaluate_image_pairs(pairs, a.mask.empty() ? nullptr : &mask, {}, &lpips);
   if (a.json) {
     nlohmann::json j = to_json(r);
     j["mask"] = a.mask.empty() ? nlohmann::json(nullptr) : nlohmann::json(a.mask);
@@ -71,15 +72,16 @@ int run_images(const EvalArgs& a) {
     return 0;
   }
   for (const auto& im : r.images)
-    std::printf("%-32s PSNR %8s dB  SSIM %s\n", im.pair.name.c_str(), fmt(im.metrics.psnr, "%.3f").c_str(),
-                fmt(im.metrics.ssim, "%.4f").c_str());
-  std::printf("mean over %zu image(s): PSNR %s dB  SSIM %s%s\n", r.images.size(), fmt(r.mean_psnr, "%.3f").c_str(),
-              fmt(r.mean_ssim, "%.4f").c_str(),
+    std::printf("%-32s PSNR %8s dB  SSIM %s%s\n", im.pair.name.c_str(), fmt(im.metrics.psnr, "%.3f").c_str(),
+                fmt(im.metrics.ssim, "%.4f").c_str(), im.lpips ? ("  LPIPS " + fmt(*im.lpips, "%.4f")).c_str() : "");
+  std::printf("mean over %zu image(s): PSNR %s dB  SSIM %s%s%s\n", r.images.size(), fmt(r.mean_psnr, "%.3f").c_str(),
+              fmt(r.mean_ssim, "%.4f").c_str(), r.mean_lpips ? ("  LPIPS " + fmt(*r.mean_lpips, "%.4f")).c_str() : "",
               r.infinite_psnr ? cat(" (", r.infinite_psnr, " identical pair(s) with infinite PSNR)").c_str() : "");
+  if (!r.mean_lpips) std::printf("LPIPS: not available (%s)\n", r.lpips_unavailable.c_str());
   return 0;
 }
 
-const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality (PSNR, SSIM)",
+const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality (PSNR, SSIM, LPIPS)",
                        [](CLI::App& app) -> Action {
   auto args = std::make_shared<EvalArgs>();
   app.require_subcommand(1);
@@ -94,10 +96,12 @@ const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality
   ate->add_option("--rpe-delta", args->rpe_delta, "RPE frame delta (in matched frames)")->capture_default_str();
   ate->add_flag("--json", args->json, "print the results as JSON");
 
-  CLI::App* images = app.add_subcommand("images", "PSNR and SSIM of rendered images against references");
+  CLI::App* images = app.add_subcommand("images", "PSNR, SSIM and LPIPS of rendered images against references");
   images->add_option("--ref", args->ref, "reference image or folder")->required();
   images->add_option("--test", args->test, "test image or folder (files paired with --ref by name)")->required();
   images->add_option("--mask", args->mask, "mask image: pixels with all channels 0 are not scored");
+  images->add_option("--lpips-weights", args->lpips_weights,
+                     "LPIPS (alex, v0.1) weights converted by scripts/lpips_convert.py; without them no LPIPS");
   images->add_flag("--json", args->json, "print the results as JSON (infinite PSNR as null)");
 
   return [args, ate, images]() -> int {
@@ -108,7 +112,11 @@ const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality
       require_flag(args->rpe_delta >= 1, "--rpe-delta", "at least 1 frame", args->rpe_delta);
       return run_ate(*args);
     }
-    if (images->parsed()) return run_images(*args);
+    if (images->parsed()) {
+      require_flag(!given(*images, "--lpips-weights") || !args->lpips_weights.empty(), "--lpips-weights",
+                   "a weights file", "an empty path");
+      return run_images(*args);
+    }
     return 2;
   };
 });

@@ -83,11 +83,16 @@ Image8 read_mask(const fs::path& file) {
 }
 
 ImageSetResult evaluate_image_pairs(const std::vector<ImagePair>& pairs, const Image8* mask,
-                                    const SsimOptions& ssim_opt) {
+                                    const SsimOptions& ssim_opt, const LpipsSetting* lpips) {
   if (pairs.empty()) fail("image evaluation: no image pairs");
+  const Lpips* metric = lpips && lpips->metric ? &*lpips->metric : nullptr;
+  if (metric && mask)
+    fail(metric->source(), ": LPIPS has no masked form; score it without a mask (PSNR and SSIM are the same "
+                           "either way outside the mask)");
   ImageSetResult res;
+  res.lpips_unavailable = metric ? "" : lpips ? lpips->unavailable : "LPIPS not requested";
   Progress progress("eval images", (long long)pairs.size());
-  double sum_psnr = 0, sum_ssim = 0, sum_mse = 0;
+  double sum_psnr = 0, sum_ssim = 0, sum_mse = 0, sum_lpips = 0;
   for (const auto& p : pairs) {
     const Image8 ref = drop_alpha(read_image8(p.ref));
     const Image8 test = drop_alpha(read_image8(p.test));
@@ -98,20 +103,24 @@ ImageSetResult evaluate_image_pairs(const std::vector<ImagePair>& pairs, const I
       fail(p.ref.string(), ": ", ref.width(), "x", ref.height(), " differs from the mask's ", mask->width(), "x",
            mask->height());
     ImageMetrics m;
+    std::optional<double> d;
     try {
       m = compare_images(ref, test, mask, ssim_opt);
+      if (metric) d = metric->distance(to_float(ref), to_float(test));
     } catch (const Error& e) {
       fail(p.test.string(), ": ", e.what());
     }
+    if (d) sum_lpips += *d;
     if (std::isinf(m.psnr)) ++res.infinite_psnr;
     log::debug(p.name, ": PSNR ", m.psnr, " SSIM ", m.ssim);
     sum_psnr += m.psnr, sum_ssim += m.ssim, sum_mse += m.mse;
-    res.images.push_back({p, m});
+    res.images.push_back({p, m, d});
     progress.step();
   }
   progress.finish();
   const double n = double(pairs.size());
   res.mean_psnr = sum_psnr / n, res.mean_ssim = sum_ssim / n, res.mean_mse = sum_mse / n;
+  if (metric) res.mean_lpips = sum_lpips / n;
   return res;
 }
 

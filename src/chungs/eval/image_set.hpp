@@ -1,11 +1,13 @@
 // Scoring a set of rendered images against references: files paired by name across two folders
-// (or one file against one file), PSNR / SSIM per pair and their means.
+// (or one file against one file), PSNR / SSIM (and LPIPS, given its weights) per pair and their means.
 #pragma once
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "chungs/eval/image_metrics.hpp"
+#include "chungs/eval/lpips.hpp"
 
 namespace chungs {
 
@@ -25,6 +27,7 @@ Image8 read_mask(const std::filesystem::path& file);
 struct ImagePairResult {
   ImagePair pair;
   ImageMetrics metrics;
+  std::optional<double> lpips;  // only where LPIPS weights were given
 };
 
 struct ImageSetResult {
@@ -33,11 +36,14 @@ struct ImageSetResult {
   // mean is +inf when any pair is identical; infinite_psnr counts those pairs.
   double mean_psnr = 0.0, mean_ssim = 0.0, mean_mse = 0.0;
   size_t infinite_psnr = 0;
+  std::optional<double> mean_lpips;
+  std::string lpips_unavailable;  // why mean_lpips is absent
 };
 
 // Reads each pair (8-bit, alpha dropped) and scores it; a size or channel mismatch is an Error
-// naming both files. The mask, when given, must match every image's size.
+// naming both files. The mask, when given, must match every image's size. LPIPS is scored where
+// `lpips` holds a metric; it has no masked form, so a mask with LPIPS is an Error.
 ImageSetResult evaluate_image_pairs(const std::vector<ImagePair>& pairs, const Image8* mask = nullptr,
-                                    const SsimOptions& ssim_opt = {});
+                                    const SsimOptions& ssim_opt = {}, const LpipsSetting* lpips = nullptr);
 
 }  // namespace chungs

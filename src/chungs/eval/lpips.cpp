@@ -62,11 +62,14 @@ double Lpips::distance(const ImageF& a, const ImageF& b) const {
 LpipsSetting lpips_setting(const std::filesystem::path& weights, const std::string& flag) {
   LpipsSetting s;
   if (weights.empty()) {
-    s.unavailable = "no " + flag + " given (convert the published AlexNet and LPIPS weights with "
-                    "scripts/lpips_convert.py)";
+    s.unavailable = "no " + flag + " given";
     return s;
   }
-  s.metric.emplace(Lpips::load(weights));
+  try {
+    s.metric.emplace(Lpips::load(weights));
+  } catch (const Error& e) {
+    fail(flag, ": ", e.what());
+  }
   return s;
 }
 

@@ -35,7 +35,7 @@ struct LpipsSetting {
   std::optional<Lpips> metric;
   std::string unavailable;  // empty when metric is set
 };
-// An empty path means "not given": the setting then says so, naming `flag`.
+// An empty path means "not given": the setting then says so, naming `flag`, as does an Error about the file.
 LpipsSetting lpips_setting(const std::filesystem::path& weights, const std::string& flag);
 
 }  // namespace chungs

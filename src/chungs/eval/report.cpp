@@ -39,18 +39,24 @@ json to_json(const ImageMetrics& m) {
           {"pixels", m.pixels}};
 }
 
+json lpips_json(const std::optional<double>& v) { return v ? json_number(*v) : json(nullptr); }
+
 json to_json(const ImageSetResult& r) {
   json images = json::array();
   for (const auto& im : r.images) {
     json j = to_json(im.metrics);
+    j["lpips"] = lpips_json(im.lpips);
     j["name"] = im.pair.name;
     j["ref"] = im.pair.ref.string();
     j["test"] = im.pair.test.string();
     images.push_back(std::move(j));
   }
-  return {{"count", r.images.size()},          {"mean_psnr", json_number(r.mean_psnr)},
-          {"mean_ssim", json_number(r.mean_ssim)}, {"mean_mse", json_number(r.mean_mse)},
-          {"infinite_psnr", r.infinite_psnr}, {"images", std::move(images)}};
+  json j = {{"count", r.images.size()},          {"mean_psnr", json_number(r.mean_psnr)},
+            {"mean_ssim", json_number(r.mean_ssim)}, {"mean_mse", json_number(r.mean_mse)},
+            {"mean_lpips", lpips_json(r.mean_lpips)}, {"infinite_psnr", r.infinite_psnr},
+            {"images", std::move(images)}};
+  if (!r.mean_lpips) j["lpips_unavailable"] = r.lpips_unavailable;
+  return j;
 }
 
 void write_json(const std::filesystem::path& file, const json& j) {

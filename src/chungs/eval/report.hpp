@@ -3,6 +3,7 @@
 // PSNR of +inf, an empty mask's NaN); the text output prints them as inf / nan.
 #pragma once
 #include <filesystem>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -19,7 +20,10 @@ nlohmann::json to_json(const Sim3& s);  // {scale, rotation [qw qx qy qz], trans
 nlohmann::json to_json(const AteResult& r, bool with_errors = false);
 nlohmann::json to_json(const RpeResult& r);  // {delta, translation: stats (m), rotation_deg: stats}
 nlohmann::json to_json(const ImageMetrics& m);
-nlohmann::json to_json(const ImageSetResult& r);  // {count, mean_psnr, mean_ssim, mean_mse, images: [...]}
+// {count, mean_psnr, mean_ssim, mean_mse, mean_lpips, images: [...]}; without LPIPS weights
+// mean_lpips and each image's lpips are null and lpips_unavailable says why.
+nlohmann::json to_json(const ImageSetResult& r);
+nlohmann::json lpips_json(const std::optional<double>& v);
 
 // Writes `j` (indented) through a temporary file renamed into place; Error names the file.
 void write_json(const std::filesystem::path& file, const nlohmann::json& j);
