@@ -18,7 +18,7 @@ struct RunArgs {
   long long budget = 0, max_frames = 0;
   double chunk_size = 0, resolution = 0, speed = 0, fill_depth = 0;
   int iterations = 0, final_iterations = 0;
-  std::string pacing, depth, device;
+  std::string pacing, depth, device, lpips_weights;
   bool json = false, no_eval = false, no_ba = false, no_loop = false;
 };
 
@@ -51,6 +51,8 @@ const Command cmd{
       app.add_flag("--no-loop", a->no_loop, "--poses track: no loop closure");
       app.add_option("--max-frames", a->max_frames, "use only the first n frames");
       app.add_flag("--no-eval", a->no_eval, "skip the held-out evaluation");
+      app.add_option("--lpips-weights", a->lpips_weights,
+                     "LPIPS weights (scripts/lpips_convert.py) to score the evaluation with; else no LPIPS");
       app.add_flag("--json", a->json, "print the report as JSON");
       return [a, &app]() {
         Config& c = a->o.config;
@@ -97,6 +99,10 @@ const Command cmd{
         if (given(app, "--pacing")) c.mapper.pacing = a->pacing;
         if (given(app, "--depth")) c.mapper.depth = a->depth;
         if (given(app, "--device")) c.mapper.device = a->device;
+        if (given(app, "--lpips-weights")) {
+          require_flag(!a->lpips_weights.empty(), "--lpips-weights", "a weights file", "an empty path");
+          c.mapper.lpips_weights = a->lpips_weights;
+        }
         c.validate();
         a->o.evaluate = !a->no_eval;
         a->o.tracker.local_ba = !a->no_ba;
@@ -112,9 +118,14 @@ const Command cmd{
               r["tracking"]["ate"]["rmse"].get<double>(), r["tracking"]["gt_path_length_m"].get<double>(),
               r["tracking"]["loop_closures"].get<size_t>(), r["tracking"]["lost_frames"].get<size_t>());
         if (r.contains("held_out")) {
-          std::printf("held-out PSNR %.3f dB  SSIM %.4f  (%zu frames)",
-                      r["held_out"]["mean_psnr"].get<double>(), r["held_out"]["mean_ssim"].get<double>(),
-                      r["held_out"]["count"].get<size_t>());
+          const auto& h = r["held_out"];
+          char lpips[32];
+          if (h["mean_lpips"].is_number()) std::snprintf(lpips, sizeof lpips, "%.4f", h["mean_lpips"].get<double>());
+          const std::string lp = h["mean_lpips"].is_number()
+                                     ? cat("LPIPS ", lpips)
+                                     : cat("LPIPS: not available (", h["lpips_unavailable"].get<std::string>(), ")");
+          std::printf("held-out PSNR %.3f dB  SSIM %.4f  %s  (%zu frames)", h["mean_psnr"].get<double>(),
+                      h["mean_ssim"].get<double>(), lp.c_str(), h["count"].get<size_t>());
           if (r.contains("keyframes_eval"))
             std::printf("; keyframes PSNR %.3f dB", r["keyframes_eval"]["mean_psnr"].get<double>());
           std::printf("; ");

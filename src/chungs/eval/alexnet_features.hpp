@@ -33,8 +33,6 @@ FeatureMap normalize_channels(const FeatureMap& in);
 
 // RGB (gray replicated) in [0, 1] mapped to [-1, 1] and through LPIPS's fixed scaling layer.
 FeatureMap lpips_input(const ImageF& image);
-// The smallest image the five layers accept (two poolings need 3 pixels each).
-inline constexpr int kLpipsMinSide = 31;
 // The outputs of the five ReLUs after conv1..conv5.
 std::array<FeatureMap, 5> alexnet_features(const LpipsWeights& w, const FeatureMap& input);
 

@@ -24,6 +24,8 @@ inline constexpr std::array<AlexConvShape, 5> kAlexConv = {{
     {256, 384, 3, 1, 1, 8},
     {256, 256, 3, 1, 1, 10},
 }};
+// The smallest image side the five layers accept (the two poolings need 3 pixels each).
+inline constexpr int kLpipsMinSide = 31;
 
 struct ConvWeights {
   std::vector<float> weight;  // [out][in][kernel][kernel], PyTorch's order

@@ -4,16 +4,22 @@
 #include <cstdio>
 
 #include "chungs/common/progress.hpp"
+#include "chungs/eval/report.hpp"
 #include "chungs/image/image_io.hpp"
 #include "chungs/mapping/frame_source.hpp"
 
 namespace chungs {
 
 nlohmann::json ViewSetScore::to_json(bool per_view) const {
-  nlohmann::json j = {{"count", views.size()}, {"mean_psnr", mean_psnr}, {"mean_ssim", mean_ssim}};
+  nlohmann::json j = {{"count", views.size()},
+                      {"mean_psnr", mean_psnr},
+                      {"mean_ssim", mean_ssim},
+                      {"mean_lpips", lpips_json(mean_lpips)}};
+  if (!mean_lpips) j["lpips_unavailable"] = lpips_unavailable;
   if (per_view) {
     nlohmann::json a = nlohmann::json::array();
-    for (const auto& v : views) a.push_back({{"frame", v.frame}, {"psnr", v.metrics.psnr}, {"ssim", v.metrics.ssim}});
+    for (const auto& v : views)
+      a.push_back({{"frame", v.frame}, {"psnr", v.metrics.psnr}, {"ssim", v.metrics.ssim}, {"lpips", lpips_json(v.lpips)}});
     j["views"] = a;
   }
   return j;
@@ -34,8 +40,11 @@ Image8 stack_vertically(const ImageF& top, const ImageF& bottom) {
 
 ViewSetScore score_views(Mapper& mapper, const Dataset& dataset, const std::vector<std::optional<SE3>>& poses,
                          const std::vector<size_t>& frames, double resolution,
-                         const std::filesystem::path& render_dir, const std::string& prefix, int max_saved) {
+                         const std::filesystem::path& render_dir, const std::string& prefix, int max_saved,
+                         const LpipsSetting* lpips) {
   ViewSetScore s;
+  const Lpips* metric = lpips && lpips->metric ? &*lpips->metric : nullptr;
+  s.lpips_unavailable = metric ? "" : lpips ? lpips->unavailable : "LPIPS not requested";
   Progress progress("scoring " + prefix, (long long)frames.size());
   int saved = 0;
   for (size_t i : frames) {
@@ -46,7 +55,8 @@ ViewSetScore score_views(Mapper& mapper, const Dataset& dataset, const std::vect
     ImageF render = r.rgb;
     for (auto& v : render.vec()) v = std::clamp(v, 0.f, 1.f);  // what an 8-bit render would show
     const ImageF ref = to_rgb_float(m.frame.left);
-    ViewScore v{i, compare_images(ref, render)};
+    ViewScore v{i, compare_images(ref, render), {}};
+    if (metric) v.lpips = metric->distance(ref, render);
     s.views.push_back(v);
     if (!render_dir.empty() && saved < max_saved) {
       char name[64];
@@ -63,6 +73,12 @@ ViewSetScore score_views(Mapper& mapper, const Dataset& dataset, const std::vect
   if (!s.views.empty()) {
     s.mean_psnr /= double(s.views.size());
     s.mean_ssim /= double(s.views.size());
+  }
+  if (metric && s.views.empty()) s.lpips_unavailable = "no view was scored";
+  if (metric && !s.views.empty()) {
+    double sum = 0;
+    for (const auto& v : s.views) sum += *v.lpips;
+    s.mean_lpips = sum / double(s.views.size());
   }
   return s;
 }

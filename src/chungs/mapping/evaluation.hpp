@@ -7,6 +7,7 @@
 
 #include "chungs/datasets/dataset.hpp"
 #include "chungs/eval/image_metrics.hpp"
+#include "chungs/eval/lpips.hpp"
 #include "chungs/mapping/mapper.hpp"
 
 namespace chungs {
@@ -14,20 +15,25 @@ namespace chungs {
 struct ViewScore {
   size_t frame = 0;
   ImageMetrics metrics;
+  std::optional<double> lpips;
 };
 
 struct ViewSetScore {
   std::vector<ViewScore> views;
   double mean_psnr = 0, mean_ssim = 0;
+  std::optional<double> mean_lpips;
+  std::string lpips_unavailable;  // why mean_lpips is absent: written in its place, never a number
   nlohmann::json to_json(bool per_view) const;
 };
 
 // Renders frames `frames` of the dataset (at the mapping resolution) from the map, scores them
 // against the images (colour in [0, 1], gray replicated to RGB) and, when render_dir is not empty,
-// writes up to max_saved PNGs "<prefix>_<frame>.png" with the render above the image.
+// writes up to max_saved PNGs "<prefix>_<frame>.png" with the render above the image. LPIPS is
+// scored where `lpips` holds a metric.
 ViewSetScore score_views(Mapper& mapper, const Dataset& dataset, const std::vector<std::optional<SE3>>& poses,
                          const std::vector<size_t>& frames, double resolution,
-                         const std::filesystem::path& render_dir, const std::string& prefix, int max_saved);
+                         const std::filesystem::path& render_dir, const std::string& prefix, int max_saved,
+                         const LpipsSetting* lpips = nullptr);
 
 // Render above reference, 8-bit RGB.
 Image8 stack_vertically(const ImageF& top, const ImageF& bottom);

@@ -36,6 +36,7 @@ struct MapperConfig {
   uint64_t seed = 1;
   int eval_keyframe_stride = 1;     // paper protocol: score every n-th keyframe at the end (0: off)
   int max_saved_renders = 64;       // held-out renders written as PNG at most
+  std::string lpips_weights;        // DCLPIPS1 file (scripts/lpips_convert.py); empty: no LPIPS
   int loop_refine_iterations = 1000;         // steps on the junction after a loop closure (the paper's 1 k)
   double pose_update_min_translation = 0.01; // m: smaller keyframe moves from the tracker are not applied ...
   double pose_update_min_rotation_deg = 0.1; // ... unless it also turned this much

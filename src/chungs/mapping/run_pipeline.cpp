@@ -103,6 +103,12 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   // Given poses are read before the map folder is touched, so a bad file changes nothing.
   std::vector<std::optional<SE3>> given;
   if (!tracked) given = frame_poses(*dataset, o.poses);
+  // The LPIPS weights too: a bad file is refused now, not after the whole run.
+  const LpipsSetting lpips =
+      o.evaluate ? lpips_setting(mc.lpips_weights, "--lpips-weights or mapper.lpips_weights") : LpipsSetting{};
+  if (lpips.metric && (width < kLpipsMinSide || height < kLpipsMinSide))
+    fail("dataset ", o.dataset, ": ", width, "x", height, " mapping images are below the ", kLpipsMinSide, "x",
+         kLpipsMinSide, " LPIPS needs (raise --resolution or drop --lpips-weights)");
 
   Mapper mapper(o.out, cfg, o.resume);
   const nlohmann::json& prev = mapper.resumed_state();
@@ -472,13 +478,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         kfs.push_back(mapper.keyframes()[k].frame);
     const fs::path rd = o.out / "renders";
     const ViewSetScore h =
-        score_views(mapper, *dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders);
-    const ViewSetScore k = score_views(mapper, *dataset, poses, kfs, mc.resolution, rd, "keyframe", 4);
+        score_views(mapper, *dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders, &lpips);
+    const ViewSetScore k = score_views(mapper, *dataset, poses, kfs, mc.resolution, rd, "keyframe", 4, &lpips);
     report["held_out"] = h.to_json(true);
     report["keyframes_eval"] = k.to_json(false);
     report["time"]["evaluation_s"] = since(te);
-    log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, " over ", h.views.size(),
-              " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
+    log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, ", ",
+              h.mean_lpips ? cat("LPIPS ", *h.mean_lpips) : "LPIPS not available (" + h.lpips_unavailable + ")",
+              " over ", h.views.size(), " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
   }
   write_text(o.out / "timeline.csv", timeline_csv(timeline));
   write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());
