@@ -129,6 +129,31 @@ TEST(RenderPoses, WritesOnePngPerPoseWithTheMapsCamera) {
   EXPECT_FALSE(std::filesystem::exists(out.path() / "render_000001.png"));
 }
 
+// A run that failed after committing checkpoint K but before renaming its keyframe list leaves the
+// list under its numbered name; the map is checkpoint K all the same, and a reader (which renames
+// nothing) takes that list rather than the previous one, or none ("no keyframes.txt, so no camera").
+TEST(RenderPoses, ReadsTheCommittedKeyframeListStillUnderItsCheckpointName) {
+  SmallMap& m = small_map();
+  test::TempDir dir;
+  const auto map = dir / "map";
+  std::filesystem::copy(m.map(), map, std::filesystem::copy_options::recursive);
+  uint64_t seq;
+  {
+    ChunkStore store(map, reader_config());
+    seq = std::stoull(store.config_value("checkpoint").value());
+  }
+  auto records = read_keyframe_records(map / "keyframes.txt");
+  std::filesystem::rename(map / "keyframes.txt", checkpoint_file(map, seq, "keyframes.txt"));
+  MapRenderer r(map, m.config);
+  EXPECT_EQ(r.mapping_camera().width, records.front().camera.width);
+  records.resize(1);
+  records.front().camera.width = 7;  // an older checkpoint's list under the final name loses
+  write_keyframe_records(map / "keyframes.txt", records, false);
+  MapRenderer again(map, m.config);
+  EXPECT_NE(again.mapping_camera().width, 7);
+  EXPECT_TRUE(std::filesystem::exists(checkpoint_file(map, seq, "keyframes.txt")));  // nothing renamed
+}
+
 TEST(RenderPoses, RefusesAFolderWithoutAMapAndNamesIt) {
   test::TempDir dir;
   try {

@@ -60,6 +60,16 @@ std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& f
   return out;
 }
 
+std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name) {
+  return folder / cat("checkpoint-", seq, "-", final_name);
+}
+
+std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name) {
+  const std::filesystem::path pending = checkpoint_file(folder, seq, final_name);
+  std::error_code ec;
+  return seq > 0 && std::filesystem::exists(pending, ec) ? pending : folder / final_name;
+}
+
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable) {
   const std::string text = j.dump(1) + "\n";
   const ConstBuffer part{text.data(), text.size()};

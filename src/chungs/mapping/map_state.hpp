@@ -26,6 +26,14 @@ void write_keyframe_records(const std::filesystem::path& file, const std::vector
 // Throws Error "FILE:LINE: ..." on malformed lines.
 std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& file);
 
+// A checkpoint's keyframe list, run state or sky under the numbered name it is written with before
+// the commit that names checkpoint `seq` (Mapper::checkpoint).
+std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name);
+// The file as checkpoint `seq` commits it, for readers: its numbered copy while that still waits for
+// its final name (a run that failed between the commit and the renaming, which only a writer
+// finishes), else the file under its final name.
+std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name);
+
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable);
 nlohmann::json read_json_file(const std::filesystem::path& file);
 // run_state.json as a checkpoint writes it: an object whose known keys have their types and ranges

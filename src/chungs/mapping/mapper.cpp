@@ -344,7 +344,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   const KeyframeRecord* found = find_keyframe(keyframe);
   if (!found) fail("mapper: no keyframe ", keyframe, " to train on");
   const KeyframeRecord& kf = *found;
-  std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose);
+  std::vector<ChunkId> left_out;
+  std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose, &left_out);
   // Outside the window: the resident part of the view, scored only where it explains the image.
   std::optional<Image8> pixel_mask;
   if (!whole_view && !selector_.in_window(kf.id)) {
@@ -359,6 +360,13 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
     }
     pixel_mask = coverage.mask(rendered);
     ++window_stats_.partial_steps;
+  } else if (!left_out.empty()) {
+    // A view that needs more than the budget is drawn without its farthest chunks. Unmasked, their
+    // pixels would teach the sky and the near Gaussians' edges to paint the far street.
+    std::sort(left_out.begin(), left_out.end());
+    pixel_mask = coverage_of(kf).mask(
+        [&](ChunkId c) { return !std::binary_search(left_out.begin(), left_out.end(), c); }, true);
+    ++window_stats_.trimmed_steps;
   }
   const PinResult pr = residency_->pin(chunks, !pixel_mask);
   if (!pr.ok) fail("mapper: cannot make the chunks of keyframe ", kf.id, " resident: ", pr.message);
@@ -424,14 +432,6 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   step_times_.total_ms += ms_since(t0);
   return st;
 }
-
-namespace {
-
-fs::path checkpoint_file(const fs::path& folder, uint64_t seq, const std::string& final_name) {
-  return folder / cat("checkpoint-", seq, "-", final_name);
-}
-
-}  // namespace
 
 // A checkpoint is one commit of the chunk store whose manifest names it (`checkpoint` entry): its
 // keyframe list and run state are written first under numbered names, the commit makes them the

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
@@ -40,8 +41,13 @@ struct MapRenderer::Impl {
 MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
   if (!fs::exists(folder / "manifest.txt")) fail(folder.string(), ": not a map folder (no manifest.txt)");
   impl_ = std::make_unique<Impl>(folder, config);
-  if (fs::exists(folder / "keyframes.txt")) keyframes_ = read_keyframe_records(folder / "keyframes.txt");
-  if (fs::exists(folder / "sky.bin")) impl_->sky = read_sky_file(folder / "sky.bin");
+  // The camera and sky of the checkpoint the manifest names, even where its run failed before they
+  // took their final names: a reader renames nothing.
+  uint64_t seq = 0;
+  if (const auto tag = impl_->store.config_value("checkpoint")) seq = std::strtoull(tag->c_str(), nullptr, 10);
+  const fs::path keyframes = committed_file(folder, seq, "keyframes.txt"), sky = committed_file(folder, seq, "sky.bin");
+  if (fs::exists(keyframes)) keyframes_ = read_keyframe_records(keyframes);
+  if (fs::exists(sky)) impl_->sky = read_sky_file(sky);
 }
 
 MapRenderer::~MapRenderer() = default;
