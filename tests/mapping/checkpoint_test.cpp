@@ -186,6 +186,32 @@ TEST(MapperCheckpoint, ARunEndedByAnErrorLeavesTheFolderAsItsLastCheckpointDid) 
   EXPECT_EQ(contents(b), at_checkpoint) << "a resumed run that ends without a checkpoint";
 }
 
+// An error that ends a run is reported once by whoever catches it; the checkpoint it leaves in flight
+// fails for the same cause (here the keyframe files could not be written) and was logged as a
+// second error ("[error] mapper: the checkpoint in flight failed"), as if a second fault happened.
+TEST(MapperCheckpoint, ACheckpointInFlightWhenAnErrorEndsTheRunIsNotASecondError) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(4);
+  const Config c = small_config();
+  const fs::path b = dir / "b";
+  testing::internal::CaptureStderr();
+  try {
+    Mapper m(b, c, false);
+    add_frames(m, seq, 0, 2);
+    m.checkpoint({{"next_frame", 2}});
+    fs::remove_all(b / "keyframes");  // the next keyframe's file cannot be written
+    add_frames(m, seq, 2, 3);
+    m.checkpoint({{"next_frame", 3}}, /*behind=*/true);
+    throw Error("the run's own error");
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "the run's own error");
+  }
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(err.find("[error]"), std::string::npos) << err;
+  EXPECT_NE(err.find("the previous one stands"), std::string::npos) << err;
+}
+
 TEST(MapperCheckpoint, AKeyframeChunkIndexOfTheWrongTypeIsNamedWithItsFile) {
   // It said only "keyframe chunk index: expected an object, got array".
   log::set_level(log::Level::Warn);
