@@ -66,3 +66,24 @@ TEST(Trajectory, AssociationPairsNearestStampsOnce) {
   EXPECT_EQ(pairs[1], std::make_pair(size_t(1), size_t(4)));  // 0.101 closer than 0.095
   EXPECT_EQ(pairs[2], std::make_pair(size_t(2), size_t(2)));
 }
+
+// A trajectory written into a map folder on a full or failing disk said only "write failed".
+TEST(Trajectory, AFailedWriteNamesTheFileAndTheSystemsReason) {
+  test::TempDir dir;
+  const auto file = dir / "trajectory.txt";
+  std::filesystem::create_symlink("/dev/full", file);
+  try {
+    write_tum_trajectory(file, random_walk(2000, 3));
+    FAIL() << "a write to a full disk went unnoticed";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("trajectory.txt: write failed (No space left on device)"), std::string::npos)
+        << e.what();
+  }
+  std::filesystem::create_directory(dir / "taken");
+  try {
+    write_kitti_trajectory(dir / "taken", random_walk(2, 3));
+    FAIL() << "wrote over a folder";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("taken: cannot open for writing (Is a directory)"), std::string::npos) << e.what();
+  }
+}

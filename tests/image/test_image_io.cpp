@@ -87,3 +87,19 @@ TEST(Image, ConversionsRoundTrip) {
   EXPECT_NEAR(g(1, 1), (0.299f * img(1, 1, 0) + 0.587f * img(1, 1, 1) + 0.114f * img(1, 1, 2)) / 255.f, 1e-6);
   EXPECT_THROW(Image8(3, 3, 5), Error);
 }
+
+// libpng's writer reported a full disk as "PNG write failed (Write Error)": the reason was lost.
+TEST(ImageIO, AFailedPngWriteGivesTheSystemsReason) {
+  test::TempDir dir;
+  std::filesystem::create_symlink("/dev/full", dir / "full.png");
+  std::mt19937 rng(5);
+  Image8 noise(256, 256, 3);  // compresses to more than the stdio buffer: written while encoding
+  for (auto& v : noise.vec()) v = uint8_t(rng());
+  try {
+    write_png(dir / "full.png", noise);
+    FAIL() << "a write to a full disk went unnoticed";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("full.png: PNG write failed (No space left on device)"), std::string::npos)
+        << e.what();
+  }
+}

@@ -1,6 +1,8 @@
 #include "chungs/eval/report.hpp"
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 
 namespace chungs {
@@ -64,10 +66,10 @@ void write_json(const std::filesystem::path& file, const json& j) {
   const std::filesystem::path tmp = file.string() + ".tmp";
   {
     std::ofstream out(tmp);
-    if (!out) fail(tmp.string(), ": cannot open for writing");
+    if (!out) fail(tmp.string(), ": cannot open for writing (", std::strerror(errno), ")");
     out << j.dump(2) << "\n";
     out.flush();
-    if (!out) fail(tmp.string(), ": write failed");
+    if (!out) fail(tmp.string(), ": write failed (", std::strerror(errno), ")");
   }
   std::error_code ec;
   std::filesystem::rename(tmp, file, ec);

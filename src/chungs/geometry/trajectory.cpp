@@ -1,7 +1,9 @@
 #include "chungs/geometry/trajectory.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <iomanip>
 
@@ -81,7 +83,7 @@ Trajectory read_trajectory(const std::filesystem::path& file, double rate_hz) {
 void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& tr) {
   if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
   std::ofstream out(file);
-  if (!out) fail(file.string(), ": cannot open for writing");
+  if (!out) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
   out << "# timestamp tx ty tz qx qy qz qw\n" << std::setprecision(17);
   for (size_t i = 0; i < tr.size(); ++i) {
     const auto& p = tr.poses[i];
@@ -89,20 +91,20 @@ void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& t
         << p.t.x() << ' ' << p.t.y() << ' ' << p.t.z() << ' ' << p.q.x() << ' ' << p.q.y() << ' ' << p.q.z()
         << ' ' << p.q.w() << '\n';
   }
-  if (!out.flush()) fail(file.string(), ": write failed");
+  if (!out.flush()) fail(file.string(), ": write failed (", std::strerror(errno), ")");
 }
 
 void write_kitti_trajectory(const std::filesystem::path& file, const Trajectory& tr) {
   if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
   std::ofstream out(file);
-  if (!out) fail(file.string(), ": cannot open for writing");
+  if (!out) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
   out << std::setprecision(12);
   for (const auto& p : tr.poses) {
     auto m = p.matrix3x4();
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c) out << m(r, c) << (r == 2 && c == 3 ? '\n' : ' ');
   }
-  if (!out.flush()) fail(file.string(), ": write failed");
+  if (!out.flush()) fail(file.string(), ": write failed (", std::strerror(errno), ")");
 }
 
 void write_trajectory(const std::filesystem::path& file, const Trajectory& tr, TrajectoryFormat f) {

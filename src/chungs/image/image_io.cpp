@@ -3,6 +3,7 @@
 #include <jpeglib.h>
 #include <png.h>
 
+#include <cerrno>
 #include <csetjmp>
 #include <cstdio>
 #include <cstring>
@@ -220,6 +221,16 @@ struct FileCloser {
   void operator()(FILE* f) const { std::fclose(f); }
 };
 
+// libpng's own writer says only "Write Error"; the system's reason (a full disk, an I/O error) is
+// what the user needs.
+void png_write_file(png_structp png, png_bytep data, size_t n) {
+  if (std::fwrite(data, 1, n, static_cast<FILE*>(png_get_io_ptr(png))) != n) png_error(png, std::strerror(errno));
+}
+
+void png_flush_file(png_structp png) {
+  if (std::fflush(static_cast<FILE*>(png_get_io_ptr(png))) != 0) png_error(png, std::strerror(errno));
+}
+
 bool encode_png(FILE* f, int w, int h, int channels, int depth, const unsigned char* const* rows, ErrBuf& err) {
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, png_err, png_warn);
   if (!png) return false;
@@ -228,7 +239,7 @@ bool encode_png(FILE* f, int w, int h, int channels, int depth, const unsigned c
     png_destroy_write_struct(&png, &info);
     return false;
   }
-  png_init_io(png, f);
+  png_set_write_fn(png, f, png_write_file, png_flush_file);
   // Fast zlib level: these are datasets and renders written in bulk, not archives.
   png_set_compression_level(png, 3);
   static const int types[] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB, PNG_COLOR_TYPE_RGBA};
