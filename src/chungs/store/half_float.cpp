@@ -6,6 +6,7 @@
 #include <limits>
 
 #if defined(__x86_64__) || defined(__i386__)
+#include <cpuid.h>
 #include <immintrin.h>
 #define CHUNGS_HAVE_F16C_PATH 1
 #endif
@@ -45,7 +46,10 @@ uint16_t float_to_half(float f) {
 #ifdef CHUNGS_HAVE_F16C_PATH
 namespace {
 bool cpu_has_f16c() {
-  static const bool yes = __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
+  // Clang 14 does not know "f16c" in __builtin_cpu_supports, so that bit is asked of CPUID itself;
+  // "avx" also covers the OS saving the AVX registers.
+  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+  static const bool yes = __builtin_cpu_supports("avx") && __get_cpuid(1, &eax, &ebx, &ecx, &edx) && (ecx & bit_F16C);
   return yes;
 }
 
