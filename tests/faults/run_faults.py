@@ -42,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from map_checks import Commits, check_committed, keyframe_ids, ply_count, read_manifest  # noqa: E402
 
-DATASET = "synth-street:length=60,width=160,height=48"
+DATASET = "synth-street:length=60,width=96,height=32,depth=1"
 RUN_ARGS = ["--poses", "gt", "--device", "cpu", "--iterations", "2", "--final-iterations", "0", "--no-eval", "-q"]
 CONFIG = """mapper:
   checkpoint_every: 5
