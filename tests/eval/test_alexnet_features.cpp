@@ -43,17 +43,24 @@ double max_rel_diff(const FeatureMap& got, const Tensor64& want) {
 // Every AlexNet conv geometry, plus odd sizes where stride and padding leave a ragged edge.
 TEST(AlexnetFeatures, ConvolutionMatchesFloat64Definition) {
   std::mt19937 rng(7);
+  // Channel counts around the AVX2 kernel's 6-channel panels, pixel counts around its 16-pixel
+  // ones, and more taps than one of its 256-tap passes (the last case: 300).
   const Case cases[] = {{3, 8, 11, 4, 2, 45, 38}, {5, 7, 5, 1, 2, 13, 9}, {6, 4, 3, 1, 1, 10, 11},
-                        {2, 3, 3, 2, 0, 9, 8},    {4, 5, 1, 1, 0, 6, 5}};
+                        {2, 3, 3, 2, 0, 9, 8},    {4, 5, 1, 1, 0, 6, 5},  {3, 6, 11, 4, 2, 71, 19},
+                        {3, 13, 11, 4, 2, 31, 31}, {12, 12, 5, 1, 2, 16, 2}};
   for (const Case& k : cases) {
     const FeatureMap in = random_map(k.in, k.height, k.width, rng);
     std::uniform_real_distribution<float> u(-0.5f, 0.5f);
     std::vector<float> w(size_t(k.out) * k.in * k.kernel * k.kernel), b(size_t(k.out));
     for (float& v : w) v = u(rng);
     for (float& v : b) v = u(rng);
-    const FeatureMap got = conv2d(in, w.data(), b.data(), k.out, k.kernel, k.stride, k.pad);
     const Tensor64 want = test::conv64(to64(in), w, b, k.out, k.kernel, k.stride, k.pad);
-    EXPECT_LT(max_rel_diff(got, want), 1e-5) << "kernel " << k.kernel << " stride " << k.stride;
+    for (ConvPath path : {ConvPath::Portable, ConvPath::Avx2}) {
+      if (path == ConvPath::Avx2 && !conv2d_avx2_available()) continue;
+      const FeatureMap got = conv2d(in, w.data(), b.data(), k.out, k.kernel, k.stride, k.pad, path);
+      EXPECT_LT(max_rel_diff(got, want), 1e-5)
+          << "kernel " << k.kernel << " stride " << k.stride << (path == ConvPath::Avx2 ? " (AVX2)" : " (portable)");
+    }
   }
 }
 

@@ -1,6 +1,5 @@
 #include "chungs/eval/alexnet_features.hpp"
 
-#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 
@@ -10,59 +9,12 @@ namespace chungs {
 
 namespace {
 
-using ColMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor>;
-
-// im2col of a full 1241x376 conv1 would take 42 MB and grows with the image: output rows are
-// unfolded a band at a time so the scratch stays near this many floats whatever the image size.
-constexpr size_t kColumnBudget = size_t(8) << 20;
-
 int out_size(int in, int kernel, int stride, int pad) {
   const int span = in + 2 * pad - kernel;
   return span < 0 ? 0 : span / stride + 1;
 }
 
 }  // namespace
-
-FeatureMap conv2d(const FeatureMap& in, const float* weight, const float* bias, int out, int kernel, int stride,
-                  int pad) {
-  const int oh = out_size(in.height, kernel, stride, pad), ow = out_size(in.width, kernel, stride, pad);
-  if (oh < 1 || ow < 1)
-    fail("conv2d: ", in.width, "x", in.height, " input is smaller than its ", kernel, "x", kernel, " kernel");
-  FeatureMap res(out, oh, ow);
-  const int taps = in.channels * kernel * kernel;
-  // Pixels as rows, channels as columns: the map's CHW storage is then a column-major matrix, and
-  // PyTorch's [out][in][ky][kx] weights are a column-major taps x out matrix as they lie.
-  const Eigen::Map<const ColMatrix> wm(weight, taps, out);
-  Eigen::Map<ColMatrix> om(res.data.data(), Eigen::Index(res.plane()), out);
-  const int band = int(std::clamp<size_t>(kColumnBudget / (size_t(ow) * taps), 1, size_t(oh)));
-  ColMatrix cols;
-  for (int y0 = 0; y0 < oh; y0 += band) {
-    const int rows = std::min(band, oh - y0);
-    const Eigen::Index pixels = Eigen::Index(rows) * ow;
-    cols.resize(pixels, taps);
-#pragma omp parallel for schedule(static)
-    for (int t = 0; t < taps; ++t) {
-      const int c = t / (kernel * kernel), ky = (t / kernel) % kernel, kx = t % kernel;
-      float* col = cols.data() + size_t(t) * pixels;
-      for (int r = 0; r < rows; ++r) {
-        const int iy = (y0 + r) * stride - pad + ky;
-        float* dst = col + size_t(r) * ow;
-        if (iy < 0 || iy >= in.height) {
-          std::fill(dst, dst + ow, 0.f);
-          continue;
-        }
-        const float* src = in.data.data() + c * in.plane() + size_t(iy) * in.width;
-        for (int x = 0; x < ow; ++x) {
-          const int ix = x * stride - pad + kx;
-          dst[x] = (ix >= 0 && ix < in.width) ? src[ix] : 0.f;
-        }
-      }
-    }
-    om.middleRows(Eigen::Index(y0) * ow, pixels).noalias() = cols * wm;
-  }
-  for (int o = 0; o < out; ++o) om.col(o).array() += bias[o];
-  return res;
-}
 
 void relu(FeatureMap& m) {
   for (float& v : m.data) v = std::max(v, 0.f);
