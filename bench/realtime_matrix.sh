@@ -12,7 +12,9 @@
 # GPU, so they share it alike); the 10 km drive at 72 km/h runs alone, after KITTI.
 # Env: BUNDLE (default .gpu/rt, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/rt`), DATA (a
 # folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1,
-# SKIP_KITTI=1, PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none).
+# SKIP_KITTI=1, PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none),
+# LPIPS_WEIGHTS (a DCLPIPS1 file, scripts/lpips_convert.py: every run also scores LPIPS; without it
+# the summary's lpips_held_out is null and lpips_unavailable says why).
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bundle=${BUNDLE:-$root/.gpu/rt}
@@ -27,9 +29,10 @@ cell() {  # cell NAME ARGS...: one mapping run in $work/NAME
   shift
   mkdir -p "$work/$name"
   echo "$*" >"$work/$name/args"
-  local poses=(--poses gt)
+  local poses=(--poses gt) lpips=()
   [[ " $* " == *" --poses "* ]] && poses=()
-  "$bin" run "${poses[@]}" --out "$work/$name/map" --device cuda "$@" >"$work/$name/log" 2>&1
+  [[ -n ${LPIPS_WEIGHTS:-} ]] && lpips=(--lpips-weights "$LPIPS_WEIGHTS")
+  "$bin" run "${poses[@]}" "${lpips[@]}" --out "$work/$name/map" --device cuda "$@" >"$work/$name/log" 2>&1
   echo $? >"$work/$name/exit"
 }
 
@@ -98,6 +101,8 @@ for n in sorted(os.listdir(work)):
            "exit": open(os.path.join(work, n, "exit")).read().strip() if os.path.exists(os.path.join(work, n, "exit")) else None,
            "psnr_held_out": r.get("held_out", {}).get("mean_psnr"),
            "ssim_held_out": r.get("held_out", {}).get("mean_ssim"),
+           "lpips_held_out": r.get("held_out", {}).get("mean_lpips"),
+           "lpips_unavailable": r.get("held_out", {}).get("lpips_unavailable"),
            "psnr_keyframes": r.get("keyframes_eval", {}).get("mean_psnr"),
            "io_wait_share": t.get("io_wait_share"), "fps": t.get("processing_fps"),
            "mapping_s": t.get("mapping_s"), "intake_kmh": t.get("intake_kmh"),
