@@ -82,6 +82,8 @@ TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFlo
   // Below what one view needs: the farthest chunks stay out of each render, and their screen area
   // is not sampled again.
   EXPECT_GT(fixed_tiny.pacing()["views_over_budget"].get<uint64_t>(), 10u);
+  // ... and the pixels those chunks would draw are not scored on window keyframes either.
+  EXPECT_GT(fixed_tiny.pacing()["training_window"]["trimmed_step_share"].get<double>(), 0.0);
   EXPECT_LE(fixed_tiny.report["gaussians"]["peak_resident"].get<uint64_t>(), 3000u);
   for (const Cell* c : {&fixed_small, &fixed_tiny}) EXPECT_LT(double(c->total()), 1.25 * double(fixed.total()));
   EXPECT_LT(double(fast_small.total()), 1.25 * double(fast.total()));

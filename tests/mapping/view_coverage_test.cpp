@@ -60,6 +60,14 @@ TEST(ViewCoverage, MaskFollowsTheChunkEachBlockCentreSees) {
         EXPECT_EQ(m(x, y), c && accepted.count(*c) ? 1 : 0) << x << "," << y;
         if (x % B == 0 && y % B == 0) ++blocks, in += c && accepted.count(*c);
       }
+    // Blocks that see no surface take the `unseen` value; the others are as above.
+    const Image8 kept = v.mask(rendered, true);
+    for (int y = 0; y < 37; ++y)
+      for (int x = 0; x < 61; ++x) {
+        const int cx = std::min(x / B * B + B / 2, 60), cy = std::min(y / B * B + B / 2, 36);
+        const auto c = chunk_seen(s, cx, cy, 5.0, fill);
+        EXPECT_EQ(kept(x, y), !c || accepted.count(*c) ? 1 : 0) << x << "," << y;
+      }
     EXPECT_NEAR(v.coverage(rendered), double(in) / double(blocks), 1e-12);
     EXPECT_GT(in, 0u);
     EXPECT_LT(in, blocks);

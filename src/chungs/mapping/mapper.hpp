@@ -112,6 +112,9 @@ class Mapper {
     // Steps on a keyframe outside the window, on the resident part of its view; and picks outside
     // it whose resident part covered too little, trained on a window keyframe instead.
     uint64_t partial_steps = 0, partial_too_small = 0;
+    // Steps on a window keyframe whose view needs more than the budget, scored without the pixels
+    // that its left-out (farthest) chunks would have drawn.
+    uint64_t trimmed_steps = 0;
     double keyframes = 0, cell_keyframes = 0, reach_m = 0;  // sums over the narrowed updates
   };
   const WindowStats& window_stats() const { return window_stats_; }

@@ -364,7 +364,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                                {"mean_reach_m", w.reach_m / n},
                                {"partial_step_share",
                                 double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
-                               {"partial_too_small", w.partial_too_small}};
+                               {"partial_too_small", w.partial_too_small},
+                               {"trimmed_step_share",
+                                double(w.trimmed_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))}};
     }
     report["pacing"] = pj;
   }

@@ -50,7 +50,7 @@ double ViewCoverage::coverage(const std::function<bool(ChunkId)>& rendered) cons
   return double(n) / double(blocks_.size());
 }
 
-Image8 ViewCoverage::mask(const std::function<bool(ChunkId)>& rendered) const {
+Image8 ViewCoverage::mask(const std::function<bool(ChunkId)>& rendered, bool unseen) const {
   const std::vector<bool> ok = accepted(rendered);
   Image8 m(width_, height_, 1, 0);
   for (int y = 0; y < height_; ++y) {
@@ -58,7 +58,7 @@ Image8 ViewCoverage::mask(const std::function<bool(ChunkId)>& rendered) const {
     uint8_t* out = &m(0, y);
     for (int x = 0; x < width_; ++x) {
       const uint16_t b = row[x / kBlock];
-      out[x] = b != kNone && ok[b];
+      out[x] = b == kNone ? unseen : ok[b];
     }
   }
   return m;

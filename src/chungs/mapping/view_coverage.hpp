@@ -35,8 +35,10 @@ class ViewCoverage {
   const std::vector<ChunkId>& chunks() const { return chunks_; }
   // Share of the blocks whose chunk satisfies `rendered` (0 when the view has no block).
   double coverage(const std::function<bool(ChunkId)>& rendered) const;
-  // Full-resolution mask: 1 where the pixel's block sees a chunk that `rendered` accepts, else 0.
-  Image8 mask(const std::function<bool(ChunkId)>& rendered) const;
+  // Full-resolution mask: 1 where the pixel's block sees a chunk that `rendered` accepts, else 0;
+  // blocks that see no surface get `unseen` (a partial render cannot tell what they show; a whole
+  // view trimmed of its farthest chunks still draws its sky there).
+  Image8 mask(const std::function<bool(ChunkId)>& rendered, bool unseen = false) const;
   bool empty() const { return blocks_.empty(); }
 
  private:
