@@ -60,10 +60,9 @@ Sensor read_sensor(const fs::path& dir) {
       fail(file.string(), ": distortion model '", model, "' is not supported (radial-tangential only)");
     std::string cam_model = root["camera_model"] ? root["camera_model"].as<std::string>() : "pinhole";
     if (cam_model != "pinhole") fail(file.string(), ": camera model '", cam_model, "' is not supported (pinhole only)");
-    for (int k = 0; k < 2; ++k)
-      if (!(res[k] > 0 && res[k] == double(int(res[k])))) fail(file.string(), ": resolution must be positive whole pixels");
-    s.camera = Camera(int(res[0]), int(res[1]), require_positive(intr[0], file, "fu"),
-                      require_positive(intr[1], file, "fv"), intr[2], intr[3]);
+    s.camera = Camera(
+        require_pixels(res[0], file, "resolution width"), require_pixels(res[1], file, "resolution height"),
+        require_positive(intr[0], file, "fu"), require_positive(intr[1], file, "fv"), intr[2], intr[3]);
     for (size_t k = 0; k < dist.size(); ++k) s.camera.dist[k] = dist[k];
     s.T_BS = SE3::from_matrix(Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(T.data()),
                               cat(file.string(), ": T_BS").c_str());

@@ -164,4 +164,11 @@ double require_positive(double v, const fs::path& file, const std::string& what)
   return v;
 }
 
+int require_pixels(double v, const fs::path& file, const std::string& what) {
+  if (!(v >= 1 && v <= double(kMaxImagePixels) && v == std::floor(v)))
+    fail(file.string(), ": ", what, " must be a whole number of pixels in [1, ", kMaxImagePixels, "], got ",
+         v);
+  return int(v);
+}
+
 }  // namespace chungs::ds

@@ -65,5 +65,8 @@ std::vector<std::optional<SE3>> poses_at(const Trajectory& gt, const std::vector
 
 // Throws "FILE: WHAT must be positive, got V" unless v is finite and > 0.
 double require_positive(double v, const fs::path& file, const std::string& what);
+// An image side read as a number: whole and in [1, kMaxImagePixels], checked before it becomes an
+// int (converting a larger double is undefined behaviour). Throws naming the file and WHAT.
+int require_pixels(double v, const fs::path& file, const std::string& what);
 
 }  // namespace chungs::ds

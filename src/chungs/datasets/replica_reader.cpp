@@ -37,10 +37,9 @@ Intrinsics read_cam_params(const fs::path& file) {
     return c[key].get<double>();
   };
   Intrinsics in;
-  double w = require_positive(num("w"), file, "camera.w");
-  double h = require_positive(num("h"), file, "camera.h");
-  if (w != double(int(w)) || h != double(int(h))) fail(file.string(), ": camera.w and camera.h must be whole pixels");
-  in.camera = Camera(int(w), int(h), require_positive(num("fx"), file, "camera.fx"),
+  const int w = require_pixels(num("w"), file, "camera.w");
+  const int h = require_pixels(num("h"), file, "camera.h");
+  in.camera = Camera(w, h, require_positive(num("fx"), file, "camera.fx"),
                      require_positive(num("fy"), file, "camera.fy"), num("cx"), num("cy"));
   in.depth_scale = c.contains("scale") ? require_positive(num("scale"), file, "camera.scale") : 6553.5;
   return in;
