@@ -240,6 +240,29 @@ TEST(Residency, UnpinOfAnUnpinnedChunkIsAnErrorAndChangesNothing) {
   EXPECT_TRUE(r.res->is_pinned(cid(0)));
 }
 
+// A write behind that failed once and succeeded when a flush retried it left no trace: the run went
+// on with exit status 0 and nobody learnt that the disk had refused a write.
+TEST(Residency, AFailedBackgroundWriteThatARetryMendsIsStillReported) {
+  Rig r({100, 100}, 1000, true);
+  r.pin1(cid(0));
+  r.res->mark_dirty(cid(0));
+  const GaussianBlock modified = r.gathered(cid(0));
+  r.unpin1(cid(0));
+  const auto chunks = r.dir / "chunks";
+  std::filesystem::rename(chunks, r.dir / "chunks.away");
+  std::ofstream(chunks) << "not a folder";
+  r.res->evict(cid(0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the background write fails meanwhile
+  std::filesystem::remove(chunks);
+  std::filesystem::rename(r.dir / "chunks.away", chunks);
+  testing::internal::CaptureStderr();
+  r.res->flush();
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("trying it again"), std::string::npos) << err;
+  EXPECT_NE(err.find("chunks"), std::string::npos) << err;
+  EXPECT_TRUE(test::same_bits(r.store->load(cid(0)), modified));
+}
+
 TEST(Residency, FailedBackgroundWriteKeepsTheDataReportsTheErrorAndRetries) {
   Rig r({100, 100}, 1000, true);
   r.pin1(cid(0));

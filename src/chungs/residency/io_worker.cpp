@@ -127,7 +127,13 @@ void IoWorker::drain() {
   std::unique_lock lock(mutex_);
   if (error_) {
     // Try the failed write again (its block is still queued): a full disk that the user cleared
-    // must not leave the map unwritable for the rest of the run.
+    // must not leave the map unwritable for the rest of the run. Said aloud, since a retry that
+    // succeeds would otherwise hide that the disk failed once.
+    try {
+      std::rethrow_exception(error_);
+    } catch (const std::exception& e) {
+      log::warn("chunk I/O: a write behind failed (", e.what(), "); trying it again");
+    }
     error_ = nullptr;
     work_cv_.notify_one();
   }
