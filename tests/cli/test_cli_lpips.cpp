@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <fstream>
 #include <random>
 
 #include "chungs/eval/lpips_weights.hpp"
@@ -84,4 +85,51 @@ TEST(CliLpips, BadWeightsFlagIsOneErrorNamingTheFile) {
               (p.dir / "w.dclpips").string());
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.out.find("LPIPS has no masked form"), std::string::npos) << r.out;
+}
+
+namespace {
+
+chungs::test::CliResult run_street(const fs::path& out, const std::string& extra) {
+  return run_cli("-q run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --max-frames 8 "
+                 "--iterations 2 --out " + out.string() + " " + extra);
+}
+
+nlohmann::json report_of(const fs::path& map) {
+  std::ifstream f(map / "report.json");
+  return nlohmann::json::parse(f, nullptr, false);
+}
+
+}  // namespace
+
+TEST(CliLpips, RunReportsLpipsOnlyWithWeights) {
+  chungs::test::TempDir dir;
+  auto r = run_street(dir / "plain", "");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("LPIPS: not available (no --lpips-weights or mapper.lpips_weights given)"), std::string::npos)
+      << r.out;
+  nlohmann::json j = report_of(dir / "plain");
+  ASSERT_TRUE(j.contains("held_out")) << j.dump();
+  EXPECT_TRUE(j["held_out"]["mean_lpips"].is_null());
+  EXPECT_EQ(j["held_out"]["lpips_unavailable"], "no --lpips-weights or mapper.lpips_weights given");
+  for (const auto& v : j["held_out"]["views"]) EXPECT_TRUE(v["lpips"].is_null());
+
+  // Through the configuration key, as a benchmark's file would give it.
+  chungs::write_lpips_weights(dir / "w.dclpips", chungs::test::random_lpips_weights(12));
+  std::ofstream(dir / "lpips.yaml") << "mapper:\n  lpips_weights: " << (dir / "w.dclpips").string() << "\n";
+  r = run_street(dir / "scored", "--config " + (dir / "lpips.yaml").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("LPIPS 0."), std::string::npos) << r.out;
+  j = report_of(dir / "scored");
+  ASSERT_TRUE(j["held_out"]["mean_lpips"].is_number()) << j["held_out"].dump();
+  EXPECT_GT(j["held_out"]["mean_lpips"].get<double>(), 0.0);
+  EXPECT_FALSE(j["held_out"].contains("lpips_unavailable"));
+  EXPECT_TRUE(j["keyframes_eval"]["mean_lpips"].is_number());
+}
+
+TEST(CliLpips, RunRefusesABadWeightsFileBeforeMapping) {
+  chungs::test::TempDir dir;
+  auto r = run_street(dir / "map", "--lpips-weights " + (dir / "absent.dclpips").string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("absent.dclpips: LPIPS weights file does not exist"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "map"));
 }
