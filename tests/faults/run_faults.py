@@ -13,7 +13,9 @@ and ENOSPC, the same run is made with operation N failing, and the outcome is ju
              faults finishes the map with the reference's keyframes
   crash      killed by a signal or an abort message on stderr
   hang       still running after the time limit
-  absorbed   exit status 0 although the fault fired
+  recovered  exit status 0 after a warning naming the file and the reason: a chunk write behind the
+             optimiser that failed is tried again at the next checkpoint, and the retry succeeded
+  absorbed   exit status 0 although the fault fired, and nothing said so
   unclear    not exactly one error line, or it names neither the file nor the reason
   damaged    the folder does not read or is not at its last commit
   stuck      `run --resume` failed or finished a different map
@@ -123,11 +125,19 @@ class Sweep:
             return "crash", label, f"exit {rc}: {err[-300:]}"
         if not fired:
             return ("pass" if rc == 0 else "unclear"), label, "fault not reached" if rc == 0 else err[-300:]
-        if rc == 0:
-            return "absorbed", label, "exit 0"
-        errors = [l for l in err.splitlines() if l.startswith("diskchungs: error:") or l.startswith("[error]")]
         path = what[1].replace(" FAILED", "")
         named = Path(path).name.split(".tmp-")[0]
+        if rc == 0:
+            # A write behind the optimiser is tried again at the next flush: a fault that the retry
+            # mends may let the run finish, but it must be said, naming the file and the reason.
+            warned = [l for l in err.splitlines() if l.startswith("[warning]") and named in l and REASONS[errno_name] in l]
+            if not warned:
+                return "absorbed", label, "exit 0 without a word: " + " | ".join(err.strip().splitlines()[-3:])
+            final = keyframe_ids((folder / "keyframes.txt").read_text())
+            if final != self.final_keyframes:
+                return "damaged", label, f"the run went on after a warning but made {len(final)} keyframes"
+            return "recovered", label, warned[0][:160]
+        errors = [l for l in err.splitlines() if l.startswith("diskchungs: error:") or l.startswith("[error]")]
         if len(errors) != 1 or REASONS[errno_name] not in errors[0] or named not in errors[0]:
             return "unclear", label, " | ".join(err.strip().splitlines()[-4:])
         problems, k = check_committed(folder, Commits(keep), self.commits)
