@@ -1,114 +1,22 @@
-// memory.png: four panels against time sharing one x axis, drawn on a bitmap with its own font so
-// the mapper needs no plotting library.
+// memory.png: four panels against time sharing one x axis, drawn on a plot canvas (plot_canvas.hpp).
 #include <algorithm>
-#include <array>
-#include <cctype>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <string>
 
 #include "chungs/image/image_io.hpp"
 #include "chungs/mapping/pacing_summary.hpp"
+#include "chungs/mapping/plot_canvas.hpp"
 #include "chungs/mapping/timeline.hpp"
 
 namespace chungs {
 namespace {
 
-// A 3x5 bitmap font (rows top to bottom): digits, capitals, the signs the labels use.
-const std::map<char, const char*>& font() {
-  static const std::map<char, const char*> f = {
-      {'0', "####.##.##.####"}, {'1', ".#.##..#..#.###"}, {'2', "###..#####..###"}, {'3', "###..####..####"},
-      {'4', "#.##.####..#..#"}, {'5', "####..###..####"}, {'6', "####..####.####"}, {'7', "###..#..#..#..#"},
-      {'8', "####.#####.####"}, {'9', "####.####..####"}, {'A', ".#.#.#####.##.#"}, {'B', "##.#.###.#.###."},
-      {'C', "####..#..#..###"}, {'D', "##.#.##.##.###."}, {'E', "####..####..###"}, {'F', "####..####..#.."},
-      {'G', "####..#.##.####"}, {'H', "#.##.#####.##.#"}, {'I', "###.#..#..#.###"}, {'J', "..#..#..##.####"},
-      {'K', "#.##.###.#.##.#"}, {'L', "#..#..#..#..###"}, {'M', "#.########.##.#"}, {'N', "##.#.##.##.##.#"},
-      {'O', "####.##.##.####"}, {'P', "####.#####..#.."}, {'Q', ".#.#.##.###..##"}, {'R', "##.#.###.#.##.#"},
-      {'S', "####..###..####"}, {'T', "###.#..#..#..#."}, {'U', "#.##.##.##.####"}, {'V', "#.##.##.##.#.#."},
-      {'W', "#.##.########.#"}, {'X', "#.##.#.#.#.##.#"}, {'Y', "#.##.#.#..#..#."}, {'Z', "###..#.#.#..###"},
-      {'.', ".............#."}, {'-', "......###......"}, {'(', ".#.#..#..#...#."}, {')', ".#...#..#..#.#."},
-      {'/', "..#..#.#.#..#.."}, {'%', "#....#.#.#....#"}, {':', "....#.....#...."}, {',', "..........#.#.."},
-      {'+', "....#.###.#...."}, {'=', "...###...###..."}, {' ', "..............."}};
-  return f;
-}
-
-constexpr int kScale = 2, kAdvance = 4 * kScale, kTextH = 5 * kScale;
-
-using Rgb = std::array<uint8_t, 3>;
-const Rgb kBlack{0, 0, 0}, kGrid{232, 232, 232}, kBudget{150, 150, 150}, kTotal{30, 80, 220},
+const PlotRgb kBlack{0, 0, 0}, kGrid{232, 232, 232}, kBudget{150, 150, 150}, kTotal{30, 80, 220},
     kResident{220, 40, 40}, kOnDisk{240, 140, 0}, kRss{20, 150, 60}, kVram{140, 50, 180}, kLoads{0, 160, 170},
     kSaves{220, 60, 170}, kDisk{170, 140, 0}, kSteps{60, 60, 60};
 
-struct Canvas {
-  Image8 img;
-  TimelinePlotBox clip{0, 0, 1 << 30, 1 << 30};  // curves stay inside their panel
-  void px(int x, int y, const Rgb& c) {
-    if (x < std::max(0, clip.x0) || y < std::max(0, clip.y0) || x >= img.width() || y >= img.height() ||
-        x > clip.x1 || y > clip.y1)
-      return;
-    for (int k = 0; k < 3; ++k) img(x, y, k) = c[size_t(k)];
-  }
-  // dash > 0: on and off runs of that many pixels along the path; `path` carries the distance
-  // drawn so far from one segment to the next, so a polyline of many short (or steep) segments still
-  // reads as dashed.
-  void line(double x0, double y0, double x1, double y1, const Rgb& c, int thick = 2, int dash = 0,
-            double* path = nullptr) {
-    const int n = int(std::max(std::abs(x1 - x0), std::abs(y1 - y0))) + 1;
-    const double len = std::hypot(x1 - x0, y1 - y0), start = path ? *path : 0;
-    if (path) *path += len;
-    for (int i = 0; i <= n; ++i) {
-      const double t = double(i) / n;
-      const int x = int(std::lround(x0 + t * (x1 - x0))), y = int(std::lround(y0 + t * (y1 - y0)));
-      if (dash && int((start + t * len) / dash) % 2) continue;
-      for (int dy = 0; dy < thick; ++dy)
-        for (int dx = 0; dx < thick; ++dx) px(x + dx - (thick - 1) / 2, y + dy - (thick - 1) / 2, c);
-    }
-  }
-  void text(int x, int y, const std::string& s, const Rgb& c) {
-    for (char ch : s) {
-      auto it = font().find(char(std::toupper(static_cast<unsigned char>(ch))));
-      const char* g = it == font().end() ? font().at(' ') : it->second;
-      for (int r = 0; r < 5; ++r)
-        for (int q = 0; q < 3; ++q)
-          if (g[r * 3 + q] == '#')
-            for (int dy = 0; dy < kScale; ++dy)
-              for (int dx = 0; dx < kScale; ++dx) px(x + q * kScale + dx, y + r * kScale + dy, c);
-      x += kAdvance;
-    }
-  }
-  static int width(const std::string& s) { return int(s.size()) * kAdvance; }
-};
-
-// Axis from 0 to a multiple of a round step (1, 2, 2.5 or 5 times a power of ten) with at most six
-// intervals, ending at the first multiple at or above v: 105 keyframes end at 120, not at 200.
-struct Axis {
-  double step = 1, end = 1;
-  int ticks = 1;
-};
-
-Axis axis_for(double v) {
-  if (!(v > 0)) v = 1;
-  const double target = v / 6.0, p = std::pow(10.0, std::floor(std::log10(target)));
-  Axis a;
-  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
-    if (m * p >= target * (1 - 1e-12)) {
-      a.step = m * p;
-      break;
-    }
-  a.ticks = std::max(1, int(std::ceil(v / a.step - 1e-9)));
-  a.end = a.ticks * a.step;
-  return a;
-}
-
-std::string number(double v) {
-  char buf[32];
-  if (std::abs(v - std::round(v)) < 1e-9 * std::max(1.0, std::abs(v)))
-    std::snprintf(buf, sizeof buf, "%.0f", v);
-  else
-    std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
+PlotBox plot_box(const TimelinePlotBox& b) { return {b.x0, b.y0, b.x1, b.y1}; }
 
 // A count's display unit, chosen so the axis labels stay short: none, thousands or millions.
 struct Unit {
@@ -124,19 +32,19 @@ Unit count_unit(double max) {
 // One panel: a plot box with a left value axis (and optionally a right one) under a title row and a
 // legend row, so no curve passes under the legend.
 struct Panel {
-  Canvas& cv;
+  PlotCanvas& cv;
   const std::vector<TimelineSample>& samples;
   TimelinePlotBox box;
-  Axis x;
+  PlotAxis x;
   double t_div = 1;  // seconds per x unit
-  Axis left;
+  PlotAxis left;
   double left_div = 1;  // sample units per left axis unit
-  Axis right{};
+  PlotAxis right{};
   double right_div = 1;
   int legend_x = 0;
 
   double X(double t) const { return box.x0 + t / x.end * (box.x1 - box.x0); }
-  double Y(const Axis& a, double v) const { return box.y1 - v / a.end * (box.y1 - box.y0); }
+  double Y(const PlotAxis& a, double v) const { return box.y1 - v / a.end * (box.y1 - box.y0); }
 
   void frame(bool x_labels, bool right_axis) {
     for (int i = 1; i <= left.ticks; ++i)
@@ -148,40 +56,40 @@ struct Panel {
     cv.line(box.x0, box.y0, box.x1, box.y0, kBlack, 1);
     for (int i = 0; i <= left.ticks; ++i) {
       const double y = Y(left, i * left.step);
-      const std::string l = number(i * left.step);
+      const std::string l = plot_number(i * left.step);
       cv.line(box.x0 - 5, y, box.x0, y, kBlack, 1);
-      cv.text(box.x0 - 9 - Canvas::width(l), int(y) - kTextH / 2, l, kBlack);
+      cv.text(box.x0 - 9 - PlotCanvas::width(l), int(y) - kPlotTextHeight / 2, l, kBlack);
     }
     if (right_axis)
       for (int i = 0; i <= right.ticks; ++i) {
         const double y = Y(right, i * right.step);
         cv.line(box.x1, y, box.x1 + 5, y, kBlack, 1);
-        cv.text(box.x1 + 9, int(y) - kTextH / 2, number(i * right.step), kBlack);
+        cv.text(box.x1 + 9, int(y) - kPlotTextHeight / 2, plot_number(i * right.step), kBlack);
       }
     for (int i = 0; i <= x.ticks; ++i) {
       const double px = X(i * x.step);
       cv.line(px, box.y1, px, box.y1 + 5, kBlack, 1);
-      const std::string l = number(i * x.step);
-      if (x_labels) cv.text(int(px) - Canvas::width(l) / 2, box.y1 + 10, l, kBlack);
+      const std::string l = plot_number(i * x.step);
+      if (x_labels) cv.text(int(px) - PlotCanvas::width(l) / 2, box.y1 + 10, l, kBlack);
     }
     legend_x = box.x0;
   }
   void title(const std::string& s, const std::string& right_label = "") {
     cv.text(box.x0 - 60, box.y0 - 42, s, kBlack);
     if (!right_label.empty())
-      cv.text(box.x1 + 60 - Canvas::width(right_label), box.y0 - 42, right_label, kBlack);
+      cv.text(box.x1 + 60 - PlotCanvas::width(right_label), box.y0 - 42, right_label, kBlack);
   }
-  void legend(const Rgb& c, const std::string& s, int dash = 0) {
+  void legend(const PlotRgb& c, const std::string& s, int dash = 0) {
     const int y = box.y0 - 22;
-    cv.line(legend_x, y + kTextH / 2, legend_x + 24, y + kTextH / 2, c, 3, dash);
+    cv.line(legend_x, y + kPlotTextHeight / 2, legend_x + 24, y + kPlotTextHeight / 2, c, 3, dash);
     cv.text(legend_x + 30, y, s, kBlack);
-    legend_x += 30 + Canvas::width(s) + 24;
+    legend_x += 30 + PlotCanvas::width(s) + 24;
   }
   // One curve against the left or the right axis.
-  void curve(bool on_right, double (*value)(const TimelineSample&), const Rgb& c, int thick, int dash = 0) {
-    const Axis& a = on_right ? right : left;
+  void curve(bool on_right, double (*value)(const TimelineSample&), const PlotRgb& c, int thick, int dash = 0) {
+    const PlotAxis& a = on_right ? right : left;
     const double div = on_right ? right_div : left_div;
-    cv.clip = box;
+    cv.clip_to(plot_box(box));
     auto point = [&](const TimelineSample& s) {
       return std::pair{X(s.seconds / t_div), Y(a, value(s) / div)};
     };
@@ -193,7 +101,7 @@ struct Panel {
       if (!std::isfinite(x0 + y0 + x1 + y1)) continue;
       if (i > 0 || samples.size() == 1) cv.line(x0, y0, x1, y1, c, thick, dash, &path);
     }
-    cv.clip = {0, 0, 1 << 30, 1 << 30};
+    cv.unclip();
   }
 };
 
@@ -225,7 +133,7 @@ TimelinePlotLayout timeline_plot_layout() {
 
 void write_timeline_plot(const std::filesystem::path& file, const std::vector<TimelineSample>& samples,
                          uint64_t budget) {
-  Canvas cv{Image8(kW, kH, 3, 255)};
+  PlotCanvas cv{Image8(kW, kH, 3, 255)};
   const TimelinePlotLayout lay = timeline_plot_layout();
   double max_t = 0, max_g = 0, max_mem = 1, max_io = 0, max_disk = 0;
   bool any_vram = false;
@@ -240,21 +148,21 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
   // Minutes past three minutes: a long run read in seconds needs mental arithmetic at every tick.
   const bool minutes = max_t > 180;
   const double t_div = minutes ? 60 : 1;
-  const Axis ax = axis_for(max_t / t_div);
+  const PlotAxis ax = plot_axis(max_t / t_div);
 
   // Gaussians. The budget line is drawn when it is near the data; a budget far above would flatten
   // the curves, so the legend names it as off scale instead.
   const bool show_budget = budget > 0 && double(budget) <= 1.5 * std::max(max_g, 1.0);
   const double g_top = std::max(max_g, show_budget ? double(budget) : 0.0);
   const Unit gu = count_unit(g_top);
-  Panel g{cv, samples, lay.gaussians, ax, t_div, axis_for(g_top / gu.div), gu.div};
+  Panel g{cv, samples, lay.gaussians, ax, t_div, plot_axis(g_top / gu.div), gu.div};
   g.frame(false, false);
   g.title("GAUSSIANS" + (gu.name.empty() ? std::string() : " (" + gu.name + ")"));
   if (show_budget) {
     const double y = g.Y(g.left, double(budget) / gu.div);
-    cv.clip = g.box;
+    cv.clip_to(plot_box(g.box));
     cv.line(g.box.x0, y, g.box.x1, y, kBudget, 2, 8);
-    cv.clip = {0, 0, 1 << 30, 1 << 30};
+    cv.unclip();
   }
   // On disk and resident first, total over them dashed and thinner: while nothing is evicted resident
   // and total coincide, and the resident line's top row still shows (also at 0, where the box clips
@@ -266,11 +174,11 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
   g.legend(kResident, "RESIDENT");
   g.legend(kOnDisk, "ON DISK");
   const Unit bu = count_unit(double(budget));
-  const std::string bl = "BUDGET " + number(double(budget) / bu.div) + bu.name;
+  const std::string bl = "BUDGET " + plot_number(double(budget) / bu.div) + bu.name;
   g.legend(kBudget, show_budget ? bl : bl + " (OFF SCALE)", 8);
 
   // Memory.
-  Panel m{cv, samples, lay.memory, ax, t_div, axis_for(max_mem), 1};
+  Panel m{cv, samples, lay.memory, ax, t_div, plot_axis(max_mem), 1};
   m.frame(false, false);
   m.title("MEMORY (MB)");
   m.curve(false, rss, kRss, 3);
@@ -285,7 +193,7 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
   const bool gb = max_disk >= 1024;
   const double disk_div = gb ? 1024 : 1;
   Panel io{
-      cv,      samples, lay.io, ax, t_div, axis_for(max_io / iu.div), iu.div, axis_for(max_disk / disk_div),
+      cv,      samples, lay.io, ax, t_div, plot_axis(max_io / iu.div), iu.div, plot_axis(max_disk / disk_div),
       disk_div};
   io.frame(false, true);
   std::string title = "CHUNKS LOADED/SAVED" + (iu.name.empty() ? std::string() : " (" + iu.name + ")");
@@ -316,7 +224,7 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
     max_steps = std::max(max_steps, double(n));
   }
   // Headroom above the largest value, so a constant count (fixed pacing) does not hide in the frame.
-  Panel st{cv, per_kf, lay.steps, ax, t_div, axis_for(max_steps * 1.15), 1};
+  Panel st{cv, per_kf, lay.steps, ax, t_div, plot_axis(max_steps * 1.15), 1};
   st.frame(true, false);
   char buf[160], ck[64];
   std::snprintf(buf, sizeof buf, "STEPS PER KEYFRAME: MEAN %.1f, LOWEST MINUTE %.1f   %llu KEYFRAMES DROPPED",
@@ -327,7 +235,7 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
   st.legend(kSteps, "STEPS EACH KEYFRAME GOT");
 
   const std::string xl = minutes ? "TIME (MIN)" : "TIME (S)";
-  cv.text((lay.steps.x0 + lay.steps.x1 - Canvas::width(xl)) / 2, lay.steps.y1 + 32, xl, kBlack);
+  cv.text((lay.steps.x0 + lay.steps.x1 - PlotCanvas::width(xl)) / 2, lay.steps.y1 + 32, xl, kBlack);
   write_png(file, cv.img);
 }
 
