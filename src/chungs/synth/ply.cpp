@@ -211,13 +211,17 @@ Mesh read_ply(const std::filesystem::path& file) {
           continue;
         }
         double cnt = body.read(p.count_type);
-        if (cnt < 0 || cnt > 1e6) fail(body.where(), ": bad list length ", cnt, " in ", e.name, " ", k);
+        // Counts and indices arrive as doubles (a float type is legal PLY): a NaN passes every
+        // comparison as false, and a NaN or fractional one made int() undefined or truncated.
+        if (!(cnt >= 0 && cnt <= 1e6 && cnt == std::floor(cnt)))
+          fail(body.where(), ": bad list length ", cnt, " in ", e.name, " ", k);
         poly.clear();
         for (int j = 0; j < int(cnt); ++j) {
           double idx = body.read(p.type);
           if (is_face && int(i) == iface) {
-            if (idx < 0 || idx >= double(mesh.vertices.size()))
-              fail(body.where(), ": face ", k, " refers to vertex ", idx, " but there are ", mesh.vertices.size());
+            if (!(idx >= 0 && idx < double(mesh.vertices.size()) && idx == std::floor(idx)))
+              fail(body.where(), ": face ", k, " refers to vertex ", idx, " but there are ",
+                   mesh.vertices.size());
             poly.push_back(uint32_t(idx));
           }
         }
@@ -232,6 +236,8 @@ Mesh read_ply(const std::filesystem::path& file) {
         if (have_colors) {
           auto c8 = [&](int i) {
             double v = vals[i];
+            if (!std::isfinite(v))
+              fail(body.where(), ": vertex ", k, " has ", e.props[i].name, " = ", v, ", not a finite colour");
             if (e.props[i].type == Type::F32 || e.props[i].type == Type::F64) v *= 255.0;
             return uint8_t(v < 0 ? 0 : v > 255 ? 255 : v + 0.5);
           };
