@@ -50,7 +50,7 @@ std::string Manifest::serialize() const {
      << "sh_degree " << sh_degree << '\n'
      << "next_generation " << next_generation << '\n';
   for (const auto& [k, v] : config) {
-    if (k.empty() || k.find_first_of(" \t\r\n") != std::string::npos)
+    if (k.empty() || k.find_first_of(" \t\r\n\v\f") != std::string::npos)
       fail("manifest: config key '", k, "' must be non-empty and free of blanks");
     if (v.find_first_of("\r\n") != std::string::npos)
       fail("manifest: config value of '", k, "' must not contain line breaks");
@@ -115,6 +115,8 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
       std::getline(ls, v);
       if (!v.empty() && v[0] == ' ') v.erase(0, 1);
       if (k.empty() || !m.config.emplace(k, v).second) bad("missing or repeated config key '" + k + "'");
+      // serialize() refuses it, so a map read with one could never be checkpointed again.
+      if (v.find('\r') != std::string::npos) bad("config value of '" + k + "' holds a carriage return");
     } else if (key == "chunk") {
       std::string id_s, count_s2, bytes_s, sum2, gen_s;
       const bool fields = (ls >> id_s >> count_s2 >> bytes_s >> sum2) && (version < 2 || (ls >> gen_s));
