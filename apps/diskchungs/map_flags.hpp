@@ -1,0 +1,32 @@
+// The mapping flags `run` and `pareto` share: the dataset and its poses, the preset and
+// configuration file, and the settings every point of a Pareto run keeps (budget, resolution,
+// device, ...). Each is checked where it is read, as flag_checks.hpp says.
+#pragma once
+#include <string>
+
+#include "chungs/mapping/run_pipeline.hpp"
+#include "command.hpp"
+
+namespace chungs::app {
+
+struct MapFlags {
+  RunOptions o;
+  std::string config_file, preset = "auto";
+  long long budget = 0, max_frames = 0;
+  double chunk_size = 0, resolution = 0, fill_depth = 0;
+  int final_iterations = 0;
+  std::string depth, device, lpips_weights;
+  bool no_ba = false, no_loop = false;
+};
+
+// Adds --dataset (required), --poses, --config, --preset, --budget, --chunk-size, --resolution,
+// --final-iterations, --depth, --fill-depth, --device, --no-ba, --no-loop, --max-frames and
+// --lpips-weights to `app`, read into `f`.
+void add_map_flags(CLI::App& app, MapFlags& f);
+
+// f.o with its configuration made (the preset, then the file's keys, then the flags given) and the
+// frame limit and tracker switches set; not yet validated, so a caller may change more first.
+// Throws Error naming the flag of a value out of range.
+RunOptions map_flags_options(const CLI::App& app, const MapFlags& f);
+
+}  // namespace chungs::app
