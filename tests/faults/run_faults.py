@@ -235,6 +235,13 @@ def main():
     fired = sum(1 for r in results if "not reached" not in r["case"])
     print(f"{len(results)} cases ({fired} faults injected, {total} operations in the reference run), "
           f"{time.time() - start:.0f} s: " + ", ".join(f"{v} {n}" for v, n in sorted(counts.items())))
+    by_kind = {}
+    for r in results:
+        kind = r["case"].split()[3 if r["case"].startswith("op") else 0]
+        by_kind.setdefault(kind, {}).setdefault(r["verdict"], 0)
+        by_kind[kind][r["verdict"]] += 1
+    print("by operation: " + "; ".join(f"{k} " + ", ".join(f"{v} {n}" for v, n in sorted(c.items()))
+                                       for k, c in sorted(by_kind.items())))
     if args.json:
         Path(args.json).write_text(json.dumps({"operations": total, "results": results}, indent=1))
     return 1 if any(r["verdict"] in FAILED for r in results) else 0
