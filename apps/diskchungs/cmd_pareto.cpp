@@ -77,6 +77,9 @@ nlohmann::json finished_report(const Point& p, const Dataset& dataset) {
   same("chunk size", s.value("chunk_size_m", nlohmann::json()), c.store.chunk_size);
   same("seed", s.value("seed", nlohmann::json()), c.mapper.seed);
   same("holdout_every", s.value("holdout_every", nlohmann::json()), c.mapper.holdout_every);
+  same("depth weight", s.value("lambda_depth", nlohmann::json()), c.loss.lambda_depth);
+  same("position learning rate", s.value("lr_position", nlohmann::json()), c.adam.lr_position);
+  same("sampler density", s.value("sampler_density", nlohmann::json()), c.sampler.density);
   same("image width", r.contains("resolution") ? r["resolution"][0] : nlohmann::json(), width);
   if (!r.contains("held_out"))
     fail(file.string(), ": the point was mapped without evaluation; remove ", p.options.out.string(),
