@@ -70,5 +70,7 @@ for t in "${targets[@]}"; do
     tail -n 40 "$log" >&2
   fi
   printf '%-14s %12s %8s %8s %s\n' "$t" "${execs:-?}" "$elapsed" "$units" "$found"
+  rmdir "$findings_dir/$t" 2>/dev/null
 done
+rmdir "$findings_dir" 2>/dev/null
 exit $failed
