@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "chungs/image/image_io.hpp"
 
@@ -85,16 +86,54 @@ struct Panel {
     cv.unclip();
   }
 
-  // Labels beside the held-out marks: fixed pacing's above, anytime's below, so that two curves
-  // crossing keep theirs apart.
-  void labels(const std::vector<const ParetoPoint*>& pts, double (*value)(const ParetoPoint&), const PlotRgb& c) {
+  // Labels beside the held-out marks, each at the first place around its mark that stays inside the
+  // panel and clear of the marks and the labels placed before it: points close in FPS (two intake
+  // speeds the CPU cannot tell apart) would otherwise print over each other. Fixed pacing tries above
+  // first, anytime below, so that crossing curves keep theirs apart.
+  void labels(const std::vector<const ParetoPoint*>& pts, double (*value)(const ParetoPoint&), const PlotRgb& c,
+              std::vector<PlotBox>& taken) {
     for (const ParetoPoint* p : pts) {
       const double v = value(*p);
       if (!std::isfinite(v)) continue;
-      int x = int(std::lround(X(p->fps))) + 7;
-      const int y = int(std::lround(Y(v))) + (p->anytime ? 6 : -6 - kPlotTextHeight);
-      if (x + PlotCanvas::width(p->label) > kParetoPlotWidth - 2) x -= 14 + PlotCanvas::width(p->label);
-      cv.text(x, y, p->label, c);
+      const int px = int(std::lround(X(p->fps))), py = int(std::lround(Y(v)));
+      const int w = PlotCanvas::width(p->label), h = kPlotTextHeight;
+      const int above = py - 6 - h, below = py + 6;
+      std::vector<int> rows = p->anytime ? std::vector<int>{below, above} : std::vector<int>{above, below};
+      for (int k = 1; k <= 3; ++k) {
+        rows.push_back(p->anytime ? below + k * (h + 3) : above - k * (h + 3));
+        rows.push_back(p->anytime ? above - k * (h + 3) : below + k * (h + 3));
+      }
+      std::optional<PlotBox> chosen;
+      for (int y : rows) {
+        for (int x : {px + 7, px - 7 - w}) {
+          const PlotBox r{x, y, x + w - 1, y + h - 1};
+          if (r.x0 < box.x0 + 2 || r.x1 > box.x1 - 2 || r.y0 < box.y0 + 2 || r.y1 > box.y1 - 2) continue;
+          if (std::none_of(taken.begin(), taken.end(), [&](const PlotBox& t) { return overlap(r, t); })) {
+            chosen = r;
+            break;
+          }
+        }
+        if (chosen) break;
+      }
+      // Nowhere free: beside the mark all the same, over whatever is there.
+      const PlotBox r = chosen.value_or(PlotBox{px + 7, rows[0], px + 6 + w, rows[0] + h - 1});
+      taken.push_back({r.x0 - 2, r.y0 - 1, r.x1 + 2, r.y1 + 1});
+      cv.text(r.x0, r.y0, p->label, c);
+    }
+  }
+
+  static bool overlap(const PlotBox& a, const PlotBox& b) {
+    return a.x0 <= b.x1 && b.x0 <= a.x1 && a.y0 <= b.y1 && b.y0 <= a.y1;
+  }
+
+  // The marks' squares, which labels keep clear of.
+  void marks(const std::vector<const ParetoPoint*>& pts, double (*value)(const ParetoPoint&),
+             std::vector<PlotBox>& taken) const {
+    for (const ParetoPoint* p : pts) {
+      const double v = value(*p);
+      if (!std::isfinite(v)) continue;
+      const int px = int(std::lround(X(p->fps))), py = int(std::lround(Y(v)));
+      taken.push_back({px - 4, py - 4, px + 4, py + 4});
     }
   }
 };
@@ -150,7 +189,8 @@ void write_pareto_plot(const std::filesystem::path& file, const std::vector<Pare
       for (double v : {m.held(*p), m.key(*p)})
         if (std::isfinite(v)) vlo = std::min(vlo, v), vhi = std::max(vhi, v);
     const bool any = vlo <= vhi;
-    const double pad = any ? std::max(0.08 * (vhi - vlo), 1e-3 * std::max(1.0, std::abs(vhi))) : 0;
+    // Room above and below the extreme points for their labels.
+    const double pad = any ? std::max(0.15 * (vhi - vlo), 1e-3 * std::max(1.0, std::abs(vhi))) : 0;
     Panel panel{cv, {kL, y0, kParetoPlotWidth - kR, y0 + kPlotH}, log_lo, log_hi,
                 any ? plot_axis(vlo - pad, vhi + pad) : PlotAxis{}};
     panel.frame(x_ticks, any);
@@ -165,8 +205,13 @@ void write_pareto_plot(const std::filesystem::path& file, const std::vector<Pare
     panel.curve(anytime, m.key, true, kParetoAnytime);
     panel.curve(fixed, m.held, false, kParetoFixed);
     panel.curve(anytime, m.held, false, kParetoAnytime);
-    panel.labels(fixed, m.held, kParetoFixed);
-    panel.labels(anytime, m.held, kParetoAnytime);
+    std::vector<PlotBox> taken;
+    for (const auto* pts : {&fixed, &anytime}) {
+      panel.marks(*pts, m.held, taken);
+      panel.marks(*pts, m.key, taken);
+    }
+    panel.labels(fixed, m.held, kParetoFixed, taken);
+    panel.labels(anytime, m.held, kParetoAnytime, taken);
     if (i == 0) {
       int x = kL;
       auto legend = [&](const PlotRgb& c, const std::string& s, int dash) {
