@@ -40,14 +40,37 @@ struct MapRenderer::Impl {
 
 MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
   if (!fs::exists(folder / "manifest.txt")) fail(folder.string(), ": not a map folder (no manifest.txt)");
-  impl_ = std::make_unique<Impl>(folder, config);
   // The camera and sky of the checkpoint the manifest names, even where its run failed before they
-  // took their final names: a reader renames nothing.
-  uint64_t seq = 0;
-  if (const auto tag = impl_->store.config_value("checkpoint")) seq = std::strtoull(tag->c_str(), nullptr, 10);
-  const fs::path keyframes = committed_file(folder, seq, "keyframes.txt"), sky = committed_file(folder, seq, "sky.bin");
-  if (fs::exists(keyframes)) keyframes_ = read_keyframe_records(keyframes);
-  if (fs::exists(sky)) impl_->sky = read_sky_file(sky);
+  // took their final names: a reader renames nothing. A mapper may be running: it renames them
+  // after its commit, so a numbered file can vanish between looking and reading (then the final
+  // name holds it), and the final name holds the next checkpoint's once that one is committed,
+  // which the manifest, read again afterwards, tells: then the whole read starts over.
+  auto checkpoint_of = [](const std::optional<std::string>& tag) {
+    return tag ? std::strtoull(tag->c_str(), nullptr, 10) : 0ull;
+  };
+  auto read_committed = [&](uint64_t seq, const std::string& name, auto&& read) {
+    const fs::path pending = checkpoint_file(folder, seq, name);
+    if (seq > 0 && fs::exists(pending)) try {
+        read(pending);
+        return;
+      } catch (const Error&) {
+        if (fs::exists(pending)) throw;
+      }
+    if (fs::exists(folder / name)) read(folder / name);
+  };
+  constexpr int kAttempts = 5;
+  for (int attempt = 1;; ++attempt) {
+    impl_ = std::make_unique<Impl>(folder, config);
+    keyframes_.clear();
+    const uint64_t seq = checkpoint_of(impl_->store.config_value("checkpoint"));
+    read_committed(seq, "keyframes.txt", [&](const fs::path& f) { keyframes_ = read_keyframe_records(f); });
+    read_committed(seq, "sky.bin", [&](const fs::path& f) { impl_->sky = read_sky_file(f); });
+    const Manifest now = Manifest::read(folder / "manifest.txt");
+    const auto tag = now.config.find("checkpoint");
+    if (checkpoint_of(tag == now.config.end() ? std::nullopt : std::optional(tag->second)) == seq) break;
+    if (attempt == kAttempts) fail(folder.string(), ": the map changed faster than it could be read; try again");
+    log::info(folder.string(), ": the map was committed again while it was read; reading the new commit");
+  }
 }
 
 MapRenderer::~MapRenderer() = default;

@@ -1,7 +1,9 @@
 #include "chungs/store/chunk_file.hpp"
 
+#include <unistd.h>
 #include <zstd.h>
 
+#include <cerrno>
 #include <cstring>
 #include <memory>
 
@@ -203,7 +205,11 @@ ChunkFileInfo read_chunk_header(const fs::path& file) {
 }
 
 ChunkFileInfo read_chunk_file(const fs::path& file, GaussianBlock& out) {
-  FileDescriptor fd = open_for_reading(file);
+  return read_chunk_file(open_for_reading(file), file, out);
+}
+
+ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const fs::path& file, GaussianBlock& out) {
+  if (::lseek(fd.get(), 0, SEEK_SET) != 0) fail(file.string(), ": cannot seek: ", std::strerror(errno));
   uint64_t size = 0;
   const Header h = read_and_check_header(fd, file, size);
   // A compressed payload is read and checked before the block is allocated: the file's length bounds

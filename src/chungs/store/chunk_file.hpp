@@ -14,6 +14,7 @@
 #include <filesystem>
 
 #include "chungs/gaussians/gaussian_block.hpp"
+#include "chungs/store/atomic_file.hpp"
 #include "chungs/store/chunk_id.hpp"
 
 namespace chungs {
@@ -57,5 +58,8 @@ ChunkFileInfo write_chunk_file(const std::filesystem::path& file, ChunkId id, co
 ChunkFileInfo read_chunk_header(const std::filesystem::path& file);
 // Reads and verifies everything; `out` is replaced only on success. Every rejection names the file.
 ChunkFileInfo read_chunk_file(const std::filesystem::path& file, GaussianBlock& out);
+// The same from a file already open (read from its start; `file` names it in errors): a reader
+// holds its chunk files open so that a writer deleting them cannot take them away mid-read.
+ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const std::filesystem::path& file, GaussianBlock& out);
 
 }  // namespace chungs

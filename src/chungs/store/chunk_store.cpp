@@ -2,12 +2,15 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
@@ -69,27 +72,64 @@ ChunkStore::ChunkStore(fs::path folder, const ChunkStoreConfig& config)
 }
 
 void ChunkStore::open_read_only() {
-  if (!fs::exists(manifest_path())) fail(folder_.string(), ": not a map folder (no manifest.txt)");
-  // A shared lock: a writer (which locks exclusively) and a reader exclude each other.
-  const fs::path lock_file = folder_ / "lock";
-  lock_ = FileDescriptor(::open(lock_file.c_str(), O_RDONLY | O_CLOEXEC));
-  if (lock_ && ::flock(lock_.get(), LOCK_SH | LOCK_NB) != 0)
-    fail(folder_.string(), ": map folder is being written (open by another process)");
-  try {
-    manifest_ = Manifest::read(manifest_path());
-  } catch (const Error& e) {
-    fail(e.what(), " (a writer, `run --resume`, can rebuild it from the chunk files)");
+  // No lock: a running writer keeps what its previous manifest names until its next commit, so
+  // the files of the manifest read here are all there unless two commits passed before they were
+  // opened; then the manifest has moved on and the read starts over from it.
+  constexpr int kAttempts = 5;
+  auto read_manifest = [&] {
+    if (!fs::exists(manifest_path())) fail(folder_.string(), ": not a map folder (no manifest.txt)");
+    try {
+      return Manifest::read(manifest_path());
+    } catch (const Error& e) {
+      fail(e.what(), " (a writer, `run --resume`, can rebuild it from the chunk files)");
+    }
+  };
+  Manifest m = read_manifest();
+  for (int attempt = 1;; ++attempt) {
+    const auto missing = pin_files(m);
+    if (!missing) break;
+    pins_.clear();
+    Manifest now = read_manifest();
+    if (now.chunks == m.chunks && now.next_generation == m.next_generation && now.config == m.config)
+      fail(missing->string(), ": listed in ", manifest_path().string(),
+           " but missing (or not a file); the map is left as it is");
+    if (attempt == kAttempts)
+      fail(folder_.string(), ": the map changed faster than it could be read; try again");
+    ++report_.rereads;
+    log::info(folder_.string(), ": the map was committed again while it was opened; reading the new commit");
+    m = std::move(now);
   }
+  manifest_ = std::move(m);
   chunk_size_ = manifest_.chunk_size;
   sh_degree_ = manifest_.sh_degree;
-  for (const auto& [id, e] : manifest_.chunks) {
-    const fs::path file = chunk_file(id, e.generation);
-    std::error_code ec;
-    if (!fs::is_regular_file(file, ec))
-      fail(file.string(), ": listed in ", manifest_path().string(), " but missing (or not a file); the map is left as it is");
-  }
   committed_ = manifest_.chunks;
   next_generation_ = std::max<uint64_t>(manifest_.next_generation, 1);
+}
+
+std::optional<fs::path> ChunkStore::pin_files(const Manifest& m) {
+  // One descriptor per chunk: a map of more chunks than the soft limit allows takes the hard one.
+  struct rlimit lim{};
+  if (::getrlimit(RLIMIT_NOFILE, &lim) == 0 && lim.rlim_cur != RLIM_INFINITY &&
+      lim.rlim_cur < m.chunks.size() + 256) {
+    lim.rlim_cur = lim.rlim_max == RLIM_INFINITY ? m.chunks.size() + 256 : std::min<rlim_t>(lim.rlim_max, m.chunks.size() + 256);
+    ::setrlimit(RLIMIT_NOFILE, &lim);
+  }
+  for (const auto& [id, e] : m.chunks) {
+    const fs::path file = chunk_file(id, e.generation);
+    // Non-blocking: a FIFO in a chunk's place must not hang the reader (regular files ignore it).
+    FileDescriptor fd(::open(file.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK));
+    if (!fd) {
+      if (errno == ENOENT) return file;
+      if (errno == EMFILE || errno == ENFILE)
+        fail(folder_.string(), ": a reader holds every chunk file open and ", m.chunks.size(),
+             " are more than this process may open; raise the limit (ulimit -n)");
+      fail(file.string(), ": cannot open for reading: ", std::strerror(errno));
+    }
+    struct stat st{};
+    if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode)) return file;
+    pins_.emplace(id, Pin{std::move(fd)});
+  }
+  return std::nullopt;
 }
 
 void ChunkStore::refuse_write(const char* what) const {
@@ -99,10 +139,12 @@ void ChunkStore::refuse_write(const char* what) const {
 ChunkStore::~ChunkStore() {
   if (config_.read_only) return;
   try {
-    if (config_.adopt_uncommitted)
+    if (config_.adopt_uncommitted) {
       commit();
-    else
+      delete_deferred();  // no next commit will come; a reader that lost a file starts over
+    } else {
       remove_uncommitted_files();
+    }
   } catch (const std::exception& e) {
     log::error(folder_.string(), ": could not ",
                config_.adopt_uncommitted ? "write the manifest" : "roll back", " on close: ", e.what());
@@ -197,7 +239,13 @@ GaussianBlock ChunkStore::load(ChunkId id) const {
   ChunkFileInfo info;
   {
     ScopedTimer t(counters_.load_ns);
-    info = read_chunk_file(file, b);
+    const auto pin = pins_.find(id);  // a reader's; fixed after opening, so read unlocked
+    if (pin != pins_.end()) {
+      std::lock_guard one_reader(*pin->second.mutex);
+      info = read_chunk_file(pin->second.fd, file, b);
+    } else {
+      info = read_chunk_file(file, b);
+    }
   }
   if (info.id != id)
     fail(file.string(), ": header names ", chunk_name(info.id), ", expected ", chunk_name(id));
@@ -207,6 +255,9 @@ GaussianBlock ChunkStore::load(ChunkId id) const {
     fail(file.string(), ": holds ", info.count, " Gaussians, the manifest lists ", entry.count);
   if (info.file_bytes != entry.file_bytes)
     fail(file.string(), ": has ", info.file_bytes, " bytes, the manifest lists ", entry.file_bytes);
+  // The file verified its payload against its own header; this ties that payload to the manifest.
+  if (info.payload_checksum != entry.checksum)
+    fail(file.string(), ": payload checksum ", info.payload_checksum, " differs from the manifest's ", entry.checksum);
   if (info.sh_degree != sh_degree_)
     fail(file.string(), ": has SH degree ", info.sh_degree, ", the map's is ", sh_degree_);
   counters_.loads++;
@@ -392,13 +443,26 @@ void ChunkStore::commit_manifest(const Manifest& snapshot, const std::vector<std
   {
     std::lock_guard lock(mutex_);
     committing_ = false;
-    committed_.clear();
-    committed_ = snapshot.chunks;
+    // What the previous manifest named may be in a reader's hands (it read that manifest and is
+    // opening the files): it goes at the next commit. The rest no reader could know of.
+    for (const Retired& r : deferred_)
+      (deletable_after(r, snapshot) ? doomed : retired_).push_back(r);
+    deferred_.clear();
     std::erase_if(retired_, [&](const Retired& r) {
       if (!deletable_after(r, snapshot)) return false;
-      doomed.push_back(r);
+      (!r.tombstone && is_committed(r.id, r.generation) ? deferred_ : doomed).push_back(r);
       return true;
     });
+    committed_ = snapshot.chunks;
+  }
+  for (const Retired& r : doomed) delete_file(r);
+}
+
+void ChunkStore::delete_deferred() {
+  std::vector<Retired> doomed;
+  {
+    std::lock_guard lock(mutex_);
+    doomed.swap(deferred_);
   }
   for (const Retired& r : doomed) delete_file(r);
 }

@@ -19,12 +19,18 @@
 // snapshot names (loads keep seeing the live map, which saves go on changing); commit_snapshot()
 // makes that map, not the live one, the committed manifest. Every file the pending snapshot names
 // is kept (and flushed at its commit) even when the live map supersedes it meanwhile.
-// A folder is locked (flock) while open: a second ChunkStore on it, in any process, is refused.
+// A writer locks the folder (flock) while open: a second writer, in any process, is refused.
+// Readers (read_only) take no lock and see one committed manifest while a writer goes on: a file
+// that a commit supersedes is deleted only at the commit after it, and a reader opens every file
+// its manifest names before reading any, so deletions afterwards cannot reach it. A file gone
+// before the reader opened it means two commits passed: it starts over from the new manifest (a
+// few times, then gives up with "the map changed faster than it could be read; try again").
 // Thread-safe: loads and saves of different chunks may run concurrently (the I/O thread and the
 // optimiser); the caller must not save and load the same chunk at the same time.
 #pragma once
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -59,7 +65,8 @@ struct ChunkStoreConfig {
   bool half_sh_rest = true;   // SH beyond DC as binary16 too: -> 398 bytes per Gaussian
   // For readers (export, render): the folder must hold a map; it is read as its manifest commits it,
   // nothing is repaired, created, renamed or deleted, and any write throws. A chunk the manifest
-  // lists but whose file is gone is an error naming the file (a writer repairs, a reader does not).
+  // lists but whose file is gone is an error naming the file (a writer repairs, a reader does not),
+  // unless a writer's commits took it meanwhile (then the reader starts over, see above).
   bool read_only = false;
   void validate() const;  // throws Error naming the key out of range
 };
@@ -78,6 +85,7 @@ struct StoreOpenReport {
   size_t entries_dropped = 0;      // manifest entries whose file was removed after the last commit
   size_t files_rejected = 0;       // newer generations that did not read back whole (power loss)
   size_t orphans = 0;              // superseded generations and tombstones left by a crash
+  size_t rereads = 0;  // a reader's: manifests read again because a writer's commits took files meanwhile
   bool repaired() const { return entries_adopted + entries_updated + entries_dropped > 0; }
 };
 
@@ -155,6 +163,9 @@ class ChunkStore {
   void reconcile(bool have_manifest);
   void open_read_only();
   void remove_uncommitted_files() const;
+  // Opens every file `m` names, or returns the first that is missing (or is not a file).
+  std::optional<std::filesystem::path> pin_files(const Manifest& m);
+  void delete_deferred();
   void refuse_write(const char* what) const;  // throws when opened read-only
   bool is_committed(ChunkId id, uint64_t generation) const;
   // Writes the chunk's next generation (not yet named anywhere): the generation and the file.
@@ -188,6 +199,15 @@ class ChunkStore {
   std::map<ChunkId, ManifestEntry> committed_;       // entries the manifest on disk names
   std::set<std::pair<ChunkId, uint64_t>> unsynced_;  // chunk files written since the last barrier
   std::vector<Retired> retired_;                     // waiting for a commit before deletion
+  // Named by the manifest before the last commit: a reader may still be opening them (see above).
+  std::vector<Retired> deferred_;
+  // A reader's open files, one per chunk of its manifest; the mutex keeps two loads of one chunk
+  // from moving the shared file offset under each other.
+  struct Pin {
+    FileDescriptor fd;
+    std::unique_ptr<std::mutex> mutex = std::make_unique<std::mutex>();
+  };
+  std::map<ChunkId, Pin> pins_;
   std::optional<Manifest> snapshot_;                 // pending snapshot (begin_snapshot)
   std::set<std::pair<ChunkId, uint64_t>> held_;      // files it names: kept until its commit
   mutable IoCounters counters_;
