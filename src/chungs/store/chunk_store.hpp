@@ -5,8 +5,9 @@
 // Durability without a flush per save. Every save writes a NEW file (next generation; temporary +
 // rename, no flush) and never touches the file the manifest names. commit() is the durability
 // barrier: it flushes the files written since the last barrier, then the chunk folder, then
-// writes the manifest durably; only then are superseded generations deleted. A removal of a
-// committed chunk leaves a tombstone file (<id>-<generation>.removed) until the next commit.
+// writes the manifest durably; only then are superseded generations deleted (at the commit after
+// the one that superseded them, for readers: see below). A removal of a committed chunk leaves a
+// tombstone file (<id>-<generation>.removed) until the next commit.
 // Opening takes, per chunk, the newest generation newer than the manifest's that reads back
 // whole (payload checksum verified), else the manifest's; tombstones win the same way; anything
 // else is an orphan, deleted after the repaired manifest is durable. Hence:
