@@ -2,12 +2,11 @@
 // checksums are recomputed over the mutated bytes before the file is written, or nearly every
 // input would stop at "checksum mismatch" and the decoder behind it would never be reached; the
 // checksum checks themselves are a few lines the unit tests cover.
-#include <cstring>
 #include <vector>
 
-#include "chungs/store/checksum.hpp"
 #include "chungs/store/chunk_file.hpp"
 #include "fuzz_input.hpp"
+#include "reseal.hpp"
 
 namespace {
 
@@ -16,19 +15,11 @@ constexpr size_t kHeaderBytes = 72;
 constexpr size_t kPayloadChecksumAt = 56;
 constexpr size_t kHeaderChecksumAt = 64;
 
-void reseal(std::vector<uint8_t>& bytes) {
-  if (bytes.size() < kHeaderBytes) return;
-  const uint64_t payload = chungs::xxh64(bytes.data() + kHeaderBytes, bytes.size() - kHeaderBytes);
-  std::memcpy(bytes.data() + kPayloadChecksumAt, &payload, sizeof payload);
-  const uint64_t header = chungs::xxh64(bytes.data(), kHeaderChecksumAt);
-  std::memcpy(bytes.data() + kHeaderChecksumAt, &header, sizeof header);
-}
-
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<uint8_t> bytes(data, data + size);
-  reseal(bytes);
+  chungs::fuzz::reseal(bytes, kHeaderBytes, kPayloadChecksumAt, kHeaderChecksumAt);
   const auto& tmp = chungs::fuzz::temp_folder();
   const auto file = tmp.write("chunk.bin", bytes.data(), bytes.size());
   chungs::fuzz::refusing(file, [&] {
