@@ -19,3 +19,6 @@ endforeach()
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(ZSTD REQUIRED IMPORTED_TARGET libzstd)
 find_package(Ceres 2 REQUIRED)
+# cpp-httplib (the viewer's server): Debian ships it compiled, with the flags its library was built
+# with in its .pc file (TLS, zlib, brotli change class layouts), so it is found through pkg-config.
+pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)

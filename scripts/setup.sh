@@ -3,7 +3,8 @@
 # Safe to run again: apt-get skips what is installed and the build is incremental.
 # Options through the environment: BUILD_DIR (default build), CHUNGS_CUDA (AUTO|ON|OFF),
 # CHUNGS_SKIP_APT=1 to skip the package step (no root needed then), CHUNGS_SKIP_FUZZ=1 to skip the
-# fuzz targets' build (build-fuzz, with clang; ctest's fuzz_short runs them).
+# fuzz targets' build (build-fuzz, with clang; ctest's fuzz_short runs them). The build runs `npm ci` in
+# $BUILD_DIR/web for the viewer page when node and npm are found (CHUNGS_WEB=AUTO|ON|OFF).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
@@ -13,11 +14,15 @@ if [ "${CHUNGS_SKIP_APT:-0}" != 1 ]; then
   [ "$(id -u)" = 0 ] || SUDO="sudo"
   export DEBIAN_FRONTEND=noninteractive
   $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq --no-install-recommends build-essential cmake ninja-build ccache pkg-config libeigen3-dev libpng-dev libjpeg-dev zlib1g-dev libzstd-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-features2d-dev libceres-dev python3 clang libomp-dev >/dev/null
+  $SUDO apt-get install -y -qq --no-install-recommends build-essential cmake ninja-build ccache pkg-config libeigen3-dev libpng-dev libjpeg-dev zlib1g-dev libzstd-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-features2d-dev libceres-dev python3 clang libomp-dev libcpp-httplib-dev chromium >/dev/null
+  # The viewer page (web/) is built with the machine's Node.js and npm where it has them (npm ci from the
+  # committed lockfile during the build); Debian's only where none is installed.
+  command -v npm >/dev/null || $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
 fi
 
 jobs=$(nproc)
-cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHUNGS_CUDA="${CHUNGS_CUDA:-AUTO}"
+cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHUNGS_CUDA="${CHUNGS_CUDA:-AUTO}" \
+  -DCHUNGS_WEB="${CHUNGS_WEB:-AUTO}"
 cmake --build "$BUILD_DIR" -j "$jobs"
 if [ "${CHUNGS_SKIP_FUZZ:-0}" != 1 ] && command -v clang++ >/dev/null; then
   # Only the modules the targets link are compiled (fuzz/CMakeLists.txt).

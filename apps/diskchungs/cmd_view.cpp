@@ -1,0 +1,82 @@
+// `diskchungs view MAP`: serves the browser viewer for a map folder (src/chungs/serve) until Ctrl-C.
+#include <csignal>
+#include <cstdio>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
+#include "chungs/serve/view_server.hpp"
+#include "command.hpp"
+#include "flag_checks.hpp"
+
+namespace chungs::app {
+namespace {
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop = true; }
+
+struct ViewArgs {
+  std::string map, host = "127.0.0.1", web;
+  long long port = 8080;  // signed, so that a typed -1 is refused instead of wrapped
+};
+
+int run_view(const ViewArgs& a) {
+  auto snapshot = std::make_shared<serve::MapSnapshot>(a.map);
+  serve::ViewServerOptions o;
+  o.host = a.host;
+  o.port = int(a.port);
+  if (!a.web.empty()) {
+    o.web_root = serve::find_web_root(a.web);
+    if (o.web_root.empty()) fail("--web ", a.web, ": no index.html there (build the target web, or point at its dist folder)");
+  }
+  serve::ViewServer server(snapshot, o);
+  server.bind();
+  if (!server.has_page())
+    log::warn("the viewer page is not built (node and npm at configure time, target web); serving the API only");
+  std::printf("serving %s (checkpoint %llu: %zu chunks, %llu Gaussians) at %s  (Ctrl-C stops)\n", a.map.c_str(),
+              (unsigned long long)snapshot->checkpoint(), snapshot->store().size(),
+              (unsigned long long)snapshot->store().total_gaussians(), server.url().c_str());
+  std::fflush(stdout);
+
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  // The handler only sets a flag; this thread turns it into a stop, asked again until the loop has
+  // ended (a stop that comes before the loop has started is lost).
+  std::atomic<bool> done{false};
+  std::thread watcher([&] {
+    while (!g_stop && !done) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    while (!done) {
+      server.stop();
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  server.run();
+  done = true;
+  watcher.join();
+  std::printf("stopped\n");
+  return 0;
+}
+
+const Command cmd{"view", "serve a map folder to the browser viewer (http://127.0.0.1:8080/ by default)",
+                  [](CLI::App& app) {
+  auto a = std::make_shared<ViewArgs>();
+  app.add_option("map", a->map, "map folder")->required();
+  app.add_option("--port", a->port, "TCP port, 1..65535 (0: any free port, printed)")->capture_default_str();
+  app.add_option("--host", a->host, "address to listen on (0.0.0.0: every interface, reachable from other machines)")
+      ->capture_default_str();
+  app.add_option("--web", a->web, "folder of the built page (default: installed, else the build tree's web/dist)");
+  return [a, &app]() {
+    if (given(app, "--port")) require_flag(a->port >= 0 && a->port <= 65535, "--port", "in 0..65535", a->port);
+    require_flag(!a->host.empty(), "--host", "an address", "''");
+    return run_view(*a);
+  };
+}};
+
+}  // namespace
+}  // namespace chungs::app

@@ -1,0 +1,177 @@
+#include "chungs/serve/view_server.hpp"
+
+#include <httplib.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstdlib>
+#include <cstring>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
+#include "chungs/serve/splat_pack.hpp"
+
+#ifndef CHUNGS_WEB_BUILD_DIR
+#define CHUNGS_WEB_BUILD_DIR ""
+#endif
+
+namespace chungs::serve {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+void json_error(httplib::Response& res, int status, const std::string& message) {
+  res.status = status;
+  res.set_content(nlohmann::json{{"error", message}}.dump(), "application/json");
+}
+
+// A decimal number in [lo, hi] and nothing else (no sign, blanks or trailing characters).
+bool parse_whole(const std::string& s, uint64_t lo, uint64_t hi, uint64_t& out) {
+  if (s.empty() || s.size() > 20) return false;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
+  return ec == std::errc() && end == s.data() + s.size() && out >= lo && out <= hi;
+}
+
+// Printable and short, for echoing a client's value in a message.
+std::string quoted(const std::string& s) {
+  std::string q;
+  for (char c : s.substr(0, 64)) q += (c >= 0x20 && c < 0x7f && c != '\'') ? c : '?';
+  return "'" + q + (s.size() > 64 ? "...'" : "'");
+}
+
+bool holds_page(const fs::path& dir) {
+  std::error_code ec;
+  return !dir.empty() && fs::is_regular_file(dir / "index.html", ec);
+}
+
+}  // namespace
+
+fs::path find_web_root(const fs::path& explicit_root) {
+  if (!explicit_root.empty()) return holds_page(explicit_root) ? explicit_root : fs::path();
+  if (const char* env = std::getenv("CHUNGS_WEB_DIR"); env && *env) return holds_page(env) ? fs::path(env) : fs::path();
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed = exe.parent_path().parent_path() / "share" / "diskchungs" / "web";
+    if (holds_page(installed)) return installed;
+  }
+  const fs::path built = CHUNGS_WEB_BUILD_DIR;
+  return holds_page(built) ? built : fs::path();
+}
+
+ViewServer::ViewServer(std::shared_ptr<const MapSnapshot> map, ViewServerOptions options)
+    : map_(std::move(map)), options_(std::move(options)), server_(std::make_unique<httplib::Server>()) {
+  if (options_.port < 0 || options_.port > 65535) fail("port ", options_.port, " is outside 0..65535");
+  // The library's default adds SO_REUSEPORT, which lets a second server share a port that is in
+  // use; only SO_REUSEADDR (a restart while old connections linger), so a taken port is refused.
+  server_->set_socket_options([](int sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+  routes();
+}
+
+ViewServer::~ViewServer() = default;
+
+std::string ViewServer::url() const {
+  const bool v6 = options_.host.find(':') != std::string::npos;
+  return "http://" + (v6 ? "[" + options_.host + "]" : options_.host) + ":" + std::to_string(port_) + "/";
+}
+
+void ViewServer::bind() {
+  errno = 0;
+  bool ok;
+  if (options_.port == 0) {
+    port_ = server_->bind_to_any_port(options_.host);
+    ok = port_ > 0;
+  } else {
+    ok = server_->bind_to_port(options_.host, options_.port);
+    port_ = options_.port;
+  }
+  if (!ok) {
+    const int e = errno;
+    fail("cannot listen on ", options_.host, ":", options_.port, ": ",
+         e == EADDRINUSE ? "the port is in use (another server, or give --port)"
+         : e         ? std::strerror(e)
+                     : "the address is not one of this machine's");
+  }
+}
+
+void ViewServer::run() { server_->listen_after_bind(); }
+
+void ViewServer::stop() { server_->stop(); }
+
+void ViewServer::routes() {
+  httplib::Server& s = *server_;
+  s.set_read_timeout(10);
+  s.set_write_timeout(30);
+  s.set_payload_max_length(64 * 1024);  // nothing here takes a body
+  s.set_keep_alive_max_count(1000);
+
+  const fs::path root = find_web_root(options_.web_root);
+  has_page_ = !root.empty();
+  if (has_page_) {
+    s.set_mount_point("/", root.string());
+    s.set_file_extension_and_mimetype_mapping("mjs", "text/javascript");
+    s.set_file_extension_and_mimetype_mapping("map", "application/json");
+  } else {
+    s.Get("/", [](const httplib::Request&, httplib::Response& res) {
+      res.status = 503;
+      res.set_content(
+          "The viewer page is not built: configure with node and npm installed (CHUNGS_WEB=AUTO|ON) and build the "
+          "target web, or pass --web DIR. The API is served: /api/map, /api/chunk/<id>.\n",
+          "text/plain");
+    });
+  }
+
+  auto map = map_;
+  s.Get("/api/map", [map](const httplib::Request&, httplib::Response& res) {
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(map->describe().dump(), "application/json");
+  });
+
+  s.Get(R"(/api/chunk/([^/]*))", [map](const httplib::Request& req, httplib::Response& res) {
+    const std::string text = req.matches[1];
+    uint64_t id = 0;
+    if (!parse_whole(text, 0, UINT64_MAX, id))
+      return json_error(res, 400, "chunk id " + quoted(text) + " is not a decimal chunk id");
+    const ChunkStore& store = map->store();
+    if (!store.contains(id)) return json_error(res, 404, "chunk " + text + " is not in this map");
+    int degree = store.sh_degree();
+    if (req.has_param("sh")) {
+      const std::string v = req.get_param_value("sh");
+      uint64_t d = 0;
+      if (!parse_whole(v, 0, 3, d)) return json_error(res, 400, "sh " + quoted(v) + " must be 0, 1, 2 or 3");
+      degree = std::min(degree, int(d));
+    }
+    const GaussianBlock block = store.load(id);
+    degree = std::min(degree, block.sh_degree);
+    const Eigen::Vector3d c = chunk_centre(chunk_coord(id), store.chunk_size());
+    const double origin[3] = {c.x(), c.y(), c.z()};
+    const uint64_t generation = store.manifest().chunks.at(id).generation;
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(pack_splats(block.params, degree, origin, id, generation), "application/octet-stream");
+  });
+
+  s.Get(R"(/api/.*)", [](const httplib::Request& req, httplib::Response& res) {
+    json_error(res, 404, "no such API path " + quoted(req.path) + " (there are /api/map and /api/chunk/<id>)");
+  });
+
+  // The library answers 400 itself for paths it refuses (.. out of the root); keep its status.
+  s.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+    std::string what = "unknown error";
+    try {
+      std::rethrow_exception(ep);
+    } catch (const std::exception& e) {
+      what = e.what();
+    } catch (...) {
+    }
+    log::warn("viewer: ", req.path, ": ", what);
+    json_error(res, 500, what);
+  });
+}
+
+}  // namespace chungs::serve

@@ -1,0 +1,65 @@
+// The viewer's HTTP server (cpp-httplib) over one committed checkpoint of a map folder.
+//   GET /api/map            JSON: checkpoint, chunk size, SH degree, origin, chunks (id as a decimal
+//                           string, coord, min/max corners, count, generation), keyframes (id,
+//                           frame, stamp, 4x4 camera-to-world pose as rows), trajectory (positions),
+//                           camera (the first keyframe's intrinsics and size) and report (report.json
+//                           as the run wrote it, or null)
+//   GET /api/chunk/<id>     the chunk's Gaussians packed as splat_pack.hpp lays out; ?sh=0..3 picks the
+//                           SH degree (default the map's; above it, the map's)
+//   GET /...                the page's files from the web root (index.html for /)
+// Errors are JSON {"error": "..."}: 404 for an unknown chunk or API path, 400 for a malformed id or
+// query value (named in the message), 500 for a chunk that cannot be read. Paths that climb out of
+// the web root are refused by the library's path check (400) before any file is looked up.
+#pragma once
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "chungs/serve/map_snapshot.hpp"
+
+namespace httplib {
+class Server;
+}
+
+namespace chungs::serve {
+
+struct ViewServerOptions {
+  std::string host = "127.0.0.1";
+  int port = 8080;                  // 0: any free port (tests)
+  std::filesystem::path web_root;   // the built page; empty or missing: the API alone, / explains
+};
+
+class ViewServer {
+ public:
+  ViewServer(std::shared_ptr<const MapSnapshot> map, ViewServerOptions options);
+  ~ViewServer();
+  ViewServer(const ViewServer&) = delete;
+  ViewServer& operator=(const ViewServer&) = delete;
+
+  // Takes the port. Throws Error "cannot listen on HOST:PORT: REASON" when it is taken or the
+  // address is not this machine's.
+  void bind();
+  int port() const { return port_; }  // the bound port (after bind)
+  std::string url() const;
+  // Serves until stop() (from any thread). bind() first.
+  void run();
+  void stop();
+  bool has_page() const { return has_page_; }
+
+ private:
+  void routes();
+  std::shared_ptr<const MapSnapshot> map_;
+  ViewServerOptions options_;
+  std::unique_ptr<httplib::Server> server_;
+  int port_ = 0;
+  bool has_page_ = false;
+};
+
+// The folder holding the built page: `explicit_root` when given (must hold index.html), else
+// CHUNGS_WEB_DIR from the environment, else beside the installed binary
+// (<exe>/../share/diskchungs/web), else the build tree's web/dist (compiled in). Empty when none
+// holds index.html.
+std::filesystem::path find_web_root(const std::filesystem::path& explicit_root = {});
+
+}  // namespace chungs::serve

@@ -1,0 +1,224 @@
+// The viewer in a real browser (issue 24): a tiny map made with the CLI, served by `diskchungs view`,
+// opened in headless Chromium (software WebGL) through playwright-core; once the chunks in view are
+// in the page, a screenshot from a keyframe's pose and camera is scored against `diskchungs render`
+// of the same pose (`diskchungs eval images`): PSNR >= --min-psnr passes. A failure leaves both
+// images side by side in the work folder. Then the same map under a budget of about half of it,
+// flown keyframe by keyframe: the page stays within the budget, fetches and drops chunks, and no
+// request fails. Prints one JSON line of figures (chunk fetch latency, time to first frame).
+//   node view_browser_test.mjs --cli DISKCHUNGS --modules NODE_MODULES [--chromium PATH] [--work DIR]
+//        [--min-psnr 25] [--keep]
+// Exit 77 (ctest: skipped) when Chromium or playwright-core is missing.
+import { spawn, spawnSync } from "node:child_process";
+import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
+import { createRequire } from "node:module";
+import { tmpdir } from "node:os";
+import { join, resolve } from "node:path";
+
+const argv = process.argv.slice(2);
+const opt = (name, fallback) => {
+  const i = argv.indexOf(name);
+  return i >= 0 && argv[i + 1] !== undefined ? argv[i + 1] : fallback;
+};
+const cli = opt("--cli");
+const modules = opt("--modules");
+const chromiumPath = opt("--chromium", "/usr/bin/chromium");
+const minPsnr = Number(opt("--min-psnr", "25"));
+const keep = argv.includes("--keep");
+if (!cli || !modules) {
+  console.error("usage: view_browser_test.mjs --cli DISKCHUNGS --modules NODE_MODULES [--chromium PATH]");
+  process.exit(2);
+}
+const skip = (why) => {
+  console.log(`SKIP: ${why}`);
+  process.exit(77);
+};
+if (!existsSync(chromiumPath)) skip(`no Chromium at ${chromiumPath} (apt-get install chromium)`);
+let chromium;
+try {
+  ({ chromium } = createRequire(join(resolve(modules), "package.json"))("playwright-core"));
+} catch (e) {
+  skip(`playwright-core not found in ${modules} (build the target web): ${e.message}`);
+}
+
+const work = opt("--work") ?? mkdtempSync(join(tmpdir(), "chungs_view_"));
+mkdirSync(work, { recursive: true });
+const t0 = Date.now();
+const say = (m) => console.log(`[${((Date.now() - t0) / 1000).toFixed(1)} s] ${m}`);
+const failures = [];
+const check = (ok, what) => {
+  if (!ok) failures.push(what);
+  say(`${ok ? "ok  " : "FAIL"} ${what}`);
+};
+
+function runCli(args) {
+  const r = spawnSync(cli, args, { encoding: "utf8", env: { ...process.env, OMP_NUM_THREADS: "2" } });
+  if (r.status !== 0) throw new Error(`diskchungs ${args.join(" ")}: exit ${r.status}\n${r.stdout}${r.stderr}`);
+  return r.stdout;
+}
+
+// `diskchungs view` on a free port; resolves with the URL it prints.
+function startViewer(map) {
+  const p = spawn(cli, ["view", map, "--port", "0"], { stdio: ["ignore", "pipe", "pipe"] });
+  let out = "";
+  return new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`view printed no URL in 20 s: ${out}`)), 20000);
+    const take = (d) => {
+      out += d;
+      const m = out.match(/at (http:\/\/\S+\/)/);
+      if (m) {
+        clearTimeout(timer);
+        resolve({ proc: p, url: m[1] });
+      }
+    };
+    p.stdout.on("data", take);
+    p.stderr.on("data", take);
+    p.on("exit", (code) => reject(new Error(`view exited (${code}) before serving: ${out}`)));
+  });
+}
+
+const percentile = (xs, q) => {
+  const s = [...xs].sort((a, b) => a - b);
+  return s.length ? s[Math.min(s.length - 1, Math.floor(q * s.length))] : NaN;
+};
+
+async function openViewer(browser, url, query, size) {
+  const page = await browser.newPage({ viewport: size });
+  const logs = [];
+  page.on("console", (m) => logs.push(m.text()));
+  page.on("pageerror", (e) => logs.push(String(e)));
+  await page.goto(`${url}?${query}`);
+  try {
+    await page.waitForFunction(() => window.viewer && (window.viewer.ready || window.viewer.error), null, {
+      timeout: 90000,
+      polling: 100,
+    });
+  } catch (e) {
+    throw new Error(`page never settled: ${e.message}\n${logs.join("\n")}`);
+  }
+  const err = await page.evaluate(() => window.viewer.error);
+  if (err) throw new Error(`page error: ${err}\n${logs.join("\n")}`);
+  return page;
+}
+
+// Both images in one PNG, viewer left, render right (drawn by the browser: no image package).
+async function sideBySide(browser, a, b, out) {
+  const page = await browser.newPage();
+  const uri = (f) => `data:image/png;base64,${readFileSync(f).toString("base64")}`;
+  const png = await page.evaluate(
+    async ([x, y]) => {
+      const load = (s) => new Promise((r) => { const i = new Image(); i.onload = () => r(i); i.src = s; });
+      const [ia, ib] = await Promise.all([load(x), load(y)]);
+      const c = document.createElement("canvas");
+      c.width = ia.width + ib.width;
+      c.height = Math.max(ia.height, ib.height);
+      const g = c.getContext("2d");
+      g.drawImage(ia, 0, 0);
+      g.drawImage(ib, ia.width, 0);
+      return c.toDataURL("image/png").split(",")[1];
+    },
+    [uri(a), uri(b)],
+  );
+  writeFileSync(out, Buffer.from(png, "base64"));
+  await page.close();
+}
+
+let viewer;
+let browser;
+let status = 1;
+try {
+  // A room of 1 m chunks, a few seconds of mapping on the CPU.
+  const room = join(work, "room");
+  const map = join(work, "map");
+  rmSync(room, { recursive: true, force: true });
+  rmSync(map, { recursive: true, force: true });
+  runCli(["-q", "synth", "room", "--out", room, "--frames", "10", "--width", "128", "--height", "96"]);
+  runCli(["-q", "run", "--dataset", `tum:${room}`, "--device", "cpu", "--out", map, "--no-eval", "--iterations", "10",
+    "--final-iterations", "40", "--chunk-size", "1"]);
+  say("map made");
+
+  viewer = await startViewer(map);
+  say(`viewer at ${viewer.url}`);
+  const info = await (await fetch(`${viewer.url}api/map`)).json();
+  check(info.chunks.length >= 2 && info.keyframes.length >= 2, `map of ${info.chunks.length} chunks, ${info.keyframes.length} keyframes`);
+
+  // The keyframe's pose as a one-line trajectory (4x4 per line) for `render`, with the map's camera.
+  const kf = Math.floor(info.keyframes.length / 2);
+  const poseFile = join(work, "pose.txt");
+  writeFileSync(poseFile, info.keyframes[kf].pose.flat().join(" ") + "\n");
+  const renders = join(work, "render");
+  rmSync(renders, { recursive: true, force: true });
+  runCli(["-q", "render", "--map", map, "--poses", poseFile, "--out", renders]);
+
+  browser = await chromium.launch({
+    executablePath: chromiumPath,
+    // Software WebGL; and nothing reaching out: this machine's network is closed.
+    args: ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist", "--no-sandbox",
+      "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
+      "--disable-quic"],
+  });
+  const cam = info.camera;
+  const page = await openViewer(browser, viewer.url, `kf=${kf}&size=camera&overlays=0&hud=0`, {
+    width: cam.width,
+    height: cam.height,
+  });
+  const full = await page.evaluate(() => ({ ...window.viewer.streamer.stats, firstFrameMs: window.viewer.firstFrameMs }));
+  say(`page settled: ${full.loaded} chunks, ${full.splats} splats`);
+  const shots = join(work, "viewer");
+  mkdirSync(shots, { recursive: true });
+  const shot = join(shots, "render_000000.png");
+  await page.locator("canvas").screenshot({ path: shot });
+  await page.close();
+  const scored = JSON.parse(runCli(["eval", "images", "--ref", renders, "--test", shots, "--json"]));
+  const psnr = scored.mean_psnr ?? scored.images?.[0]?.psnr;
+  check(psnr >= minPsnr, `viewer against render from keyframe ${kf}: PSNR ${psnr?.toFixed(2)} dB (>= ${minPsnr})`);
+  if (!(psnr >= minPsnr)) {
+    const both = join(work, "viewer_vs_render.png");
+    await sideBySide(browser, shot, join(renders, "render_000000.png"), both);
+    say(`side by side (viewer left, render right): ${both}`);
+  }
+  check(full.failed === 0 && full.loaded === info.chunks.length, `every chunk fetched once, none failed (${full.fetches} fetches)`);
+
+  // Streaming under a budget of about half the map, keyframe by keyframe.
+  const budget = Math.max(1, Math.floor(info.total_gaussians / 2));
+  const p2 = await openViewer(browser, viewer.url, `kf=0&budget=${budget}`, { width: 320, height: 240 });
+  let peak = 0;
+  for (let i = 1; i < info.keyframes.length; ++i) {
+    await p2.keyboard.press("k");
+    await p2.waitForFunction(() => window.viewer.ready || window.viewer.error, null, { timeout: 60000, polling: 100 });
+    peak = Math.max(peak, await p2.evaluate(() => window.viewer.streamer.stats.splats));
+  }
+  const s2 = await p2.evaluate(() => window.viewer.streamer.stats);
+  check(peak <= budget, `splats in the page stayed within the budget: peak ${peak} of ${budget}`);
+  check(s2.failed === 0, `no chunk request failed while flying (${s2.fetches} fetches, ${s2.disposed} disposed)`);
+  check(s2.loaded < info.chunks.length, `the budget kept chunks out: ${s2.loaded} of ${info.chunks.length} in the page`);
+  await p2.close();
+
+  const fetchMs = [...full.fetchMs, ...s2.fetchMs];
+  console.log(
+    "figures " +
+      JSON.stringify({
+        psnr_db: psnr,
+        chunks: info.chunks.length,
+        gaussians: info.total_gaussians,
+        first_frame_ms: full.firstFrameMs,
+        chunk_fetch_ms_p50: percentile(fetchMs, 0.5),
+        chunk_fetch_ms_p99: percentile(fetchMs, 0.99),
+        fetches: fetchMs.length,
+        streaming: { budget, fetches: s2.fetches, disposed: s2.disposed, peak_splats: peak },
+      }),
+  );
+  status = failures.length ? 1 : 0;
+} catch (e) {
+  console.error(`FAIL: ${e.stack ?? e}`);
+  status = 1;
+} finally {
+  if (browser) await browser.close();
+  if (viewer) {
+    viewer.proc.kill("SIGINT");
+    await new Promise((r) => viewer.proc.once("exit", r));
+  }
+  if (status === 0 && !keep && !opt("--work")) rmSync(work, { recursive: true, force: true });
+  else say(`work folder kept: ${work}`);
+}
+console.log(status === 0 ? "view_browser_test: passed" : `view_browser_test: FAILED: ${failures.join("; ")}`);
+process.exit(status);

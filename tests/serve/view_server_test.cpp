@@ -1,0 +1,271 @@
+// The viewer's server over a map folder made here: what /api/map and /api/chunk/<id> answer, the
+// errors a client gets for unknown ids, bad queries and paths outside the page, a taken port, and
+// a folder left exactly as it was. Requests go over a plain socket, byte for byte as written.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "chungs/common/error.hpp"
+#include "chungs/mapping/map_state.hpp"
+#include "chungs/serve/splat_pack.hpp"
+#include "chungs/serve/view_server.hpp"
+#include "store/random_block.hpp"
+#include "test_support.hpp"
+
+using namespace chungs;
+using namespace chungs::serve;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Reply {
+  int status = 0;
+  std::string headers, body;
+};
+
+// Runs a server on a thread of its own; stop() asks until the loop has ended (a stop() that comes
+// before the loop has started is lost).
+class Running {
+ public:
+  explicit Running(ViewServer& s) : s_(s), t_([this] {
+    s_.run();
+    done_ = true;
+  }) {}
+  ~Running() { stop(); }
+  void stop() {
+    while (!done_) {
+      s_.stop();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    if (t_.joinable()) t_.join();
+  }
+
+ private:
+  ViewServer& s_;
+  std::atomic<bool> done_{false};
+  std::thread t_;
+};
+
+Reply get(int port, const std::string& target) {
+  Reply r;
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(uint16_t(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    close(fd);
+    return r;
+  }
+  const std::string req = "GET " + target + " HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n";
+  (void)!write(fd, req.data(), req.size());
+  std::string all;
+  char buf[65536];
+  ssize_t n;
+  while ((n = read(fd, buf, sizeof buf)) > 0) all.append(buf, size_t(n));
+  close(fd);
+  const size_t head_end = all.find("\r\n\r\n");
+  if (all.rfind("HTTP/1.1 ", 0) != 0 || head_end == std::string::npos) return r;
+  r.status = std::stoi(all.substr(9, 3));
+  r.headers = all.substr(0, head_end);
+  r.body = all.substr(head_end + 4);
+  return r;
+}
+
+std::map<std::string, std::string> folder_bytes(const fs::path& dir) {
+  std::map<std::string, std::string> m;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) {
+      std::ifstream f(e.path(), std::ios::binary);
+      std::stringstream s;
+      s << f.rdbuf();
+      m[fs::relative(e.path(), dir).string()] = s.str();
+    }
+  return m;
+}
+
+ChunkId cid(int x) { return chunk_id({x, 0, -2}); }
+
+// A map of three chunks at checkpoint 4 with two keyframes, a trajectory and a report.
+void make_map(const fs::path& map) {
+  ChunkStoreConfig c;
+  c.durable = false;
+  c.chunk_size = 10;
+  {
+    ChunkStore w(map, c);
+    for (int x = 0; x < 3; ++x) w.save(cid(x), test::random_block(20 + 5 * x, 100 + x, 10.f * x, 0, -20));
+    w.set_config("checkpoint", "4");
+    w.commit();
+  }
+  std::vector<KeyframeRecord> kfs(2);
+  for (int i = 0; i < 2; ++i) {
+    kfs[i].id = uint32_t(i);
+    kfs[i].frame = uint64_t(8 * i);
+    kfs[i].camera = Camera(64, 48, 50, 50, 31.5, 23.5);
+    kfs[i].pose.t = Eigen::Vector3d(1.5 * i, 0.25, -21);
+  }
+  write_keyframe_records(map / "keyframes.txt", kfs, false);
+  std::ofstream(map / "trajectory.txt") << "0 0 0.25 -21 0 0 0 1\n1 1.5 0.25 -21 0 0 0 1\n";
+  std::ofstream(map / "report.json") << R"({"fps": 3.5, "settings": {"budget_gaussians": 1000}})";
+}
+
+class ViewServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    make_map(map_);
+    fs::create_directories(web_ / "page");
+    std::ofstream(web_ / "page" / "index.html") << "<html>viewer</html>";
+    std::ofstream(web_ / "secret.txt") << "not for clients";
+    before_ = folder_bytes(map_);
+    snapshot_ = std::make_shared<MapSnapshot>(map_);
+    server_ = std::make_unique<ViewServer>(snapshot_, ViewServerOptions{"127.0.0.1", 0, web_ / "page"});
+    server_->bind();
+    running_ = std::make_unique<Running>(*server_);
+  }
+  void TearDown() override {
+    running_.reset();
+    EXPECT_EQ(folder_bytes(map_), before_) << "the server changed the map folder";
+  }
+  int port() const { return server_->port(); }
+
+  test::TempDir dir_;
+  fs::path map_ = dir_ / "map", web_ = dir_ / "web";
+  std::map<std::string, std::string> before_;
+  std::shared_ptr<MapSnapshot> snapshot_;
+  std::unique_ptr<ViewServer> server_;
+  std::unique_ptr<Running> running_;
+};
+
+}  // namespace
+
+TEST_F(ViewServerTest, MapDescriptionListsChunksKeyframesCameraAndReport) {
+  const Reply r = get(port(), "/api/map");
+  ASSERT_EQ(r.status, 200) << r.body;
+  const auto j = nlohmann::json::parse(r.body);
+  EXPECT_EQ(j["checkpoint"], 4);
+  EXPECT_EQ(j["chunk_size"], 10.0);
+  EXPECT_EQ(j["total_gaussians"], 20 + 25 + 30);
+  ASSERT_EQ(j["chunks"].size(), 3u);
+  const Manifest m = Manifest::read(map_ / "manifest.txt");
+  for (const auto& c : j["chunks"]) {
+    const ChunkId id = std::stoull(c["id"].get<std::string>());
+    ASSERT_TRUE(m.chunks.count(id));
+    EXPECT_EQ(c["count"], m.chunks.at(id).count);
+    EXPECT_EQ(c["generation"], m.chunks.at(id).generation);
+    const ChunkCoord cc = chunk_coord(id);
+    EXPECT_EQ(c["coord"], nlohmann::json({cc.x, cc.y, cc.z}));
+    EXPECT_EQ(c["min"][0], 10.0 * cc.x - 5);
+    EXPECT_EQ(c["max"][2], 10.0 * cc.z + 5);
+  }
+  ASSERT_EQ(j["keyframes"].size(), 2u);
+  EXPECT_EQ(j["keyframes"][1]["frame"], 8);
+  EXPECT_EQ(j["keyframes"][1]["pose"][0][3], 1.5);
+  EXPECT_EQ(j["origin"], nlohmann::json({0.0, 0.25, -21.0}));  // the first keyframe's position
+  EXPECT_EQ(j["camera"]["cx"], 31.5);
+  EXPECT_EQ(j["camera"]["width"], 64);
+  EXPECT_EQ(j["trajectory"].size(), 2u);
+  EXPECT_EQ(j["report"]["fps"], 3.5);
+  EXPECT_NE(r.headers.find("application/json"), std::string::npos);
+}
+
+TEST_F(ViewServerTest, ChunkBytesAreThePackOfTheCommittedChunkAtTheAskedDegree) {
+  ChunkStore reader(map_, reader_config());
+  for (int x = 0; x < 3; ++x) {
+    const GaussianBlock b = reader.load(cid(x));
+    const Eigen::Vector3d c = chunk_centre(chunk_coord(cid(x)), 10);
+    const double origin[3] = {c.x(), c.y(), c.z()};
+    const uint64_t gen = reader.manifest().chunks.at(cid(x)).generation;
+    const Reply full = get(port(), "/api/chunk/" + std::to_string(cid(x)));
+    ASSERT_EQ(full.status, 200) << full.body;
+    EXPECT_EQ(full.body, pack_splats(b.params, 3, origin, cid(x), gen));
+    const Reply dc = get(port(), "/api/chunk/" + std::to_string(cid(x)) + "?sh=0");
+    ASSERT_EQ(dc.status, 200);
+    EXPECT_EQ(dc.body, pack_splats(b.params, 0, origin, cid(x), gen));
+    EXPECT_EQ(dc.body.size(), splat_pack_bytes(b.size(), 0));
+  }
+}
+
+TEST_F(ViewServerTest, UnknownChunksAndBadValuesGetJsonErrorsNamingThem) {
+  const Reply missing = get(port(), "/api/chunk/" + std::to_string(cid(7)));
+  EXPECT_EQ(missing.status, 404);
+  EXPECT_NE(nlohmann::json::parse(missing.body)["error"].get<std::string>().find(std::to_string(cid(7))),
+            std::string::npos);
+  for (const std::string bad : {"abc", "-1", "12x", "99999999999999999999999", "1e5", ""}) {
+    const Reply r = get(port(), "/api/chunk/" + bad);
+    EXPECT_EQ(r.status, 400) << bad;
+    EXPECT_NE(nlohmann::json::parse(r.body)["error"].get<std::string>().find("'" + bad + "'"), std::string::npos)
+        << r.body;
+  }
+  for (const std::string sh : {"4", "-1", "x", "1.5", "3%20", "%00"}) {
+    const Reply r = get(port(), "/api/chunk/" + std::to_string(cid(0)) + "?sh=" + sh);
+    EXPECT_EQ(r.status, 400) << sh;
+    EXPECT_NE(r.body.find("sh '"), std::string::npos) << r.body;
+  }
+  const Reply api = get(port(), "/api/nothing");
+  EXPECT_EQ(api.status, 404);
+  EXPECT_TRUE(nlohmann::json::parse(api.body).contains("error"));
+}
+
+TEST_F(ViewServerTest, PageFilesAreServedAndPathsOutOfTheRootAreRefused) {
+  const Reply index = get(port(), "/");
+  EXPECT_EQ(index.status, 200);
+  EXPECT_EQ(index.body, "<html>viewer</html>");
+  for (const std::string t : {"/../secret.txt", "/%2e%2e/secret.txt", "/a/../../secret.txt", "/..%2fsecret.txt",
+                              "/%2E%2E%2Fsecret.txt", "//../secret.txt", "/./../secret.txt"}) {
+    const Reply r = get(port(), t);
+    EXPECT_NE(r.status, 200) << t;
+    EXPECT_EQ(r.body.find("not for clients"), std::string::npos) << t;
+  }
+  // Still up and serving after the hostile requests.
+  EXPECT_EQ(get(port(), "/api/map").status, 200);
+}
+
+TEST_F(ViewServerTest, ASecondServerOnATakenPortFailsNamingHostAndPort) {
+  ViewServer second(snapshot_, ViewServerOptions{"127.0.0.1", port(), {}});
+  try {
+    second.bind();
+    FAIL() << "bound a port in use";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("127.0.0.1:" + std::to_string(port())), std::string::npos) << m;
+    EXPECT_NE(m.find("in use"), std::string::npos) << m;
+  }
+}
+
+TEST(ViewServer, WithoutAPageTheApiIsServedAndTheRootSaysWhy) {
+  test::TempDir dir;
+  make_map(dir / "map");
+  auto snap = std::make_shared<MapSnapshot>(dir / "map");
+  ViewServer s(snap, ViewServerOptions{"127.0.0.1", 0, dir / "no-such-page"});
+  EXPECT_FALSE(s.has_page());
+  s.bind();
+  Running running(s);
+  const Reply root = get(s.port(), "/");
+  const Reply map = get(s.port(), "/api/map");
+  running.stop();
+  EXPECT_EQ(root.status, 503);
+  EXPECT_NE(root.body.find("not built"), std::string::npos);
+  EXPECT_EQ(map.status, 200);
+}
+
+TEST(MapSnapshot, AFolderWithoutAManifestIsRefusedByName) {
+  test::TempDir dir;
+  fs::create_directories(dir / "empty");
+  try {
+    MapSnapshot s(dir / "empty");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("empty: not a map folder"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(fs::is_empty(dir / "empty"));
+}

@@ -1,0 +1,163 @@
+// The viewer page: the map's description, then chunks streamed into Spark by view and distance
+// under a splat budget, with the trajectory, keyframe frusta and chunk grid drawn over them.
+// Query parameters: kf=N starts at keyframe N's pose; size=camera sizes the canvas to the map's
+// camera and uses its intrinsics (for pixel comparisons); budget=N splats (default 3,000,000);
+// sh=0..3; overlays=0 and hud=0 hide the drawn lines and the text.
+// Keys: W/A/S/D/Q/E fly, mouse orbits; G grid, T trajectory and frusta, K next keyframe.
+import * as THREE from "three";
+import { OrbitControls } from "three/addons/controls/OrbitControls.js";
+import { SparkRenderer } from "@sparkjsdev/spark";
+import { MapInfo, fetchMap } from "./api";
+import { ChunkStreamer } from "./streamer";
+import { applyIntrinsics, applyPose, chunkGrid, trajectoryOverlay } from "./view";
+
+interface ViewerState {
+  map?: MapInfo;
+  streamer?: ChunkStreamer;
+  firstFrameMs?: number; // page start to the first frame drawn with a chunk in it
+  settledFrames: number; // frames drawn since every chosen chunk was in the scene
+  ready: boolean; // settled for a while: what a screenshot should wait for
+  error?: string;
+}
+
+declare global {
+  interface Window {
+    viewer: ViewerState;
+  }
+}
+
+const state: ViewerState = { settledFrames: 0, ready: false };
+window.viewer = state;
+const params = new URLSearchParams(location.search);
+const hud = document.getElementById("hud")!;
+if (params.get("hud") === "0") hud.classList.add("hidden");
+
+function intParam(name: string, fallback: number, lo: number, hi: number): number {
+  const v = params.get(name);
+  if (v === null) return fallback;
+  const n = Number(v);
+  if (!Number.isInteger(n) || n < lo || n > hi) throw new Error(`${name}=${v}: expected a whole number in ${lo}..${hi}`);
+  return n;
+}
+
+async function start(): Promise<void> {
+  const map = await fetchMap();
+  state.map = map;
+  const fixedCamera = params.get("size") === "camera" && map.camera !== null;
+  const width = fixedCamera ? map.camera!.width : innerWidth;
+  const height = fixedCamera ? map.camera!.height : innerHeight;
+
+  const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+  renderer.setPixelRatio(fixedCamera ? 1 : devicePixelRatio);
+  renderer.setSize(width, height);
+  renderer.setClearColor(0x000000, 1);
+  document.body.appendChild(renderer.domElement);
+
+  const scene = new THREE.Scene();
+  // Drawn as `diskchungs render` draws: a 0.3 px^2 low-pass without opacity compensation, 3 sigma,
+  // alpha below 1/255 skipped, depth-sorted, float32 centres through the accumulation.
+  const spark = new SparkRenderer({
+    renderer,
+    preBlurAmount: 0.3,
+    blurAmount: 0,
+    maxStdDev: 3,
+    minAlpha: 1 / 255,
+    sortRadial: false,
+    accumExtSplats: true,
+  });
+  scene.add(spark);
+
+  const span = map.chunk_size * 50;
+  const camera = new THREE.PerspectiveCamera(60, width / height, 0.01, span);
+  const kfIndex = intParam("kf", 0, 0, Math.max(0, map.keyframes.length - 1));
+  if (map.keyframes.length) applyPose(camera, map.keyframes[kfIndex].pose, map.origin);
+  else camera.position.set(0, -map.chunk_size, -map.chunk_size);
+  if (fixedCamera) applyIntrinsics(camera, map.camera!, 0.01, span);
+
+  const controls = new OrbitControls(camera, renderer.domElement);
+  const ahead = new THREE.Vector3(0, 0, -1).applyQuaternion(camera.quaternion);
+  controls.target.copy(camera.position).addScaledVector(ahead, map.chunk_size * 0.2);
+  controls.update();
+  if (map.keyframes.length) applyPose(camera, map.keyframes[kfIndex].pose, map.origin); // keep the exact pose
+
+  const overlays = new THREE.Group();
+  const traj = trajectoryOverlay(map);
+  const grid = chunkGrid(map);
+  grid.visible = false;
+  overlays.add(traj, grid);
+  overlays.visible = params.get("overlays") !== "0";
+  scene.add(overlays);
+
+  const budget = intParam("budget", 3_000_000, 1, 100_000_000);
+  const sh = intParam("sh", map.sh_degree, 0, 3);
+  const streamer = new ChunkStreamer(scene, map, budget, sh);
+  state.streamer = streamer;
+
+  const keys = new Set<string>();
+  let kfCursor = kfIndex;
+  addEventListener("keydown", (e) => {
+    keys.add(e.key.toLowerCase());
+    if (e.key === "g") grid.visible = !grid.visible;
+    if (e.key === "t") traj.visible = !traj.visible;
+    if (e.key === "k" && map.keyframes.length) {
+      kfCursor = (kfCursor + 1) % map.keyframes.length;
+      applyPose(camera, map.keyframes[kfCursor].pose, map.origin);
+      const f = new THREE.Vector3(0, 0, -1).applyQuaternion(camera.quaternion);
+      controls.target.copy(camera.position).addScaledVector(f, map.chunk_size * 0.2);
+    }
+  });
+  addEventListener("keyup", (e) => keys.delete(e.key.toLowerCase()));
+  if (!fixedCamera)
+    addEventListener("resize", () => {
+      renderer.setSize(innerWidth, innerHeight);
+      camera.aspect = innerWidth / innerHeight;
+      camera.updateProjectionMatrix();
+    });
+
+  const frustum = new THREE.Frustum();
+  const projView = new THREE.Matrix4();
+  let last = performance.now();
+  let settledSince = 0;
+  renderer.setAnimationLoop(() => {
+    const now = performance.now();
+    const dt = Math.min(0.1, (now - last) / 1000);
+    last = now;
+    const speed = map.chunk_size * 0.5 * dt * (keys.has("shift") ? 4 : 1);
+    const move = new THREE.Vector3(
+      (keys.has("d") ? 1 : 0) - (keys.has("a") ? 1 : 0),
+      (keys.has("e") ? 1 : 0) - (keys.has("q") ? 1 : 0),
+      (keys.has("s") ? 1 : 0) - (keys.has("w") ? 1 : 0),
+    );
+    if (move.lengthSq() > 0) {
+      move.normalize().multiplyScalar(speed).applyQuaternion(camera.quaternion);
+      camera.position.add(move);
+      controls.target.add(move);
+    }
+    camera.updateMatrixWorld();
+    projView.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
+    frustum.setFromProjectionMatrix(projView);
+    const settled = streamer.update(camera.position, frustum);
+    renderer.render(scene, camera);
+    const s = streamer.stats;
+    if (state.firstFrameMs === undefined && s.loaded > 0) state.firstFrameMs = now;
+    if (settled) {
+      if (state.settledFrames++ === 0) settledSince = now;
+      state.ready = state.settledFrames >= 10 && now - settledSince >= 500;
+    } else {
+      state.settledFrames = 0;
+      state.ready = false;
+    }
+    hud.textContent =
+      `checkpoint ${map.checkpoint}: ${map.chunks.length} chunks, ${map.total_gaussians.toLocaleString()} Gaussians\n` +
+      `in the page: ${s.loaded} chunks, ${s.splats.toLocaleString()} of ${s.budget.toLocaleString()} splats` +
+      (s.loading ? `, ${s.loading} loading` : "") +
+      (s.failed ? `\n${s.failed} chunk requests failed: ${s.errors[s.errors.length - 1]}` : "") +
+      `\nmouse: orbit   W A S D Q E: fly   K: next keyframe   G: chunk grid   T: trajectory`;
+  });
+}
+
+start().catch((e: unknown) => {
+  state.error = String(e);
+  hud.textContent = `viewer: ${String(e)}`;
+  hud.classList.remove("hidden");
+});
