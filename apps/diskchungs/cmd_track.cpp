@@ -15,6 +15,7 @@
 #include "chungs/mapping/tracker_feed.hpp"
 #include "chungs/tracking/visual_tracker.hpp"
 #include "command.hpp"
+#include "dataset_spec.hpp"
 #include "flag_checks.hpp"
 
 namespace chungs::app {
@@ -43,7 +44,7 @@ void check_flags(const CLI::App& app, const TrackArgs& a) {
 }
 
 int run_track(const TrackArgs& a) {
-  auto ds = open_dataset(a.dataset);
+  auto ds = open_dataset_spec(a.dataset);
   const TrajectoryFormat format = parse_trajectory_format(a.format);
   tracking::TrackerOptions opt;
   opt.local_ba = !a.no_ba;
@@ -105,7 +106,7 @@ int run_track(const TrackArgs& a) {
 const Command track_cmd("track", "visual SLAM tracking of a stereo or RGB-D dataset; writes the trajectory",
                         [](CLI::App& app) -> Action {
   auto args = std::make_shared<TrackArgs>();
-  app.add_option("--dataset", args->dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch)")->required();
+  app.add_option("--dataset", args->dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch) or synth-street:key=value,...")->required();
   app.add_option("--out", args->out, "trajectory file to write")->required();
   app.add_option("--format", args->format, "trajectory format: tum or kitti")->capture_default_str();
   app.add_option("--max-frames", args->max_frames, "track only the first N frames (0: all)");

@@ -44,7 +44,7 @@ std::unique_ptr<Dataset> open_street(const std::string& spec, const std::string&
     const size_t eq = item.find('=');
     if (eq == std::string::npos || eq == 0)
       fail("dataset '", spec, "': '", item,
-           "' is not key=value (keys: length, width, height, seed, frames, depth)");
+           "' is not key=value (keys: length, width, height, seed, frames, depth, traffic, startup)");
     const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
     if (!seen.insert(key).second) fail("dataset '", spec, "': key '", key, "' is given twice");
     if (key == "length") {
@@ -65,9 +65,18 @@ std::unique_ptr<Dataset> open_street(const std::string& spec, const std::string&
       if (value != "0" && value != "1")
         fail("dataset '", spec, "': value '", value, "' of depth must be 0 or 1");
       o.depth = value == "1";
+    } else if (key == "traffic") {
+      o.street.traffic = number(spec, key, value);
+      if (!(o.street.traffic >= 0 && o.street.traffic <= 50))
+        fail("dataset '", spec, "': traffic ", value, " (moving vehicles per 100 m) must be from 0 to 50");
+    } else if (key == "startup") {
+      if (value != "none" && value != "cross" && value != "turn" && value != "cross+turn")
+        fail("dataset '", spec, "': value '", value, "' of startup must be none, cross, turn or cross+turn");
+      o.street.startup_cross = value == "cross" || value == "cross+turn";
+      o.street.start_turn = value == "turn" || value == "cross+turn";
     } else {
       fail("dataset '", spec, "': unknown key '", key,
-           "' (keys: length, width, height, seed, frames, depth)");
+           "' (keys: length, width, height, seed, frames, depth, traffic, startup)");
     }
   }
   if (have_width != have_height) fail("dataset '", spec, "': give both width and height, or neither");

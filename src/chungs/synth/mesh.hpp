@@ -61,6 +61,10 @@ struct Mesh {
   std::vector<uint16_t> face_material;  // per face, index into materials; empty means material 0
   std::vector<Material> materials;      // at least one when the mesh has faces
   Eigen::Vector3f lo{0, 0, 0}, hi{0, 0, 0};  // local bounds of the vertices
+  // A moving object (a car in traffic) carries its texture with it: when set, materials are evaluated
+  // in the object's frame, at object_rotation^T * (p - origin), instead of at the world point p.
+  bool object_texture = false;
+  Eigen::Matrix3d object_rotation = Eigen::Matrix3d::Identity();
 
   size_t triangles() const { return faces.size(); }
   const Material& material_of(size_t face) const {

@@ -263,17 +263,26 @@ void Rasterizer::shade(const std::vector<const Mesh*>& meshes, const Camera& cam
         const V3 dpdu = z / cam.fx * (ex - rw * (n.dot(ex) / ndr));
         const V3 dpdv = z / cam.fy * (ey - rw * (n.dot(ey) / ndr));
         SurfacePoint sp;
-        sp.p = p;
-        sp.n = n.cast<float>();
-        const V3 an = n.cwiseAbs();
-        int su, tu;  // world axes used as texture s and t
+        // Texture space: the world, or for a moving object its own frame (the pattern moves with it).
+        V3 tp = p, tn = n, tdu = dpdu, tdv = dpdv;
+        if (mesh.object_texture) {
+          const Eigen::Matrix3d Rt = mesh.object_rotation.transpose();
+          tp = Rt * (p - mesh.origin);
+          tn = Rt * n;
+          tdu = Rt * dpdu;
+          tdv = Rt * dpdv;
+        }
+        sp.p = tp;
+        sp.n = tn.cast<float>();
+        const V3 an = tn.cwiseAbs();
+        int su, tu;  // axes used as texture s and t
         if (an.z() >= an.x() && an.z() >= an.y()) su = 0, tu = 1, sp.vertical = false;
         else if (an.x() >= an.y()) su = 1, tu = 2, sp.vertical = true;
         else su = 0, tu = 2, sp.vertical = true;
-        sp.s = p[su];
-        sp.t = p[tu];
-        sp.fs = std::max({std::abs(dpdu[su]), std::abs(dpdv[su]), 1e-6});
-        sp.ft = std::max({std::abs(dpdu[tu]), std::abs(dpdv[tu]), 1e-6});
+        sp.s = tp[su];
+        sp.t = tp[tu];
+        sp.fs = std::max({std::abs(tdu[su]), std::abs(tdv[su]), 1e-6});
+        sp.ft = std::max({std::abs(tdu[tu]), std::abs(tdv[tu]), 1e-6});
         const Material& mat = mesh.material_of(f);
         if (mat.kind == MaterialKind::VertexColor && !mesh.colors.empty()) {
           // Barycentric coordinates of the exact surface point: perspective-correct by construction.

@@ -7,6 +7,7 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -28,6 +29,11 @@ struct StreetOptions {
   double turn_radius = 6.0;
   double far = 150;          // far plane the world is culled to
   size_t max_blocks = 128;  // blocks kept in memory per renderer (about 3 MB each at most)
+  // Moving vehicles (issue 23), all off by default: the world and the drive are then exactly as before.
+  // The camera's poses never depend on them; only start_turn moves where the drive begins.
+  double traffic = 0;         // moving vehicles per 100 m of route: ahead, oncoming and crossing
+  bool startup_cross = false; // a lorry crosses close ahead in the first frames, filling much of the view
+  bool start_turn = false;    // the drive begins a few metres before the route's first corner
 };
 
 // The KITTI odometry camera (fx = fy = 718.856 at 1241x376) scaled to another width, principal
@@ -37,6 +43,8 @@ constexpr double kKittiBaseline = 0.54;
 // Longest route a street may have (1000 km): beyond any drive we map, and a typo's 1e308 or inf
 // is refused instead of building route nodes without end.
 constexpr double kMaxStreetLengthM = 1e6;
+
+struct StreetTraffic;  // street_traffic.cpp
 
 class StreetWorld : public Scene {
  public:
@@ -52,6 +60,10 @@ class StreetWorld : public Scene {
   size_t blocks_generated() const { return generated_; }        // including regenerations
   size_t distinct_blocks() const { return distinct_.size(); }
   size_t distinct_triangles() const;                           // over all distinct blocks touched
+  // Moving vehicles: gather() adds those of `traffic` where they are at time `t` (seconds, the
+  // trajectory's stamps). Without traffic the world is static and the time is ignored.
+  void set_traffic(std::shared_ptr<const StreetTraffic> traffic) { traffic_ = std::move(traffic); }
+  void set_time(double t) { time_ = t; }
 
  private:
   struct Entry {
@@ -68,6 +80,9 @@ class StreetWorld : public Scene {
   std::vector<std::shared_ptr<Mesh>> in_use_;     // keeps the last gather's meshes alive
   uint64_t clock_ = 0;
   size_t generated_ = 0;
+  std::shared_ptr<const StreetTraffic> traffic_;
+  double time_ = 0;
+  std::vector<std::shared_ptr<Mesh>> vehicles_;  // the last gather's vehicle meshes
 };
 
 // Builds the mesh of one block (street_block.cpp).
@@ -78,5 +93,64 @@ Mesh build_street_block(const StreetOptions& opt, int bx, int by);
 std::vector<Eigen::Vector2i> street_route_nodes(const StreetOptions& opt);
 // Camera poses every step_m along the route (at most max_frames when non-zero), stamps i / rate.
 Trajectory street_trajectory(const StreetOptions& opt, size_t max_frames = 0);
+
+// The route as a smooth right-lane path (lines and quarter circles, no sway), by arc length.
+struct PathPiece {
+  bool arc = false;
+  Eigen::Vector2d a, b;          // line: from a to b
+  Eigen::Vector2d c, din, dout;  // arc: centre and the directions in and out (quarter circle of radius r)
+  double r = 0, length = 0;
+  void at(double s, Eigen::Vector2d& p, Eigen::Vector2d& tangent) const;
+};
+class StreetPath {
+ public:
+  explicit StreetPath(const StreetOptions& opt);
+  // Position and unit tangent at arc length s (clamped to the path).
+  void at(double s, Eigen::Vector2d& p, Eigen::Vector2d& tangent) const;
+  double length() const { return total_; }
+  // The arc length reached from s after `distance` metres (negative: backwards) driven along the path
+  // shifted `lateral` metres to its left (longer on the outside of a corner, shorter inside).
+  double advance(double s, double distance, double lateral) const;
+  // Arc length where the drive's frame 0 is: 0, or a few metres before the first corner (start_turn).
+  double start() const { return start_; }
+  const std::vector<PathPiece>& pieces() const { return pieces_; }
+  const std::vector<Eigen::Vector2i>& nodes() const { return nodes_; }
+
+ private:
+  std::vector<Eigen::Vector2i> nodes_;
+  std::vector<PathPiece> pieces_;
+  std::vector<double> starts_;
+  double total_ = 0, start_ = 0;
+};
+
+// Moving vehicles along a drive (street_traffic.cpp). Each has a box-like body (car, van or lorry) with
+// the street's paint, glass and poster materials carried with it, and moves at 10-60 km/h: ahead of the
+// camera in its lane, oncoming in the other lane, across intersections before the camera reaches them,
+// and (startup_cross) a lorry crossing close ahead in the first frames. None comes within a metre of the
+// camera, whose poses it does not change.
+struct Vehicle {
+  enum class Kind { Car, Van, Lorry } kind = Kind::Car;
+  enum class Motion { Route, Line } motion = Motion::Route;
+  double length = 4.3, width = 1.8, height = 1.5;
+  double t0 = 0, t1 = 0;   // seconds it exists
+  double speed = 10;       // m/s
+  // Route: arc length s0 at t0, moving `dir` (+1 with the route, -1 against), `lateral` metres left of the path.
+  double s0 = 0, dir = 1, lateral = 0;
+  // Line: position p0 at t0 moving along the unit vector d.
+  Eigen::Vector2d p0{0, 0}, d{1, 0};
+  uint64_t seed = 0;  // paint and poster
+  std::string role;   // ahead, oncoming, crossing, startup
+};
+struct StreetTraffic {
+  StreetTraffic(const StreetOptions& opt, const Trajectory& drive);
+  std::vector<Vehicle> vehicles;
+  // Where vehicle v is at time t: centre of its footprint and unit heading; false outside [t0, t1].
+  bool place(const Vehicle& v, double t, Eigen::Vector2d& centre, Eigen::Vector2d& heading) const;
+  std::shared_ptr<Mesh> mesh(const Vehicle& v, double t) const;  // null outside its time
+
+ private:
+  StreetOptions opt_;
+  StreetPath path_;
+};
 
 }  // namespace chungs::synth

@@ -29,7 +29,12 @@ StreetDataset::StreetDataset(const StreetDatasetOptions& o) : options_(o) {
   info_.has_gt = true;
   info_.color = true;
   info_.rate_hz = o.street.rate_hz;
+  if (o.street.traffic > 0 || o.street.startup_cross) {
+    auto full = o.max_frames ? street_trajectory(o.street) : trajectory_;
+    traffic_ = std::make_shared<const StreetTraffic>(o.street, full);
+  }
   idle_.push_back(std::make_unique<Renderer>(o.street));  // fails early on bad street options
+  idle_.back()->world.set_traffic(traffic_);
 }
 
 StreetDataset::~StreetDataset() = default;
@@ -47,7 +52,9 @@ std::unique_ptr<StreetDataset::Renderer> StreetDataset::take() const {
       return r;
     }
   }
-  return std::make_unique<Renderer>(options_.street);
+  auto r = std::make_unique<Renderer>(options_.street);
+  r->world.set_traffic(traffic_);
+  return r;
 }
 
 void StreetDataset::give_back(std::unique_ptr<Renderer> r) const {
@@ -60,6 +67,7 @@ Frame StreetDataset::frame(size_t i) const {
   std::unique_ptr<Renderer> r = take();
   RenderOptions ro;
   ro.far = options_.street.far;  // as `diskchungs synth street`
+  r->world.set_time(trajectory_.stamps[i]);
   try {
     render_frame(r->rasterizer, r->world, info_.camera, trajectory_.poses[i], info_.baseline, ro, r->frame);
   } catch (const Error& e) {

@@ -22,6 +22,8 @@ struct StreetDatasetOptions {
   int width = 1241, height = 376;
   size_t max_frames = 0;  // 0: the whole route
   bool depth = false;     // also hand out the rendered depth (the KITTI reader gives none)
+  // Moving vehicles (street.traffic, startup_cross) are rendered at each frame's time, in both images and
+  // the depth alike; such frames differ from `diskchungs synth street`'s, which has no traffic.
 };
 
 class StreetDataset : public Dataset {
@@ -29,6 +31,7 @@ class StreetDataset : public Dataset {
   explicit StreetDataset(const StreetDatasetOptions& options);
   ~StreetDataset() override;
   const DatasetInfo& info() const override { return info_; }
+  const StreetTraffic* traffic() const { return traffic_.get(); }
   Frame frame(size_t i) const override;  // throws Error naming the frame when out of range
   double timestamp(size_t i) const override;
   std::optional<SE3> gt_pose(size_t i) const override;
@@ -42,6 +45,7 @@ class StreetDataset : public Dataset {
   StreetDatasetOptions options_;
   DatasetInfo info_;
   Trajectory trajectory_;
+  std::shared_ptr<const StreetTraffic> traffic_;  // null without moving vehicles
   mutable std::mutex mutex_;  // guards idle_
   mutable std::vector<std::unique_ptr<Renderer>> idle_;
 };

@@ -100,32 +100,14 @@ class Planner {
   size_t edges_needed_ = 0;
 };
 
-struct Piece {
-  bool arc = false;
-  V2 a, b;          // line: from a to b
-  V2 c, din, dout;  // arc: centre and the directions in and out (quarter circle of radius r)
-  double r = 0, length = 0;
-
-  void at(double s, V2& p, V2& tangent) const {
-    if (!arc) {
-      tangent = (b - a).normalized();
-      p = a + s * tangent;
-      return;
-    }
-    const double phi = s / r;
-    p = c + r * (-dout * std::cos(phi) + din * std::sin(phi));
-    tangent = (dout * std::sin(phi) + din * std::cos(phi)).normalized();
-  }
-};
-
-std::vector<Piece> build_path(const StreetOptions& o, const std::vector<V2i>& nodes) {
+std::vector<PathPiece> build_path(const StreetOptions& o, const std::vector<V2i>& nodes) {
   auto right_of = [](const V2& d) { return V2(d.y(), -d.x()); };
-  std::vector<Piece> pieces;
+  std::vector<PathPiece> pieces;
   const double L = o.lane_offset, R = o.turn_radius;
   auto dir = [&](size_t k) { return (nodes[k + 1] - nodes[k]).cast<double>(); };
   V2 cur = nodes[0].cast<double>() * o.pitch + L * right_of(dir(0));
   auto line_to = [&](const V2& p) {
-    Piece q;
+    PathPiece q;
     q.a = cur;
     q.b = p;
     q.length = (p - cur).norm();
@@ -138,7 +120,7 @@ std::vector<Piece> build_path(const StreetOptions& o, const std::vector<V2i>& no
     if (din == -dout) fail("street route: U-turn at node ", k);
     const V2 corner = nodes[k].cast<double>() * o.pitch + L * (right_of(din) + right_of(dout));
     line_to(corner - R * din);
-    Piece arc;
+    PathPiece arc;
     arc.arc = true;
     arc.c = corner - R * din + R * dout;
     arc.din = din;
@@ -154,6 +136,66 @@ std::vector<Piece> build_path(const StreetOptions& o, const std::vector<V2i>& no
 
 }  // namespace
 
+void PathPiece::at(double s, V2& p, V2& tangent) const {
+  if (!arc) {
+    tangent = (b - a).normalized();
+    p = a + s * tangent;
+    return;
+  }
+  const double phi = s / r;
+  p = c + r * (-dout * std::cos(phi) + din * std::sin(phi));
+  tangent = (dout * std::sin(phi) + din * std::cos(phi)).normalized();
+}
+
+StreetPath::StreetPath(const StreetOptions& o) {
+  nodes_ = street_route_nodes(o);
+  pieces_ = build_path(o, nodes_);
+  for (const auto& p : pieces_) starts_.push_back(total_), total_ += p.length;
+  if (o.start_turn) {
+    // Four metres before the first corner: the camera turns within its first frames.
+    for (size_t k = 0; k < pieces_.size(); ++k)
+      if (pieces_[k].arc) {
+        start_ = std::max(0.0, starts_[k] - 4.0);
+        break;
+      }
+  }
+}
+
+void StreetPath::at(double s, V2& p, V2& tangent) const {
+  s = std::clamp(s, 0.0, total_);
+  size_t k = size_t(std::upper_bound(starts_.begin(), starts_.end(), s) - starts_.begin());
+  k = k == 0 ? 0 : k - 1;
+  pieces_[k].at(std::min(s - starts_[k], pieces_[k].length), p, tangent);
+}
+
+double StreetPath::advance(double s, double distance, double lateral) const {
+  s = std::clamp(s, 0.0, total_);
+  size_t k = size_t(std::upper_bound(starts_.begin(), starts_.end(), s) - starts_.begin());
+  k = k == 0 ? 0 : k - 1;
+  // Metres of the shifted path per metre of the route in piece k.
+  auto scale = [&](size_t i) {
+    const PathPiece& p = pieces_[i];
+    if (!p.arc) return 1.0;
+    const bool left_turn = p.din.x() * p.dout.y() - p.din.y() * p.dout.x() > 0;
+    return std::max(0.05, (p.r + (left_turn ? -lateral : lateral)) / p.r);
+  };
+  double left = distance;
+  while (true) {
+    const double k_s = scale(k);
+    if (left >= 0) {
+      const double room = (starts_[k] + pieces_[k].length - s) * k_s;
+      if (left <= room || k + 1 == pieces_.size()) return std::min(total_, s + left / k_s);
+      left -= room;
+      s = starts_[++k];
+    } else {
+      const double room = (s - starts_[k]) * k_s;
+      if (-left <= room || k == 0) return std::max(0.0, s + left / k_s);
+      left += room;
+      s = starts_[k--];
+    }
+  }
+}
+
 std::vector<Eigen::Vector2i> street_route_nodes(const StreetOptions& opt) {
   if (!(opt.length_m > 0)) fail("street route: length must be positive, got ", opt.length_m, " m");
   if (!(opt.turn_radius > 0 && opt.turn_radius < 0.4 * opt.pitch))
@@ -165,11 +207,10 @@ Trajectory street_trajectory(const StreetOptions& o, size_t max_frames) {
   if (!(o.step_m > 0) || !(o.rate_hz > 0)) fail("street route: step and rate must be positive");
   if (!(o.length_m > 0 && o.length_m <= kMaxStreetLengthM))
     fail("street route: length must be in (0, ", kMaxStreetLengthM, "] m, got ", o.length_m);
-  const auto nodes = street_route_nodes(o);
-  const auto pieces = build_path(o, nodes);
-  double total = 0;
-  for (const auto& p : pieces) total += p.length;
-  const double want = std::min(o.length_m, total);
+  const StreetPath path(o);
+  const auto& pieces = path.pieces();
+  const double total = path.length(), start0 = path.start();
+  const double want = std::min(o.length_m, total - start0);
   size_t frames = size_t(std::floor(want / o.step_m)) + 1;
   if (max_frames) frames = std::min(frames, max_frames);
 
@@ -181,7 +222,7 @@ Trajectory street_trajectory(const StreetOptions& o, size_t max_frames) {
   size_t pi = 0;
   double start = 0;  // arc length where piece pi starts
   for (size_t i = 0; i < frames; ++i) {
-    const double s = i * o.step_m;
+    const double s = start0 + i * o.step_m;
     while (pi + 1 < pieces.size() && s > start + pieces[pi].length) start += pieces[pi++].length;
     V2 p, t;
     pieces[pi].at(std::min(s - start, pieces[pi].length), p, t);

@@ -55,6 +55,19 @@ std::vector<const Mesh*> StreetWorld::gather(const Camera& cam, const SE3& T_wc,
   std::vector<const Mesh*> out;
   out.reserve(in_use_.size());
   for (const auto& m : in_use_) out.push_back(m.get());
+  vehicles_.clear();
+  if (traffic_) {
+    for (const Vehicle& v : traffic_->vehicles) {
+      Eigen::Vector2d centre, heading;
+      if (!traffic_->place(v, time_, centre, heading)) continue;
+      const double reach = 0.5 * v.length + 1;
+      if ((centre - c.head<2>()).norm() > far + reach) continue;
+      const Eigen::Vector3d lo(centre.x() - reach, centre.y() - reach, 0), hi(centre.x() + reach, centre.y() + reach, v.height);
+      if (!box_maybe_visible(lo, hi, cam, T_wc, far)) continue;
+      vehicles_.push_back(traffic_->mesh(v, time_));
+      out.push_back(vehicles_.back().get());
+    }
+  }
   return out;
 }
 
