@@ -1,13 +1,17 @@
-// `diskchungs view MAP`: serves the browser viewer for a map folder (src/chungs/serve) until Ctrl-C.
+// `diskchungs view MAP`: serves the browser viewer for a map folder (src/chungs/serve) until Ctrl-C,
+// following the checkpoints a run beside it commits (the page hears of each through /api/events).
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 
 #include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <thread>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/serve/map_follower.hpp"
 #include "chungs/serve/view_server.hpp"
 #include "command.hpp"
 #include "flag_checks.hpp"
@@ -21,10 +25,24 @@ void on_signal(int) { g_stop = true; }
 struct ViewArgs {
   std::string map, host = "127.0.0.1", web;
   long long port = 8080;  // signed, so that a typed -1 is refused instead of wrapped
+  double follow_s = 0.5;  // 0: the checkpoint of the start only
+  bool wait = false;
 };
 
 int run_view(const ViewArgs& a) {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  if (a.wait && !std::filesystem::exists(std::filesystem::path(a.map) / "manifest.txt")) {
+    log::info("waiting for ", a.map, "'s first checkpoint (Ctrl-C stops)");
+    while (!g_stop && !std::filesystem::exists(std::filesystem::path(a.map) / "manifest.txt"))
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (g_stop) return 0;
+  }
   auto snapshot = std::make_shared<serve::MapSnapshot>(a.map);
+  auto follower = std::make_shared<serve::MapFollower>(snapshot);
   serve::ViewServerOptions o;
   o.host = a.host;
   o.port = int(a.port);
@@ -32,7 +50,7 @@ int run_view(const ViewArgs& a) {
     o.web_root = serve::find_web_root(a.web);
     if (o.web_root.empty()) fail("--web ", a.web, ": no index.html there (build the target web, or point at its dist folder)");
   }
-  serve::ViewServer server(snapshot, o);
+  serve::ViewServer server(follower, o);
   server.bind();
   if (!server.has_page())
     log::warn("the viewer page is not built (node and npm at configure time, target web); serving the API only");
@@ -40,17 +58,13 @@ int run_view(const ViewArgs& a) {
               (unsigned long long)snapshot->checkpoint(), snapshot->store().size(),
               (unsigned long long)snapshot->store().total_gaussians(), server.url().c_str());
   std::fflush(stdout);
-
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  if (a.follow_s > 0) follower->start(std::chrono::milliseconds(long(a.follow_s * 1000)));
   // The handler only sets a flag; this thread turns it into a stop, asked again until the loop has
   // ended (a stop that comes before the loop has started is lost).
   std::atomic<bool> done{false};
   std::thread watcher([&] {
     while (!g_stop && !done) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    follower->stop();  // ends the event streams, which would hold the server's threads
     while (!done) {
       server.stop();
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -70,10 +84,17 @@ const Command cmd{"view", "serve a map folder to the browser viewer (http://127.
   app.add_option("--port", a->port, "TCP port, 1..65535 (0: any free port, printed)")->capture_default_str();
   app.add_option("--host", a->host, "address to listen on (0.0.0.0: every interface, reachable from other machines)")
       ->capture_default_str();
+  app.add_option("--follow", a->follow_s,
+                 "seconds between looks for a new checkpoint of a run writing the map (0: serve the one at start)")
+      ->capture_default_str();
+  app.add_flag("--wait", a->wait, "wait for the map's first checkpoint when the folder has none yet");
   app.add_option("--web", a->web, "folder of the built page (default: installed, else the build tree's web/dist)");
   return [a, &app]() {
     if (given(app, "--port")) require_flag(a->port >= 0 && a->port <= 65535, "--port", "in 0..65535", a->port);
     require_flag(!a->host.empty(), "--host", "an address", "''");
+    if (given(app, "--follow"))
+      require_flag(std::isfinite(a->follow_s) && a->follow_s >= 0 && a->follow_s <= 3600, "--follow",
+                   "in [0, 3600] seconds", a->follow_s);
     return run_view(*a);
   };
 }};

@@ -122,6 +122,72 @@ async function sideBySide(browser, a, b, out) {
   await page.close();
 }
 
+async function liveRun(browser) {
+  const room = join(work, "live-room");
+  const map = join(work, "live-map");
+  rmSync(room, { recursive: true, force: true });
+  rmSync(map, { recursive: true, force: true });
+  runCli(["-q", "synth", "room", "--out", room, "--frames", "45", "--width", "96", "--height", "72"]);
+  const cfg = join(work, "live.yaml");
+  writeFileSync(cfg, "mapper:\n  checkpoint_every: 1\n  checkpoint_seconds: 0\n  checkpoint_max_share: 0\n");
+  const run = spawn(cli, ["-q", "run", "--dataset", `tum:${room}`, "--device", "cpu", "--out", map, "--no-eval",
+    "--pacing", "anytime", "--speed", "0.05", "--final-iterations", "0", "--chunk-size", "1", "--config", cfg],
+    { stdio: ["ignore", "ignore", "pipe"], env: { ...process.env, OMP_NUM_THREADS: "1" } });
+  let runErr = "";
+  run.stderr.on("data", (d) => (runErr += d));
+  const runExit = new Promise((r) => run.once("exit", r));
+  // When each checkpoint was first seen on disk (a look every 20 ms).
+  const committed = new Map();
+  const watch = setInterval(() => {
+    try {
+      const m = readFileSync(join(map, "manifest.txt"), "utf8").match(/^config checkpoint (\d+)$/m);
+      if (m && !committed.has(Number(m[1]))) committed.set(Number(m[1]), Date.now());
+    } catch {}
+  }, 20);
+  const v = spawn(cli, ["view", map, "--port", "0", "--wait", "--follow", "0.1"], { stdio: ["ignore", "pipe", "pipe"] });
+  try {
+    const url = await new Promise((res, rej) => {
+      let out = "";
+      const t = setTimeout(() => rej(new Error(`live view printed no URL: ${out}`)), 60000);
+      v.stdout.on("data", (d) => {
+        out += d;
+        const m = out.match(/at (http:\/\/\S+\/)/);
+        if (m) {
+          clearTimeout(t);
+          res(m[1]);
+        }
+      });
+    });
+    const page = await openViewer(browser, url, "kf=0&budget=100000000&follow=1", { width: 320, height: 240 });
+    const readyAt = Date.now();
+    say(`live page ready; run still mapping: ${run.exitCode === null}`);
+    await runExit;
+    await new Promise((r) => setTimeout(r, 3000)); // the last checkpoint's chunks reach the page
+    clearInterval(watch);
+    const { eventLog, shown, events } = await page.evaluate(() => ({
+      eventLog: window.viewer.eventLog,
+      shown: window.viewer.shown,
+      events: window.viewer.events,
+    }));
+    await page.close();
+    const latencies = [];
+    for (const e of eventLog) {
+      const commit = committed.get(e.checkpoint);
+      if (commit === undefined || commit < readyAt) continue;
+      for (const id of e.ids) {
+        const s = shown.find(([sid, at]) => sid === id && at >= e.heard);
+        if (s) latencies.push(s[1] - commit);
+      }
+    }
+    if (run.exitCode !== 0) throw new Error(`live run failed (${run.exitCode}): ${runErr}`);
+    return { events, latencies };
+  } finally {
+    clearInterval(watch);
+    v.kill("SIGINT");
+    if (run.exitCode === null) run.kill("SIGINT");
+  }
+}
+
 let viewer;
 let browser;
 let status = 1;
@@ -193,6 +259,18 @@ try {
   check(s2.loaded < info.chunks.length, `the budget kept chunks out: ${s2.loaded} of ${info.chunks.length} in the page`);
   await p2.close();
 
+  viewer.proc.kill("SIGINT");
+  await new Promise((r) => viewer.proc.once("exit", r));
+  viewer = undefined;
+
+  // Live: a run checkpointing at every keyframe, paced slowly, `view --wait` beside it, the page open
+  // while it maps. Each chunk a checkpoint adds or changes must be in the page within 2 s of the
+  // commit (the median; the worst is printed). Commit times: when the manifest first names them.
+  const live = await liveRun(browser);
+  check(live.latencies.length > 0, `live: ${live.events} checkpoint events in the page, ${live.latencies.length} chunk updates timed`);
+  const liveMedian = percentile(live.latencies, 0.5);
+  check(liveMedian <= 2000, `live: commit to chunk in the page, median ${liveMedian?.toFixed(0)} ms, worst ${Math.max(...live.latencies).toFixed(0)} ms (median <= 2000)`);
+
   const fetchMs = [...full.fetchMs, ...s2.fetchMs];
   console.log(
     "figures " +
@@ -205,6 +283,7 @@ try {
         chunk_fetch_ms_p99: percentile(fetchMs, 0.99),
         fetches: fetchMs.length,
         streaming: { budget, fetches: s2.fetches, disposed: s2.disposed, peak_splats: peak },
+        live_commit_to_page_ms: { median: liveMedian, worst: Math.max(...live.latencies), n: live.latencies.length },
       }),
   );
   status = failures.length ? 1 : 0;

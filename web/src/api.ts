@@ -27,6 +27,7 @@ export interface KeyframeInfo {
 }
 
 export interface MapInfo {
+  version: number; // the server's count of checkpoints taken since it started (/api/events ids)
   checkpoint: number;
   chunk_size: number;
   sh_degree: number;
@@ -37,6 +38,19 @@ export interface MapInfo {
   trajectory: [number, number, number][];
   camera: CameraInfo | null;
   report: Record<string, unknown> | null;
+}
+
+// One /api/events `checkpoint` event: what the newest checkpoint changed (or `reload`: too far behind).
+export interface CheckpointEvent {
+  version: number;
+  reload?: boolean;
+  checkpoint?: number;
+  added?: string[];
+  changed?: string[];
+  removed?: string[];
+  pose?: number[][] | null;
+  keyframes?: number;
+  total_gaussians?: number;
 }
 
 export async function fetchMap(): Promise<MapInfo> {

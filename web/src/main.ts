@@ -2,12 +2,13 @@
 // under a splat budget, with the trajectory, keyframe frusta and chunk grid drawn over them.
 // Query parameters: kf=N starts at keyframe N's pose; size=camera sizes the canvas to the map's
 // camera and uses its intrinsics (for pixel comparisons); budget=N splats (default 3,000,000);
-// sh=0..3; overlays=0 and hud=0 hide the drawn lines and the text.
-// Keys: W/A/S/D/Q/E fly, mouse orbits; G grid, T trajectory and frusta, K next keyframe.
+// sh=0..3; overlays=0 and hud=0 hide the drawn lines and the text; follow=1 moves the camera to each
+// new checkpoint's newest keyframe while a run writes the map (key F toggles it).
+// Keys: W/A/S/D/Q/E fly, mouse orbits; G grid, T trajectory and frusta, K next keyframe, F follow.
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 import { SparkRenderer } from "@sparkjsdev/spark";
-import { MapInfo, fetchMap } from "./api";
+import { CheckpointEvent, MapInfo, fetchMap } from "./api";
 import { ChunkStreamer } from "./streamer";
 import { applyIntrinsics, applyPose, chunkGrid, trajectoryOverlay } from "./view";
 
@@ -18,6 +19,11 @@ interface ViewerState {
   settledFrames: number; // frames drawn since every chosen chunk was in the scene
   ready: boolean; // settled for a while: what a screenshot should wait for
   error?: string;
+  events: number; // checkpoint events heard
+  // For tests of live updates, in ms since the epoch: each event when heard with the chunks it named
+  // (added or changed), and each chunk mesh when it entered the scene.
+  eventLog: { checkpoint: number; ids: string[]; heard: number }[];
+  shown: [string, number][];
 }
 
 declare global {
@@ -26,7 +32,7 @@ declare global {
   }
 }
 
-const state: ViewerState = { settledFrames: 0, ready: false };
+const state: ViewerState = { settledFrames: 0, ready: false, events: 0, eventLog: [], shown: [] };
 window.viewer = state;
 const params = new URLSearchParams(location.search);
 const hud = document.getElementById("hud")!;
@@ -81,8 +87,8 @@ async function start(): Promise<void> {
   if (map.keyframes.length) applyPose(camera, map.keyframes[kfIndex].pose, map.origin); // keep the exact pose
 
   const overlays = new THREE.Group();
-  const traj = trajectoryOverlay(map);
-  const grid = chunkGrid(map);
+  let traj = trajectoryOverlay(map);
+  let grid = chunkGrid(map);
   grid.visible = false;
   overlays.add(traj, grid);
   overlays.visible = params.get("overlays") !== "0";
@@ -90,8 +96,45 @@ async function start(): Promise<void> {
 
   const budget = intParam("budget", 3_000_000, 1, 100_000_000);
   const sh = intParam("sh", map.sh_degree, 0, 3);
-  const streamer = new ChunkStreamer(scene, map, budget, sh);
+  const streamer = new ChunkStreamer(scene, map, budget, sh, 4, (id) =>
+    state.shown.push([id, performance.timeOrigin + performance.now()]),
+  );
   state.streamer = streamer;
+
+  // A run writing the map: each checkpoint's event brings the new description; chunks it changed
+  // are dropped and fetched again by the streamer, the overlays are drawn anew.
+  let follow = params.get("follow") === "1";
+  let busy = Promise.resolve();
+  const events = new EventSource(`api/events?since=${map.version}`);
+  events.addEventListener("checkpoint", (msg) => {
+    const e = JSON.parse((msg as MessageEvent).data) as CheckpointEvent;
+    state.events++;
+    state.eventLog.push({
+      checkpoint: e.checkpoint ?? -1,
+      ids: [...(e.added ?? []), ...(e.changed ?? [])],
+      heard: performance.timeOrigin + performance.now(),
+    });
+    busy = busy.then(async () => {
+      const next = await fetchMap();
+      const stale = new Set([...(e.changed ?? []), ...(e.removed ?? [])]);
+      if (e.reload) for (const c of streamer.map.chunks) stale.add(c.id);
+      streamer.setMap(next, stale);
+      overlays.remove(traj, grid);
+      const gridShown = grid.visible, trajShown = traj.visible;
+      traj = trajectoryOverlay(next);
+      grid = chunkGrid(next);
+      traj.visible = trajShown;
+      grid.visible = gridShown;
+      overlays.add(traj, grid);
+      if (follow && next.keyframes.length) {
+        applyPose(camera, next.keyframes[next.keyframes.length - 1].pose, next.origin);
+        const f = new THREE.Vector3(0, 0, -1).applyQuaternion(camera.quaternion);
+        controls.target.copy(camera.position).addScaledVector(f, next.chunk_size * 0.2);
+      }
+    }).catch((err: unknown) => {
+      state.error = `checkpoint event: ${String(err)}`;
+    });
+  });
 
   const keys = new Set<string>();
   let kfCursor = kfIndex;
@@ -99,9 +142,11 @@ async function start(): Promise<void> {
     keys.add(e.key.toLowerCase());
     if (e.key === "g") grid.visible = !grid.visible;
     if (e.key === "t") traj.visible = !traj.visible;
-    if (e.key === "k" && map.keyframes.length) {
-      kfCursor = (kfCursor + 1) % map.keyframes.length;
-      applyPose(camera, map.keyframes[kfCursor].pose, map.origin);
+    if (e.key === "f") follow = !follow;
+    const m = streamer.map;
+    if (e.key === "k" && m.keyframes.length) {
+      kfCursor = (kfCursor + 1) % m.keyframes.length;
+      applyPose(camera, m.keyframes[kfCursor].pose, m.origin);
       const f = new THREE.Vector3(0, 0, -1).applyQuaternion(camera.quaternion);
       controls.target.copy(camera.position).addScaledVector(f, map.chunk_size * 0.2);
     }
@@ -147,12 +192,15 @@ async function start(): Promise<void> {
       state.settledFrames = 0;
       state.ready = false;
     }
+    const m = streamer.map;
     hud.textContent =
-      `checkpoint ${map.checkpoint}: ${map.chunks.length} chunks, ${map.total_gaussians.toLocaleString()} Gaussians\n` +
+      `checkpoint ${m.checkpoint}: ${m.chunks.length} chunks, ${m.total_gaussians.toLocaleString()} Gaussians` +
+      (state.events ? ` (live: ${state.events} checkpoints seen${follow ? ", following" : ""})` : "") +
+      "\n" +
       `in the page: ${s.loaded} chunks, ${s.splats.toLocaleString()} of ${s.budget.toLocaleString()} splats` +
       (s.loading ? `, ${s.loading} loading` : "") +
       (s.failed ? `\n${s.failed} chunk requests failed: ${s.errors[s.errors.length - 1]}` : "") +
-      `\nmouse: orbit   W A S D Q E: fly   K: next keyframe   G: chunk grid   T: trajectory`;
+      `\nmouse: orbit   W A S D Q E: fly   K: next keyframe   G: chunk grid   T: trajectory   F: follow`;
   });
 }
 

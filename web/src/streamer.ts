@@ -55,12 +55,24 @@ export class ChunkStreamer {
 
   constructor(
     private scene: THREE.Scene,
-    private map: MapInfo,
+    public map: MapInfo,
     budget: number,
     private sh: number,
     private concurrency = 4,
+    private onShown?: (id: string) => void, // a chunk's mesh entered the scene
   ) {
     this.stats = { loaded: 0, loading: 0, splats: 0, budget, fetches: 0, disposed: 0, failed: 0, fetchMs: [], errors: [] };
+  }
+
+  // A newer checkpoint of the map: chunks it changed or removed leave the page now (the changed
+  // come back at their new content when chosen again). The origin stays the first map's.
+  setMap(map: MapInfo, stale: Iterable<string>): void {
+    map.origin = this.map.origin;
+    this.map = map;
+    for (const id of stale) {
+      const slot = this.slots.get(id);
+      if (slot) this.drop(id, slot);
+    }
   }
 
   // Chunks chosen for a camera at `eye` (scene coordinates, i.e. world minus the map's origin).
@@ -118,6 +130,7 @@ export class ChunkStreamer {
         }
         slot.mesh = mesh;
         this.scene.add(mesh);
+        this.onShown?.(c.id);
         this.stats.loaded++;
       })
       .catch((e: unknown) => {

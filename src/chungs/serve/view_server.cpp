@@ -63,7 +63,10 @@ fs::path find_web_root(const fs::path& explicit_root) {
 }
 
 ViewServer::ViewServer(std::shared_ptr<const MapSnapshot> map, ViewServerOptions options)
-    : map_(std::move(map)), options_(std::move(options)), server_(std::make_unique<httplib::Server>()) {
+    : ViewServer(std::make_shared<MapFollower>(std::move(map)), std::move(options)) {}
+
+ViewServer::ViewServer(std::shared_ptr<MapFollower> follower, ViewServerOptions options)
+    : follower_(std::move(follower)), options_(std::move(options)), server_(std::make_unique<httplib::Server>()) {
   if (options_.port < 0 || options_.port > 65535) fail("port ", options_.port, " is outside 0..65535");
   // The library's default adds SO_REUSEPORT, which lets a second server share a port that is in
   // use; only SO_REUSEADDR (a restart while old connections linger), so a taken port is refused.
@@ -127,13 +130,41 @@ void ViewServer::routes() {
     });
   }
 
-  auto map = map_;
-  s.Get("/api/map", [map](const httplib::Request&, httplib::Response& res) {
+  auto follower = follower_;
+  s.Get("/api/map", [follower](const httplib::Request&, httplib::Response& res) {
+    uint64_t version = 0;
+    const auto map = follower->current(version);
+    nlohmann::json j = map->describe();
+    j["version"] = version;
     res.set_header("Cache-Control", "no-store");
-    res.set_content(map->describe().dump(), "application/json");
+    res.set_content(j.dump(), "application/json");
   });
 
-  s.Get(R"(/api/chunk/([^/]*))", [map](const httplib::Request& req, httplib::Response& res) {
+  s.Get("/api/events", [follower](const httplib::Request& req, httplib::Response& res) {
+    uint64_t since = follower->version();
+    if (req.has_param("since")) {
+      const std::string v = req.get_param_value("since");
+      if (!parse_whole(v, 0, UINT64_MAX, since))
+        return json_error(res, 400, "since " + quoted(v) + " is not a version (a whole number)");
+    }
+    res.set_header("Cache-Control", "no-store");
+    res.set_chunked_content_provider("text/event-stream", [follower, since](size_t, httplib::DataSink& sink) mutable {
+      if (follower->stopped()) {
+        sink.done();
+        return true;
+      }
+      std::string text;
+      for (const auto& e : follower->events_after(since, std::chrono::seconds(1))) {
+        since = e["version"].get<uint64_t>();
+        text += "id: " + std::to_string(since) + "\nevent: checkpoint\ndata: " + e.dump() + "\n\n";
+      }
+      if (text.empty()) text = ": waiting\n\n";  // also finds a client that has gone
+      return sink.write(text.data(), text.size());
+    });
+  });
+
+  s.Get(R"(/api/chunk/([^/]*))", [follower](const httplib::Request& req, httplib::Response& res) {
+    const auto map = follower->current();
     const std::string text = req.matches[1];
     uint64_t id = 0;
     if (!parse_whole(text, 0, UINT64_MAX, id))
@@ -157,7 +188,7 @@ void ViewServer::routes() {
   });
 
   s.Get(R"(/api/.*)", [](const httplib::Request& req, httplib::Response& res) {
-    json_error(res, 404, "no such API path " + quoted(req.path) + " (there are /api/map and /api/chunk/<id>)");
+    json_error(res, 404, "no such API path " + quoted(req.path) + " (there are /api/map, /api/chunk/<id>, /api/events)");
   });
 
   // The library answers 400 itself for paths it refuses (.. out of the root); keep its status.

@@ -6,7 +6,11 @@
 //                           as the run wrote it, or null)
 //   GET /api/chunk/<id>     the chunk's Gaussians packed as splat_pack.hpp lays out; ?sh=0..3 picks the
 //                           SH degree (default the map's; above it, the map's)
+//   GET /api/events         server-sent events, one `checkpoint` event per checkpoint the follower
+//                           took (map_follower.hpp), `id` its version; ?since=V (the `version` of
+//                           /api/map) replays the ones after V; a comment line every second otherwise
 //   GET /...                the page's files from the web root (index.html for /)
+// /api/map also carries "version": the follower's version of the snapshot it describes.
 // Errors are JSON {"error": "..."}: 404 for an unknown chunk or API path, 400 for a malformed id or
 // query value (named in the message), 500 for a chunk that cannot be read. Paths that climb out of
 // the web root are refused by the library's path check (400) before any file is looked up.
@@ -16,6 +20,7 @@
 #include <memory>
 #include <string>
 
+#include "chungs/serve/map_follower.hpp"
 #include "chungs/serve/map_snapshot.hpp"
 
 namespace httplib {
@@ -32,7 +37,10 @@ struct ViewServerOptions {
 
 class ViewServer {
  public:
+  // A map that stays as it was opened (no events).
   ViewServer(std::shared_ptr<const MapSnapshot> map, ViewServerOptions options);
+  // A map followed as a run commits checkpoints (the follower's thread is the caller's to start).
+  ViewServer(std::shared_ptr<MapFollower> follower, ViewServerOptions options);
   ~ViewServer();
   ViewServer(const ViewServer&) = delete;
   ViewServer& operator=(const ViewServer&) = delete;
@@ -44,12 +52,13 @@ class ViewServer {
   std::string url() const;
   // Serves until stop() (from any thread). bind() first.
   void run();
+  // Ends open event streams too: stop the follower first (they end when it has stopped).
   void stop();
   bool has_page() const { return has_page_; }
 
  private:
   void routes();
-  std::shared_ptr<const MapSnapshot> map_;
+  std::shared_ptr<MapFollower> follower_;
   ViewServerOptions options_;
   std::unique_ptr<httplib::Server> server_;
   int port_ = 0;

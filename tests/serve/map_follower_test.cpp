@@ -1,0 +1,153 @@
+// Following a map that a writer goes on committing: a new checkpoint becomes the current snapshot
+// with one event naming what changed, an older snapshot keeps reading its own checkpoint, and the
+// server streams the event to a client of /api/events.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include "chungs/serve/map_follower.hpp"
+#include "chungs/serve/view_server.hpp"
+#include "store/random_block.hpp"
+#include "test_support.hpp"
+
+using namespace chungs;
+using namespace chungs::serve;
+namespace fs = std::filesystem;
+
+namespace {
+
+ChunkId cid(int x) { return chunk_id({x, 1, 0}); }
+
+ChunkStoreConfig writer() {
+  ChunkStoreConfig c;
+  c.durable = false;
+  return c;
+}
+
+void commit(const fs::path& map, int checkpoint, const std::vector<std::pair<int, int>>& saves,
+            const std::vector<int>& removes = {}, int keyframes = 1) {
+  ChunkStore w(map, writer());
+  for (auto [x, n] : saves) w.save(cid(x), test::random_block(size_t(n), uint64_t(checkpoint * 100 + x), 10.f * x, 10, 0));
+  for (int x : removes) w.remove(cid(x));
+  w.set_config("checkpoint", std::to_string(checkpoint));
+  w.commit();
+  std::vector<KeyframeRecord> kfs(static_cast<size_t>(keyframes));
+  for (int i = 0; i < keyframes; ++i) {
+    kfs[size_t(i)].id = uint32_t(i);
+    kfs[size_t(i)].camera = Camera(32, 24, 20, 20, 16, 12);
+    kfs[size_t(i)].pose.t = Eigen::Vector3d(2.0 * i, 10, 0);
+  }
+  write_keyframe_records(map / "keyframes.txt", kfs, false);
+}
+
+std::vector<std::string> ids(const nlohmann::json& a) {
+  std::vector<std::string> v;
+  for (const auto& x : a) v.push_back(x.get<std::string>());
+  return v;
+}
+
+}  // namespace
+
+TEST(MapFollower, ANewCheckpointBecomesCurrentWithOneEventNamingItsChanges) {
+  test::TempDir dir;
+  const fs::path map = dir / "map";
+  commit(map, 1, {{0, 10}, {1, 12}, {2, 14}});
+  MapFollower f(std::make_shared<MapSnapshot>(map));
+  EXPECT_FALSE(f.poll());
+  const auto first = f.current();
+  const GaussianBlock chunk1_before = first->store().load(cid(1));
+
+  commit(map, 2, {{1, 20}, {3, 5}}, {2}, 3);  // chunk 1 changed, 3 added, 2 removed
+  ASSERT_TRUE(f.poll());
+  EXPECT_FALSE(f.poll());
+  EXPECT_EQ(f.version(), 1u);
+  EXPECT_EQ(f.current()->checkpoint(), 2u);
+  const auto ev = f.events_after(0, std::chrono::milliseconds(0));
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0]["version"], 1);
+  EXPECT_EQ(ev[0]["checkpoint"], 2);
+  EXPECT_EQ(ids(ev[0]["added"]), std::vector<std::string>{std::to_string(cid(3))});
+  EXPECT_EQ(ids(ev[0]["changed"]), std::vector<std::string>{std::to_string(cid(1))});
+  EXPECT_EQ(ids(ev[0]["removed"]), std::vector<std::string>{std::to_string(cid(2))});
+  EXPECT_EQ(ev[0]["keyframes"], 3);
+  EXPECT_EQ(ev[0]["pose"][0][3], 4.0);  // the newest keyframe's position
+  EXPECT_EQ(ev[0]["total_gaussians"], 10 + 20 + 5);
+  EXPECT_TRUE(f.events_after(1, std::chrono::milliseconds(0)).empty());
+
+  // Two more commits delete the files of checkpoint 1: the first snapshot still reads them whole.
+  commit(map, 3, {{1, 7}});
+  commit(map, 4, {{1, 8}});
+  const GaussianBlock again = first->store().load(cid(1));
+  EXPECT_EQ(again.params.mean, chunk1_before.params.mean);
+  EXPECT_EQ(again.size(), 12u);
+}
+
+TEST(MapFollower, AClientFarBehindIsToldToReload) {
+  test::TempDir dir;
+  const fs::path map = dir / "map";
+  commit(map, 1, {{0, 4}});
+  MapFollower f(std::make_shared<MapSnapshot>(map));
+  for (int k = 2; k < 2 + 260; ++k) {
+    commit(map, k, {{0, 4 + k % 3}});
+    ASSERT_TRUE(f.poll()) << k;
+  }
+  const auto ev = f.events_after(0, std::chrono::milliseconds(0));
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0]["reload"], true);
+  EXPECT_EQ(f.events_after(250, std::chrono::milliseconds(0)).size(), 10u);
+}
+
+TEST(MapFollower, TheServerStreamsEachCheckpointToAnEventClient) {
+  test::TempDir dir;
+  const fs::path map = dir / "map";
+  commit(map, 1, {{0, 6}});
+  auto f = std::make_shared<MapFollower>(std::make_shared<MapSnapshot>(map));
+  ViewServer server(f, ViewServerOptions{"127.0.0.1", 0, {}});
+  server.bind();
+  std::atomic<bool> done{false};
+  std::thread t([&] {
+    server.run();
+    done = true;
+  });
+  f->start(std::chrono::milliseconds(20));
+
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(uint16_t(server.port()));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  const std::string req = "GET /api/events?since=0 HTTP/1.1\r\nHost: x\r\n\r\n";
+  ASSERT_EQ(write(fd, req.data(), req.size()), ssize_t(req.size()));
+  commit(map, 2, {{5, 9}});
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string got;
+  timeval tv{0, 200000};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  while (got.find("event: checkpoint") == std::string::npos ||
+         got.find("\n\n", got.find("event: checkpoint")) == std::string::npos) {
+    char buf[4096];
+    const ssize_t n = read(fd, buf, sizeof buf);
+    if (n > 0) got.append(buf, size_t(n));
+    if (std::chrono::steady_clock::now() - t0 > std::chrono::seconds(10)) break;
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  close(fd);
+  EXPECT_NE(got.find("text/event-stream"), std::string::npos) << got;
+  EXPECT_NE(got.find("id: 1"), std::string::npos) << got;
+  EXPECT_NE(got.find("\"added\":[\"" + std::to_string(cid(5)) + "\"]"), std::string::npos) << got;
+  EXPECT_LT(seconds, 2.0);  // the bound for a committed chunk to reach the page
+
+  f->stop();  // ends the stream's loop, then the server
+  while (!done) {
+    server.stop();
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  t.join();
+}
