@@ -14,7 +14,7 @@ if [ "${CHUNGS_SKIP_APT:-0}" != 1 ]; then
   [ "$(id -u)" = 0 ] || SUDO="sudo"
   export DEBIAN_FRONTEND=noninteractive
   $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq --no-install-recommends build-essential cmake ninja-build ccache pkg-config libeigen3-dev libpng-dev libjpeg-dev zlib1g-dev libzstd-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-features2d-dev libceres-dev python3 clang libomp-dev libcpp-httplib-dev chromium >/dev/null
+  $SUDO apt-get install -y -qq --no-install-recommends build-essential cmake ninja-build ccache pkg-config libeigen3-dev libpng-dev libjpeg-dev zlib1g-dev libzstd-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-features2d-dev libceres-dev python3 clang libomp-dev libcpp-httplib-dev chromium fonts-liberation >/dev/null
   # The viewer page (web/) is built with the machine's Node.js and npm where it has them (npm ci from the
   # committed lockfile during the build); Debian's only where none is installed.
   command -v npm >/dev/null || $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null

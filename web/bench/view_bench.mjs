@@ -4,7 +4,9 @@
 //    then a fly-through keyframe by keyframe (every --stride-th) under a splat budget: chunk fetch
 //    latency as the page sees it, peak splats against the budget, fetches, disposals, failures.
 //   node view_bench.mjs --cli DISKCHUNGS --map MAP --modules NODE_MODULES [--budget N] [--stride K]
-//        [--chromium PATH] [--size 640x360]
+//        [--chromium PATH] [--size 640x360] [--screenshot FILE.png] [--shot-kf N]
+// --screenshot: after the fly-through, the page at keyframe N (default the middle one) with its chunk
+// grid shown, saved once every chosen chunk is in.
 // Prints a table and one JSON line.
 import { spawn } from "node:child_process";
 import { createRequire } from "node:module";
@@ -74,6 +76,17 @@ try {
     peak = Math.max(peak, await page.evaluate(() => window.viewer.streamer.stats.splats));
   }
   const flySeconds = (Date.now() - tFly) / 1000;
+  const shot = opt("--screenshot");
+  if (shot) {
+    const kf = Number(opt("--shot-kf", String(Math.floor(info.keyframes.length / 2))));
+    const p = await browser.newPage({ viewport: { width: w, height: h } });
+    await p.goto(`${url}?kf=${kf}&budget=${b}`);
+    await p.waitForFunction(() => window.viewer?.ready || window.viewer?.error, null, { timeout: 120000 });
+    await p.keyboard.press("g");
+    await p.waitForTimeout(500);
+    await p.screenshot({ path: shot });
+    await p.close();
+  }
   const s = await page.evaluate(() => window.viewer.streamer.stats);
   const fig = {
     chunks: info.chunks.length,
