@@ -4,6 +4,7 @@
 
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/run_pipeline.hpp"
+#include "chungs/serve/live_view.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
 #include "flag_checks.hpp"
@@ -18,6 +19,7 @@ struct RunArgs {
   int iterations = 0;
   std::string pacing;
   bool json = false, no_eval = false;
+  std::vector<std::string> view;  // --view [PORT]: the browser viewer during the run
 };
 
 const Command cmd{
@@ -31,6 +33,8 @@ const Command cmd{
       app.add_option("--speed", a->speed, "anytime pacing: intake rate factor on the dataset's frame rate");
       app.add_flag("--no-eval", a->no_eval, "skip the held-out evaluation");
       app.add_flag("--json", a->json, "print the report as JSON");
+      app.add_option("--view", a->view, "serve the viewer page during the run on 127.0.0.1:PORT (default 8080)")
+          ->expected(0, 1);
       return [a, &app]() {
         RunOptions o = map_flags_options(app, a->map);
         Config& c = o.config;
@@ -46,7 +50,17 @@ const Command cmd{
         if (given(app, "--pacing")) c.mapper.pacing = a->pacing;
         c.validate();
         o.evaluate = !a->no_eval;
+        std::unique_ptr<serve::LiveView> view;
+        if (given(app, "--view")) {
+          const std::string port = a->view.empty() ? "8080" : a->view[0];
+          const bool digits = !port.empty() && port.size() <= 5 && port.find_first_not_of("0123456789") == std::string::npos;
+          require_flag(digits && std::stol(port) <= 65535, "--view", "a port in 0..65535", port);
+          view = std::make_unique<serve::LiveView>(o.out, serve::ViewServerOptions{"127.0.0.1", int(std::stol(port)), {}});
+          std::printf("viewer at %s (the map appears with the run's first checkpoint)\n", view->url().c_str());
+          std::fflush(stdout);
+        }
         const nlohmann::json r = run_mapping(o, *open_dataset_spec(o.dataset));
+        view.reset();  // the run is over: `diskchungs view MAP` shows the finished map
         if (a->json) {
           std::printf("%s\n", r.dump(2).c_str());
           return 0;

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """`diskchungs view` as a user runs it (issue 24): flags out of range and a missing map are refused by
 name, the URL is printed, a second server on the same port fails naming host:port, the API answers,
-Ctrl-C (SIGINT) ends it with status 0, and the map folder is byte for byte what it was.
+Ctrl-C (SIGINT) ends it with status 0, and the map folder is byte for byte what it was. Then
+`run --view`: a bad port refused before mapping, checkpoints served while the run goes on, the
+server gone when the run ends.
     python3 view_cli_test.py --cli DISKCHUNGS"""
 import argparse
 import hashlib
@@ -13,6 +15,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.error
 import urllib.request
 
 ap = argparse.ArgumentParser()
@@ -85,6 +88,42 @@ with tempfile.TemporaryDirectory() as tmp:
         first.kill()
         check(False, "Ctrl-C stops it within 10 s")
     check(digest(m) == before, "the map folder is unchanged")
+
+    # run --view: the viewer beside the mapper in one process, from the first checkpoint to the end.
+    r = run("run", "--dataset", "tum:" + room, "--out", os.path.join(tmp, "never"), "--view", "70000", timeout=20)
+    check(r.returncode != 0 and "--view" in r.stderr and not os.path.exists(os.path.join(tmp, "never")),
+          f"run --view 70000 refused before mapping: {r.stderr.strip()}")
+    cfg = os.path.join(tmp, "every.yaml")
+    with open(cfg, "w") as f:
+        f.write("mapper:\n  checkpoint_every: 1\n  checkpoint_seconds: 0\n  checkpoint_max_share: 0\n")
+    live = os.path.join(tmp, "live")
+    p = subprocess.Popen([args.cli, "-q", "run", "--dataset", "tum:" + room, "--device", "cpu", "--out", live,
+                          "--no-eval", "--iterations", "40", "--final-iterations", "0", "--chunk-size", "1",
+                          "--config", cfg, "--view", "0"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                         env={**os.environ, "OMP_NUM_THREADS": "2"})
+    line = p.stdout.readline()
+    m = re.search(r"viewer at (http://\S+/)", line)
+    check(m is not None, f"run --view prints the viewer's URL: {line.strip()}")
+    seen = set()
+    while m and p.poll() is None:
+        try:
+            with urllib.request.urlopen(m.group(1) + "api/map", timeout=5) as resp:
+                seen.add(json.load(resp)["checkpoint"])
+        except urllib.error.HTTPError as e:
+            seen.add("503" if e.code == 503 else e.code)
+        except (urllib.error.URLError, ConnectionError):
+            break  # the run ended between poll() and the request
+        time.sleep(0.05)
+    rest = p.communicate(timeout=120)[0]
+    numbers = sorted(c for c in seen if isinstance(c, int))
+    check(p.returncode == 0 and len(numbers) >= 2,
+          f"run --view served the checkpoints as they came: {numbers} (and {seen - set(numbers) or 'no'} errors); exit {p.returncode}")
+    if m:
+        try:
+            urllib.request.urlopen(m.group(1) + "api/map", timeout=5)
+            check(False, "the viewer stops with the run")
+        except (urllib.error.URLError, ConnectionError):
+            check(True, "the viewer stops with the run")
 
 print("view_cli_test: " + ("passed" if not failures else "FAILED: " + "; ".join(failures)))
 sys.exit(1 if failures else 0)

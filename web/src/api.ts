@@ -53,10 +53,18 @@ export interface CheckpointEvent {
   total_gaussians?: number;
 }
 
-export async function fetchMap(): Promise<MapInfo> {
-  const r = await fetch("api/map");
-  if (!r.ok) throw new Error(`api/map: HTTP ${r.status}`);
-  return (await r.json()) as MapInfo;
+// Waits (calling `waiting` each second) while a run beside the server has no checkpoint yet (503).
+export async function fetchMap(waiting?: () => void): Promise<MapInfo> {
+  for (;;) {
+    const r = await fetch("api/map");
+    if (r.status === 503 && waiting) {
+      waiting();
+      await new Promise((res) => setTimeout(res, 1000));
+      continue;
+    }
+    if (!r.ok) throw new Error(`api/map: HTTP ${r.status} ${await r.text()}`);
+    return (await r.json()) as MapInfo;
+  }
 }
 
 export interface PackedChunk {

@@ -47,7 +47,7 @@ function intParam(name: string, fallback: number, lo: number, hi: number): numbe
 }
 
 async function start(): Promise<void> {
-  const map = await fetchMap();
+  const map = await fetchMap(() => (hud.textContent = "waiting for the run's first checkpoint..."));
   state.map = map;
   const fixedCamera = params.get("size") === "camera" && map.camera !== null;
   const width = fixedCamera ? map.camera!.width : innerWidth;
@@ -163,6 +163,8 @@ async function start(): Promise<void> {
   const projView = new THREE.Matrix4();
   let last = performance.now();
   let settledSince = 0;
+  let lastLook = "";
+  let quietFrames = 0;
   renderer.setAnimationLoop(() => {
     const now = performance.now();
     const dt = Math.min(0.1, (now - last) / 1000);
@@ -182,7 +184,14 @@ async function start(): Promise<void> {
     projView.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
     frustum.setFromProjectionMatrix(projView);
     const settled = streamer.update(camera.position, frustum);
-    renderer.render(scene, camera);
+    // Drawn only while something changes, and a while after (Spark sorts on a worker and shows the
+    // new order a few frames later): an idle page leaves the CPU/GPU to the mapper beside it.
+    const look = `${camera.matrixWorld.elements.join()}|${streamer.stats.loaded}|${streamer.stats.disposed}|${overlays.visible}${traj.visible}${grid.visible}|${innerWidth}x${innerHeight}`;
+    if (look !== lastLook) {
+      lastLook = look;
+      quietFrames = 0;
+    }
+    if (quietFrames++ < 60) renderer.render(scene, camera);
     const s = streamer.stats;
     if (state.firstFrameMs === undefined && s.loaded > 0) state.firstFrameMs = now;
     if (settled) {

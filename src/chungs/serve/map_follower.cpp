@@ -17,7 +17,10 @@ uint64_t checkpoint_on_disk(const std::filesystem::path& folder) {
 
 }  // namespace
 
-MapFollower::MapFollower(std::shared_ptr<const MapSnapshot> first) : current_(std::move(first)) {}
+MapFollower::MapFollower(std::shared_ptr<const MapSnapshot> first)
+    : folder_(first->folder()), current_(std::move(first)) {}
+
+MapFollower::MapFollower(std::filesystem::path folder) : folder_(std::move(folder)) {}
 
 MapFollower::~MapFollower() { stop(); }
 
@@ -64,9 +67,22 @@ nlohmann::json MapFollower::difference(const MapSnapshot& before, const MapSnaps
 bool MapFollower::poll() {
   const auto now = current();
   try {
+    if (!now) {
+      if (!std::filesystem::exists(folder_ / "manifest.txt")) return false;
+      auto first = std::make_shared<const MapSnapshot>(folder_);
+      nlohmann::json e = {{"reload", true}, {"checkpoint", first->checkpoint()}};
+      {
+        std::lock_guard lock(mutex_);
+        current_ = std::move(first);
+        e["version"] = ++version_;
+        events_.push_back(std::move(e));
+      }
+      changed_.notify_all();
+      return true;
+    }
     // The manifest is replaced (renamed over) at each commit: its time and size say when to read it.
     std::error_code ec;
-    const auto file = now->folder() / "manifest.txt";
+    const auto file = folder_ / "manifest.txt";
     const auto stamp = std::filesystem::last_write_time(file, ec);
     const auto size = std::filesystem::file_size(file, ec);
     // Read anyway every 10th look: a file system with coarse times could hide a commit.
@@ -74,8 +90,8 @@ bool MapFollower::poll() {
     unread_looks_ = 0;
     seen_time_ = stamp;
     seen_size_ = size;
-    if (checkpoint_on_disk(now->folder()) == now->checkpoint()) return false;
-    auto next = std::make_shared<const MapSnapshot>(now->folder());
+    if (checkpoint_on_disk(folder_) == now->checkpoint()) return false;
+    auto next = std::make_shared<const MapSnapshot>(folder_);
     if (next->checkpoint() == now->checkpoint()) return false;
     nlohmann::json e = difference(*now, *next);
     {

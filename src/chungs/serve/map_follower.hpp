@@ -20,11 +20,14 @@ namespace chungs::serve {
 class MapFollower {
  public:
   explicit MapFollower(std::shared_ptr<const MapSnapshot> first);
+  // A folder a run has not committed to yet: current() is null until its first checkpoint, which
+  // then comes as an event {"reload": true}.
+  explicit MapFollower(std::filesystem::path folder);
   ~MapFollower();  // stops the thread
   MapFollower(const MapFollower&) = delete;
   MapFollower& operator=(const MapFollower&) = delete;
 
-  std::shared_ptr<const MapSnapshot> current() const;
+  std::shared_ptr<const MapSnapshot> current() const;  // null before a run's first checkpoint
   // The current snapshot and its version, taken together.
   std::shared_ptr<const MapSnapshot> current(uint64_t& version) const;
   uint64_t version() const;  // 0 for the first snapshot, +1 per checkpoint taken since
@@ -45,6 +48,7 @@ class MapFollower {
   static nlohmann::json difference(const MapSnapshot& before, const MapSnapshot& after);
 
  private:
+  std::filesystem::path folder_;
   mutable std::mutex mutex_;
   mutable std::condition_variable changed_;
   std::shared_ptr<const MapSnapshot> current_;

@@ -134,6 +134,7 @@ void ViewServer::routes() {
   s.Get("/api/map", [follower](const httplib::Request&, httplib::Response& res) {
     uint64_t version = 0;
     const auto map = follower->current(version);
+    if (!map) return json_error(res, 503, "the run has not committed its first checkpoint yet");
     nlohmann::json j = map->describe();
     j["version"] = version;
     res.set_header("Cache-Control", "no-store");
@@ -165,6 +166,7 @@ void ViewServer::routes() {
 
   s.Get(R"(/api/chunk/([^/]*))", [follower](const httplib::Request& req, httplib::Response& res) {
     const auto map = follower->current();
+    if (!map) return json_error(res, 503, "the run has not committed its first checkpoint yet");
     const std::string text = req.matches[1];
     uint64_t id = 0;
     if (!parse_whole(text, 0, UINT64_MAX, id))
