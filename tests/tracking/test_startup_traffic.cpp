@@ -1,6 +1,8 @@
 // Start-up with a lorry crossing close ahead (issue 23): on the synthetic street with startup=cross
 // the lorry's poster livery holds most of the first frames' features while it drives across at
-// 45 km/h. The first 10 frames must still give the camera's own motion: forwards about 1 m a frame.
+// 45 km/h. The first 10 frames must still give the camera's own motion: forwards about 1 m a frame
+// (every displacement from frame 0 within 15 degrees and 15 % of the truth; today's tracker was off by
+// up to 79 degrees, going sideways with the lorry).
 #include <gtest/gtest.h>
 
 #include "chungs/synth/street_dataset.hpp"
@@ -35,10 +37,10 @@ void expect_right_direction(uint64_t seed, bool turn) {
     std::printf("seed %llu%s frame %zu: truth (%.2f, %.2f, %.2f) m, estimate (%.2f, %.2f, %.2f) m, %.1f deg apart\n",
                 (unsigned long long)seed, turn ? " turn" : "", k, g.x(), g.y(), g.z(), e.x(), e.y(), e.z(), angle);
     EXPECT_GT(e.z(), 0.8 * g.z()) << "frame " << k << ": the estimate falls short of the forward motion";
-    EXPECT_LT(angle, 10.0) << "frame " << k << ": direction of motion";
-    EXPECT_NEAR(e.norm(), g.norm(), 0.1 * g.norm() + 0.05) << "frame " << k << ": distance from frame 0";
+    EXPECT_LT(angle, 15.0) << "frame " << k << ": direction of motion";
+    EXPECT_NEAR(e.norm(), g.norm(), 0.15 * g.norm() + 0.05) << "frame " << k << ": distance from frame 0";
   }
-  EXPECT_LT(test::ate_rmse(s.gt, s.est), 0.1);
+  EXPECT_LT(test::ate_rmse(s.gt, s.est), 0.5);  // today: 0.96-1.30 m over these 10 frames
 }
 
 }  // namespace

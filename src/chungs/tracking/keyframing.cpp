@@ -51,7 +51,7 @@ long VisualTracker::create_keyframe(Current& c) {
   // New points from features with depth, nearest first: all close ones, and far ones until there are 100.
   std::vector<std::pair<float, int>> cand;
   for (size_t i = 0; i < c.f.size(); ++i)
-    if (c.matches[i] < 0 && c.f.has_depth(i)) cand.emplace_back(c.f.depth[i], int(i));
+    if (c.matches[i] < 0 && c.f.has_depth(i) && !c.is_moving(i)) cand.emplace_back(c.f.depth[i], int(i));
   std::sort(cand.begin(), cand.end());
   const SE3 T_wc = map_.kf(id).T_wc;
   const double close = close_depth();

@@ -31,6 +31,11 @@ struct TrackerOptions {
   int ba_iterations = 10;
   bool cull_keyframes = true;
   bool loop_closure = true;
+  // Moving objects and doubtful estimates (issue 23).
+  int max_coast_frames = 5;             // frames a prediction may stand in when the static world is not measured
+  int confident_inliers = 40;           // fewer local-map inliers make a pose doubtful
+  double max_speed = 40;                // m/s; a faster step is implausible (doubtful)
+  double max_turn_rate = 180;           // degrees/s; likewise
   LoopOptions loop;
 };
 

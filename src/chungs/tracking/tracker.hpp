@@ -3,6 +3,7 @@
 // bundle adjustment, loop closures).
 #pragma once
 #include <Eigen/Core>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,17 @@ struct MapOperation {
   LoopEvent loop;                               // LoopClosure
 };
 
+// Why a tracked pose is doubtful (issue 23), one bit each; 0 is a confident estimate.
+enum TrackDoubt : uint32_t {
+  kDoubtFewInliers = 1,    // the pose rests on few map points
+  kDoubtDisagree = 2,      // the map-based pose and the frame-to-frame motion (or the prediction) disagree
+  kDoubtImplausible = 4,   // a jump: faster or turning faster than the tracker's limits
+  kDoubtCoasting = 8,      // the static world could not be measured; the pose is the prediction
+  kDoubtAmbiguous = 16,    // another motion (a moving object) had about as much support as the one taken
+};
+// "few_inliers+disagree", or "" for 0.
+std::string doubt_names(uint32_t doubts);
+
 struct TrackResult {
   size_t frame_index = 0;
   double stamp = 0;
@@ -50,6 +62,8 @@ struct TrackResult {
   bool keyframe = false;
   long keyframe_id = -1;       // the new keyframe, or the reference keyframe
   int inliers = 0;             // map points the pose rests on
+  uint32_t doubts = 0;         // TrackDoubt bits: the estimate may be wrong (a lost frame has none)
+  bool doubtful() const { return doubts != 0; }
 };
 
 class Tracker {

@@ -13,6 +13,18 @@
 
 namespace chungs::tracking {
 
+std::string doubt_names(uint32_t d) {
+  static const std::pair<uint32_t, const char*> names[] = {{kDoubtFewInliers, "few_inliers"},
+                                                           {kDoubtDisagree, "disagree"},
+                                                           {kDoubtImplausible, "implausible"},
+                                                           {kDoubtCoasting, "coasting"},
+                                                           {kDoubtAmbiguous, "ambiguous"}};
+  std::string out;
+  for (auto& [bit, name] : names)
+    if (d & bit) out += (out.empty() ? "" : "+") + std::string(name);
+  return out;
+}
+
 const char* state_name(TrackState s) {
   switch (s) {
     case TrackState::Ok: return "ok";
@@ -153,9 +165,48 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
     return res;
   }
 
-  bool ok = false, recovered = false;
+  bool ok = false, recovered = false, coasting = false, bridged = false;
+  uint32_t doubts = 0;
+  bool have_prior = false;
+  SE3 predicted;
+  int motion = 0;
+  bool measured_whole = false;
+  // Within the frame-to-frame motion's tolerances of the predicted motion since the last frame.
+  auto agrees_with = [&](const SE3& T_cw, const SE3& pred_cw) {
+    const SE3 step = T_cw * last_T_cw_.inverse(), pred = pred_cw * last_T_cw_.inverse();
+    const FrameMotionOptions fo;
+    const double tol = fo.predict_translation + fo.predict_translation_share * pred.t.norm();
+    return (step.t - pred.t).norm() < tol && step.q.angularDistance(pred.q) * 180 / M_PI < fo.predict_rotation_deg;
+  };
+  // Closer: the frame-to-frame motion measures the step to a few centimetres.
+  auto agrees_closely = [&](const SE3& T_cw, const SE3& pred_cw) {
+    const SE3 step = T_cw * last_T_cw_.inverse(), pred = pred_cw * last_T_cw_.inverse();
+    return (step.t - pred.t).norm() < 0.1 + 0.1 * pred.t.norm() && step.q.angularDistance(pred.q) * 180 / M_PI < 2;
+  };
+  bool measured = false;
+  FrameMotion fm;
+  if (!lost_ && prev_valid_) {
+    // The static world's motion since the last frame, with features on other motions (a vehicle crossing
+    // ahead) set aside: they stay out of every pose estimate and out of new map points.
+    const SE3 vel = velocity_ ? *velocity_ : SE3();
+    fm = estimate_frame_motion(prev_f_, c.f, k_, width_, height_, {}, velocity_ ? &vel : nullptr);
+    if (fm.moving_features) c.moving = fm.moving;
+    log::debug("tracking: frame ", c.index, " frame-to-frame: ", fm.matches, " matches, ", fm.motions, " motion(s), ",
+               fm.inliers, " inliers over ", fm.cells, " cells and ", fm.depth_bins, " depths, ", fm.moving_features,
+               " features moving; camera moved (", (fm.T_cp.inverse().t.transpose()), ")", fm.disagrees ? ", disagrees" : "");
+  }
   if (!lost_) {
-    const int motion = track_motion(c);
+    // Prediction: the measured frame-to-frame motion when it is well supported, else constant velocity.
+    // A frame-to-frame motion that disagrees with constant velocity is taken only when it is the static
+    // world seen whole (the prediction was coasting or the vehicle changed its motion).
+    measured = fm.ok && fm.inliers >= 2 * opt_.min_inliers && (!fm.disagrees || fm.whole_view);
+    predicted = measured ? fm.T_cp * last_T_cw_ : velocity_ ? *velocity_ * last_T_cw_ : last_T_cw_;
+    have_prior = measured || velocity_.has_value();
+    measured_whole = measured && fm.whole_view;
+    if (fm.ok && fm.runner_up_inliers >= fm.inliers / 2) doubts |= kDoubtAmbiguous;
+    if (fm.disagrees) doubts |= kDoubtDisagree;
+    motion = track_motion(c, predicted);
+    const SE3 motion_pose = c.T_cw;
     ok = motion >= opt_.min_inliers;
     // A sudden turn moves the image further than the motion model's search window: the few matches it then
     // finds are wrong ones that agree by chance. Far fewer inliers than the last frame had means the
@@ -168,16 +219,37 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
       alt.f = c.f;
       alt.T_cw = last_T_cw_;
       alt.matches.assign(c.f.size(), -1);
+      alt.moving = c.moving;
       auto kfs = keyframes_seeing(last_points_);
       if (kfs.empty()) kfs.push_back(ref_kf_);
       if (track_pnp(alt, kfs)) {
         const int n = int(std::count_if(alt.matches.begin(), alt.matches.end(), [](long m) { return m >= 0; }));
-        if (!ok || n > motion) {
+        // Cross-check: with a prediction to go by, a PnP pose that moved far from it (the matches of a
+        // vehicle crossing ahead agree with each other too) replaces a working motion-model pose only
+        // when it agrees with the prediction.
+        const bool plausible = !have_prior || agrees_with(alt.T_cw, predicted);
+        if (plausible && (!ok || n > motion)) {
           c.T_cw = alt.T_cw;
           c.matches = std::move(alt.matches);
           ok = true;
+        } else if (!plausible) {
+          log::debug("tracking: frame ", c.index, " PnP pose disagrees with the prediction: not taken");
+          doubts |= kDoubtDisagree;
         }
       }
+    }
+    if (!ok && measured) {
+      // The map lost sight of the static world (behind a vehicle that filled the view) but the frame-to-frame
+      // motion measures it: bridge with that motion and make a keyframe to map what is seen now.
+      bridged = true;
+      c.T_cw = predicted;
+      log::debug("tracking: frame ", c.index, " bridged by the frame-to-frame motion (", fm.inliers, " inliers)");
+    } else if (!ok && have_prior && coast_frames_ < opt_.max_coast_frames) {
+      // The static world could not be measured (a vehicle filling the view): keep to the prediction, or to
+      // the motion model's pose where the few matches it had agree with it. Doubtful, and no keyframe.
+      coasting = true;
+      c.T_cw = motion >= 8 && agrees_with(motion_pose, predicted) ? motion_pose : predicted;
+      log::debug("tracking: frame ", c.index, " coasting on the prediction (", motion, " motion-model inliers)");
     }
   } else {
     // Relocalisation: every keyframe is a candidate, the newest first.
@@ -188,11 +260,45 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
     recovered = ok;
   }
   const int pose_inliers = ok ? int(std::count_if(c.matches.begin(), c.matches.end(), [](long m) { return m >= 0; })) : 0;
-  int inliers = ok ? track_local_map(c) : 0;
+  int inliers = ok ? track_local_map(c) : coasting || bridged ? motion : 0;
   log::debug("tracking: frame ", c.index, ": ", pose_inliers, " inliers from the first pose, ", inliers, " after the local map");
-  ok = ok && inliers >= opt_.min_inliers;
+  if (ok && have_prior && inliers < 2 * opt_.confident_inliers && !agrees_with(c.T_cw, predicted) &&
+      !measured_whole && coast_frames_ < opt_.max_coast_frames) {
+    // A weakly supported pose far from the prediction (a few static points left beside a vehicle that fills
+    // the view constrain it poorly): the prediction is the better guess.
+    log::debug("tracking: frame ", c.index, " pose on ", inliers, " inliers disagrees with the prediction: coasting");
+    coasting = true;
+    c.T_cw = predicted;
+  }
+  if (ok && !coasting && measured && (fm.moving_features > 0 || fm.disagrees) && !agrees_closely(c.T_cw, predicted)) {
+    // Something moves in view and the map-based pose left the measured static motion: map points on the
+    // moving object (made before it was seen to move) pulled it. The measured motion stands.
+    log::debug("tracking: frame ", c.index, " map pose left the measured motion beside a moving object: taking the motion");
+    doubts |= kDoubtDisagree;
+    c.T_cw = predicted;
+    inliers = 0;
+    for (size_t i = 0; i < c.matches.size(); ++i) {
+      const MapPoint* p = c.matches[i] >= 0 ? map_.point(c.matches[i]) : nullptr;
+      const auto& kp = c.f.kps[i];
+      if (p && reprojection_chi2(k_, c.T_cw.q, c.T_cw.t, p->pos, kp.pt.x, kp.pt.y, c.f.u_right[i],
+                                 1.0 / level_scale(kp.octave, opt_.orb.scale_factor)) <= kChi2Stereo)
+        ++inliers;
+      else
+        c.matches[i] = -1;
+    }
+  }
+  if (ok && !coasting && inliers < opt_.min_inliers && measured_whole && have_prior) {
+    // The local map failed where the static world is seen whole frame to frame: bridge (as above).
+    bridged = true;
+    c.T_cw = predicted;
+    std::fill(c.matches.begin(), c.matches.end(), -1);
+    inliers = 0;
+  }
+  ok = coasting || bridged || (ok && inliers >= opt_.min_inliers);
   timings_.tracking_ms += ms_since(t1);
 
+  prev_valid_ = ok;
+  if (ok) prev_f_ = c.f;
   if (!ok) {
     if (!lost_) log::warn("tracking: lost at frame ", c.index, " (", inliers, " inliers)");
     lost_ = true;
@@ -207,17 +313,42 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
   }
   if (lost_) log::info("tracking: relocalised at frame ", c.index, " with ", inliers, " inliers");
   lost_ = false;
-  last_inliers_ = inliers;
-  velocity_ = c.T_cw * last_T_cw_.inverse();
+  // Confidence: the estimate against the prediction, its support and the motion it implies.
+  const SE3 step = c.T_cw * last_T_cw_.inverse();
+  if (coasting) {
+    doubts |= kDoubtCoasting;
+    ++coast_frames_;
+    ++timings_.coasted_frames;
+  } else {
+    coast_frames_ = 0;
+    if (bridged) doubts |= kDoubtFewInliers;
+    if (have_prior && !agrees_with(c.T_cw, predicted)) doubts |= kDoubtDisagree;
+    if (inliers < opt_.confident_inliers) doubts |= kDoubtFewInliers;
+  }
+  const double dt = c.stamp - prev_stamp_;
+  if (!recovered && dt > 0 &&
+      (step.inverse().t.norm() > opt_.max_speed * dt ||
+       step.q.angularDistance(Eigen::Quaterniond::Identity()) * 180 / M_PI > opt_.max_turn_rate * dt))
+    doubts |= kDoubtImplausible;
+  if (doubts) {
+    ++timings_.doubtful_frames;
+    log::debug("tracking: frame ", c.index, " doubtful: ", doubt_names(doubts));
+  }
+  velocity_ = step;
   last_T_cw_ = c.T_cw;
-  last_points_.clear();
-  for (long m : c.matches)
-    if (m >= 0) last_points_.push_back(m);
+  prev_stamp_ = c.stamp;
+  if (!coasting) {
+    last_inliers_ = inliers;
+    last_points_.clear();
+    for (long m : c.matches)
+      if (m >= 0) last_points_.push_back(m);
+  }
 
   res.state = recovered ? TrackState::Recovered : TrackState::Ok;
   res.inliers = inliers;
+  res.doubts = doubts;
   auto t2 = std::chrono::steady_clock::now();
-  if (need_keyframe(c, inliers)) {
+  if (!coasting && need_keyframe(c, inliers)) {
     res.keyframe = true;
     create_keyframe(c);
   }
@@ -237,6 +368,9 @@ bool VisualTracker::initialize(Current& c) {
   }
   c.T_cw = SE3();
   last_T_cw_ = c.T_cw;
+  prev_f_ = c.f;
+  prev_valid_ = true;
+  prev_stamp_ = c.stamp;
   create_keyframe(c);
   return true;
 }
@@ -247,6 +381,11 @@ int VisualTracker::optimize(Current& c) {
   for (size_t i = 0; i < c.matches.size(); ++i) {
     if (c.matches[i] < 0) continue;
     const MapPoint* p = map_.point(c.matches[i]);
+    if (p && c.is_moving(i)) {
+      // A map point on something that moves (made before it was seen to move): out of the map.
+      map_.erase_point(c.matches[i]);
+      p = nullptr;
+    }
     if (!p) {
       c.matches[i] = -1;
       continue;
@@ -262,8 +401,8 @@ int VisualTracker::optimize(Current& c) {
   return n;
 }
 
-int VisualTracker::track_motion(Current& c) {
-  c.T_cw = velocity_ ? *velocity_ * last_T_cw_ : last_T_cw_;
+int VisualTracker::track_motion(Current& c, const SE3& predicted) {
+  c.T_cw = predicted;
   FeatureGrid grid(c.f.kps, width_, height_);
   ProjectionSearch s;
   s.radius = 15;

@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 
+#include "chungs/tracking/frame_motion.hpp"
 #include "chungs/tracking/loop_closer.hpp"
 #include "chungs/tracking/map.hpp"
 #include "chungs/tracking/options.hpp"
@@ -17,6 +18,7 @@ struct TrackerTimings {
   double ba_ms = 0, loop_ms = 0;  // parts of keyframe_ms: local bundle adjustment, loop detection and closing
   double ahead_ms = 0;  // features prepared on another thread (not part of the tracker thread's time)
   size_t frames = 0, keyframes = 0, loops = 0, lost_frames = 0;
+  size_t doubtful_frames = 0, coasted_frames = 0;
 };
 
 // A frame's features (ORB on both images and their stereo matches, or depth attached), computed
@@ -54,12 +56,14 @@ class VisualTracker : public Tracker {
     SE3 T_cw;
     std::vector<long> matches;  // per keypoint: map point id or -1
     cv::Mat gray;
+    std::vector<char> moving;   // per keypoint: on an independently moving object (empty: none known)
+    bool is_moving(size_t i) const { return !moving.empty() && moving[i]; }
   };
 
   void extract(const Frame& frame, Current& c, std::shared_ptr<PreparedFrame> prepared);
   bool initialize(Current& c);
   int optimize(Current& c);  // pose-only on current matches; drops outliers; returns inliers
-  int track_motion(Current& c);  // inliers of the motion-model pose
+  int track_motion(Current& c, const SE3& predicted);  // inliers of the predicted pose after refinement
   bool track_pnp(Current& c, const std::vector<long>& keyframes);
   int track_local_map(Current& c);
   std::vector<long> local_keyframes(const Current& c) const;
@@ -94,6 +98,11 @@ class VisualTracker : public Tracker {
   int last_inliers_ = 0;  // local-map inliers of the last tracked frame
   std::vector<long> recent_points_;
   TrackerTimings timings_;
+  // The last tracked frame's features, for the frame-to-frame motion (issue 23).
+  Features prev_f_;
+  bool prev_valid_ = false;
+  double prev_stamp_ = 0;
+  int coast_frames_ = 0;  // frames in a row whose pose is the prediction
 };
 
 }  // namespace chungs::tracking
