@@ -4,10 +4,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
 
+#include "chungs/common/error.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/datasets/dataset.hpp"
 #include "chungs/eval/report.hpp"
@@ -55,7 +57,17 @@ int run_track(const TrackArgs& a) {
   tracking::VisualTracker tracker(opt);
   const size_t n = a.max_frames ? std::min(size_t(a.max_frames), ds->size()) : ds->size();
   Trajectory gt;
-  size_t lost = 0, keyframes = 0, loops = 0;
+  size_t lost = 0, keyframes = 0, loops = 0, doubtful = 0;
+  // Per frame: state, inliers and why the estimate is doubtful (issue 23), written beside the trajectory.
+  struct FrameQuality {
+    size_t index;
+    double stamp;
+    std::string state;
+    int inliers;
+    uint32_t doubts;
+  };
+  std::vector<FrameQuality> quality;
+  std::vector<size_t> doubtful_frames;
   const auto t0 = std::chrono::steady_clock::now();
   {
     Progress bar("tracking", static_cast<long long>(n));
@@ -64,6 +76,8 @@ int run_track(const TrackArgs& a) {
       auto r = tracker.track(f);
       lost += r.state == tracking::TrackState::Lost;
       keyframes += r.keyframe;
+      quality.push_back({f.index, f.timestamp, tracking::state_name(r.state), r.inliers, r.doubts});
+      if (r.doubtful()) ++doubtful, doubtful_frames.push_back(f.index);
       if (f.gt_pose) gt.push_back(f.timestamp, *f.gt_pose);
       for (const auto& op : tracker.take_map_operations()) loops += op.kind == tracking::MapOperation::Kind::LoopClosure;
       bar.step();
@@ -72,10 +86,21 @@ int run_track(const TrackArgs& a) {
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const Trajectory est = tracker.trajectory();
   write_trajectory(a.out, est, format);
+  const std::string quality_file = a.out + ".quality.csv";
+  {
+    std::ofstream q(quality_file);
+    q << "frame,stamp,state,inliers,doubtful,reasons\n";
+    for (const auto& r : quality)
+      q << r.index << ',' << cat(r.stamp) << ',' << r.state << ',' << r.inliers << ',' << (r.doubts ? 1 : 0) << ','
+        << tracking::doubt_names(r.doubts) << '\n';
+    q.flush();
+    if (!q) fail("cannot write ", quality_file);
+  }
   const auto& tm = tracker.timings();
   nlohmann::json j = {{"dataset", a.dataset},  {"out", a.out},          {"frames", n},
                       {"lost_frames", lost},   {"keyframes", keyframes}, {"loop_closures", loops},
-                      {"seconds", secs}};
+                      {"seconds", secs},       {"doubtful_frames", doubtful},
+                      {"doubtful_frame_list", doubtful_frames}, {"quality_file", quality_file}};
   j.update(chungs::tracker_time_report(tm));
   const double per_frame = j["tracking_ms_per_frame"].get<double>();
   std::optional<AteResult> ate;
@@ -94,6 +119,8 @@ int run_track(const TrackArgs& a) {
   if (tm.frames)
     std::printf("per frame: features + stereo %.1f ms, pose tracking %.1f ms, keyframes (BA, culling, loops) %.1f ms\n",
                 tm.features_ms / double(tm.frames), tm.tracking_ms / double(tm.frames), tm.keyframe_ms / double(tm.frames));
+  std::printf("doubtful estimates: %zu of %zu frames (few inliers, estimates disagreeing, implausible motion, coasting\n"
+              "  behind a moving object or an ambiguous motion; per frame in %s)\n", doubtful, n, quality_file.c_str());
   std::printf("trajectory written to %s (%s)\n", a.out.c_str(), a.format.c_str());
   if (ate)
     std::printf("ATE (se3 alignment, %zu poses): rmse %.4f m, max %.4f m over a %.1f m path\n", ate->matched(),
