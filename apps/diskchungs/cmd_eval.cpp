@@ -1,4 +1,6 @@
 // `diskchungs eval ate|images`: trajectory accuracy (ATE, RPE) and image quality (PSNR, SSIM, LPIPS).
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -8,14 +10,107 @@
 #include "chungs/eval/report.hpp"
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/image/image_io.hpp"
+#include "chungs/mapping/plot_canvas.hpp"
 #include "command.hpp"
+#include "eval_plot.hpp"
 #include "flag_checks.hpp"
 
 namespace chungs::app {
+
+void write_ate_plot(const std::string& file, const Trajectory& gt, const Trajectory& est, const AteResult& ate) {
+  if (ate.pairs.size() < 2) fail("ATE plot ", file, ": fewer than 2 matched poses");
+  // Both trajectories from above: the plane of the ground truth's two largest extents (x-y for a
+  // z-up world, x-z for a camera's y-down frame), the estimate after the ATE alignment.
+  std::vector<Eigen::Vector3d> g, e;
+  for (auto& [i, j] : ate.pairs) g.push_back(gt.poses[i].t), e.push_back(ate.alignment * est.poses[j].t);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (auto& p : g) mean += p;
+  mean /= double(g.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (auto& p : g) cov += (p - mean) * (p - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  const Eigen::Vector3d ax = es.eigenvectors().col(2), ay = es.eigenvectors().col(1);
+  auto uv = [&](const Eigen::Vector3d& p) { return Eigen::Vector2d((p - mean).dot(ax), (p - mean).dot(ay)); };
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  for (auto* set : {&g, &e})
+    for (auto& p : *set) lo = lo.cwiseMin(uv(p)), hi = hi.cwiseMax(uv(p));
+  const int W = 1200, H = 620;
+  PlotCanvas cv{Image8(W, H, 3, 255)};
+  const PlotRgb black{0, 0, 0}, red{215, 40, 30}, blue{30, 90, 200}, grey{190, 190, 190};
+  // Left: the top view, equal scale on both axes.
+  const PlotBox left{50, 60, 570, 580};
+  const double span = std::max({hi.x() - lo.x(), hi.y() - lo.y(), 1e-6}) * 1.05;
+  const Eigen::Vector2d mid = 0.5 * (lo + hi);
+  const double scale = (left.x1 - left.x0) / span;
+  auto to_px = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector2d q = uv(p) - mid;
+    return Eigen::Vector2d(0.5 * (left.x0 + left.x1) + q.x() * scale, 0.5 * (left.y0 + left.y1) - q.y() * scale);
+  };
+  cv.line(left.x0, left.y0, left.x1, left.y0, grey, 1);
+  cv.line(left.x0, left.y1, left.x1, left.y1, grey, 1);
+  cv.line(left.x0, left.y0, left.x0, left.y1, grey, 1);
+  cv.line(left.x1, left.y0, left.x1, left.y1, grey, 1);
+  cv.clip_to(left);
+  for (size_t k = 0; k + 1 < g.size(); ++k) {
+    const auto a = to_px(g[k]), b = to_px(g[k + 1]);
+    cv.line(a.x(), a.y(), b.x(), b.y(), black, 3);
+  }
+  for (size_t k = 0; k + 1 < e.size(); ++k) {
+    const auto a = to_px(e[k]), b = to_px(e[k + 1]);
+    cv.line(a.x(), a.y(), b.x(), b.y(), red, 2);
+  }
+  const auto s0 = to_px(g.front());
+  for (int d = -5; d <= 5; ++d) cv.line(s0.x() - 5, s0.y() + d, s0.x() + 5, s0.y() + d, blue, 1);  // start
+  cv.unclip();
+  // A scale bar of a round length, about a fifth of the panel.
+  // A scale bar of 1, 2 or 5 times a power of ten metres, at most a fifth of the panel.
+  const double decade = std::pow(10.0, std::floor(std::log10(0.2 * span)));
+  const double bar_m = 5 * decade <= 0.2 * span ? 5 * decade : 2 * decade <= 0.2 * span ? 2 * decade : decade;
+  const double bar_px = bar_m * scale;
+  cv.line(left.x0 + 10, left.y1 - 14, left.x0 + 10 + bar_px, left.y1 - 14, black, 2);
+  cv.text(left.x0 + 14 + int(bar_px), left.y1 - 19, plot_number(bar_m) + " M", black);
+  cv.text(left.x0, 12, "FROM ABOVE, ALIGNED (" + std::string(alignment_name(ate.align)) + ")", black);
+  cv.text(left.x0, 32, "GROUND TRUTH", black);
+  cv.text(left.x0 + PlotCanvas::width("GROUND TRUTH  "), 32, "ESTIMATE", red);
+  cv.text(left.x0 + PlotCanvas::width("GROUND TRUTH  ESTIMATE  "), 32, "START", blue);
+  // Right: the position error along the path.
+  std::vector<double> dist(g.size(), 0.0);
+  for (size_t k = 1; k < g.size(); ++k) dist[k] = dist[k - 1] + (g[k] - g[k - 1]).norm();
+  const PlotBox right{680, 60, 1170, 560};
+  const PlotAxis xa = plot_axis(std::max(dist.back(), 1e-6));
+  const PlotAxis ya = plot_axis(std::max(*std::max_element(ate.errors.begin(), ate.errors.end()), 1e-6));
+  auto rx = [&](double d) { return right.x0 + (d - xa.start) / (xa.end - xa.start) * (right.x1 - right.x0); };
+  auto ry = [&](double v) { return right.y1 - (v - ya.start) / (ya.end - ya.start) * (right.y1 - right.y0); };
+  for (int t = 0; t <= ya.ticks; ++t) {
+    const double v = ya.start + t * ya.step;
+    cv.line(right.x0, ry(v), right.x1, ry(v), grey, 1);
+    const std::string l = plot_number(v);
+    cv.text(right.x0 - 8 - PlotCanvas::width(l), int(ry(v)) - kPlotTextHeight / 2, l, black);
+  }
+  for (int t = 0; t <= xa.ticks; ++t) {
+    const double d = xa.start + t * xa.step;
+    cv.line(rx(d), right.y0, rx(d), right.y1, grey, 1);
+    const std::string l = plot_number(d);
+    cv.text(int(rx(d)) - PlotCanvas::width(l) / 2, right.y1 + 8, l, black);
+  }
+  cv.clip_to(right);
+  for (size_t k = 0; k + 1 < g.size(); ++k)
+    cv.line(rx(dist[k]), ry(ate.errors[k]), rx(dist[k + 1]), ry(ate.errors[k + 1]), blue, 2);
+  cv.line(right.x0, ry(ate.stats.rmse), right.x1, ry(ate.stats.rmse), red, 1, 6);
+  cv.unclip();
+  char head[160];
+  std::snprintf(head, sizeof head, "POSITION ERROR (M), RMSE %.3f M (DASHED), MAX %.3f M", ate.stats.rmse, ate.stats.max);
+  cv.text(right.x0 - 40, 12, head, black);
+  char foot[96];
+  std::snprintf(foot, sizeof foot, "DISTANCE ALONG THE GROUND TRUTH (M), %.1f M, %zu POSES", dist.back(), g.size());
+  cv.text(right.x0, right.y1 + 30, foot, black);
+  write_png(file, cv.img);
+}
+
 namespace {
 
 struct EvalArgs {
-  std::string gt, est, align = "se3";
+  std::string gt, est, align = "se3", plot;
   double max_dt = 0.02;
   int rpe_delta = 1;
   std::string ref, test, mask, lpips_weights;
@@ -42,9 +137,11 @@ int run_ate(const EvalArgs& a) {
   } catch (const Error& e) {
     fail(a.est, " against ", a.gt, ": ", e.what());
   }
+  if (!a.plot.empty()) write_ate_plot(a.plot, gt, est, ate);
   if (a.json) {
     nlohmann::json j = {{"gt", a.gt}, {"est", a.est}, {"max_dt", a.max_dt}, {"ate", to_json(ate)},
                         {"rpe", to_json(rpe)}};
+    if (!a.plot.empty()) j["plot"] = a.plot;
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
@@ -56,6 +153,7 @@ int run_ate(const EvalArgs& a) {
   std::printf("  translation rmse %s m, max %s m\n", fmt(rpe.trans.rmse).c_str(), fmt(rpe.trans.max).c_str());
   std::printf("  rotation    rmse %s deg, max %s deg\n", fmt(rpe.rot_deg.rmse).c_str(),
               fmt(rpe.rot_deg.max).c_str());
+  if (!a.plot.empty()) std::printf("plot written to %s\n", a.plot.c_str());
   return 0;
 }
 
@@ -94,6 +192,7 @@ const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality
   ate->add_option("--max-dt", args->max_dt, "largest stamp difference of a matched pair, seconds")
       ->capture_default_str();
   ate->add_option("--rpe-delta", args->rpe_delta, "RPE frame delta (in matched frames)")->capture_default_str();
+  ate->add_option("--plot", args->plot, "write a PNG: both trajectories from above after alignment, and the error along the path");
   ate->add_flag("--json", args->json, "print the results as JSON");
 
   CLI::App* images = app.add_subcommand("images", "PSNR, SSIM and LPIPS of rendered images against references");

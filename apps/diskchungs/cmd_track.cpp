@@ -18,6 +18,7 @@
 #include "chungs/tracking/visual_tracker.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
+#include "eval_plot.hpp"
 #include "flag_checks.hpp"
 
 namespace chungs::app {
@@ -108,6 +109,10 @@ int run_track(const TrackArgs& a) {
     ate = compute_ate(gt, est, {Alignment::SE3, 0.02});
     j["ate"] = to_json(*ate);
     j["gt_path_length"] = gt.path_length();
+    // Beside the trajectory: both paths from above and the error along the path (as `eval ate --plot`).
+    const std::string plot = a.out + ".ate.png";
+    write_ate_plot(plot, gt, est, *ate);
+    j["ate_plot"] = plot;
   }
   if (a.json) {
     std::printf("%s\n", j.dump(2).c_str());
@@ -123,8 +128,8 @@ int run_track(const TrackArgs& a) {
               "  behind a moving object or an ambiguous motion; per frame in %s)\n", doubtful, n, quality_file.c_str());
   std::printf("trajectory written to %s (%s)\n", a.out.c_str(), a.format.c_str());
   if (ate)
-    std::printf("ATE (se3 alignment, %zu poses): rmse %.4f m, max %.4f m over a %.1f m path\n", ate->matched(),
-                ate->stats.rmse, ate->stats.max, gt.path_length());
+    std::printf("ATE (se3 alignment, %zu poses): rmse %.4f m, max %.4f m over a %.1f m path; plot %s.ate.png\n",
+                ate->matched(), ate->stats.rmse, ate->stats.max, gt.path_length(), a.out.c_str());
   else
     std::printf("no ground truth: ATE not computed\n");
   return 0;
