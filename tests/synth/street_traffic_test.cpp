@@ -166,3 +166,20 @@ TEST(StreetTraffic, DISABLED_DumpFrames) {
     write_png(std::filesystem::path(dir ? dir : "/tmp/traffic") / ("right_" + std::to_string(i) + ".png"), *f.right);
   }
 }
+
+// Writes the ground truth of the issue-23 benchmark drives (400 m, traffic=10, startup=cross+turn,
+// seeds 1-3) as TUM files into $TRAFFIC_GT for `eval ate --plot` (not run by default).
+TEST(StreetTraffic, DISABLED_WriteBenchmarkGroundTruth) {
+  const char* dir = std::getenv("TRAFFIC_GT");
+  ASSERT_NE(dir, nullptr);
+  for (uint64_t seed : {1, 2, 3}) {
+    StreetOptions o;
+    o.length_m = 400;
+    o.seed = seed;
+    o.traffic = 10;
+    o.startup_cross = true;
+    o.start_turn = true;
+    write_trajectory(std::filesystem::path(dir) / ("gt_s" + std::to_string(seed) + ".txt"), street_trajectory(o),
+                     TrajectoryFormat::Tum);
+  }
+}
