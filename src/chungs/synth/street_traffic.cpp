@@ -4,6 +4,7 @@
 // within a metre of the camera or of each other, and rendered as meshes whose textures move with them.
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
 
 #include "chungs/common/error.hpp"
 #include "chungs/synth/rng.hpp"
@@ -71,8 +72,16 @@ StreetTraffic::StreetTraffic(const StreetOptions& o, const Trajectory& drive) : 
     const double w = f - double(i);
     c = ((1 - w) * drive.poses[i].t + w * drive.poses[j].t).head<2>();
   };
+  // Vehicles by the 10 s windows they exist in: a check looks only at vehicles of its time.
+  std::unordered_map<long, std::vector<size_t>> by_time;
+  auto window = [](double t) { return long(std::floor(t / 10.0)); };
   auto accept = [&](Vehicle v) {
     if (!(v.t1 > v.t0)) return false;
+    std::vector<size_t> near;
+    for (long w = window(v.t0); w <= window(v.t1); ++w)
+      if (auto it = by_time.find(w); it != by_time.end()) near.insert(near.end(), it->second.begin(), it->second.end());
+    std::sort(near.begin(), near.end());
+    near.erase(std::unique(near.begin(), near.end()), near.end());
     const double dt = 0.5 / o.rate_hz;
     for (double t = std::max(v.t0, 0.0); t <= std::min(v.t1, t_end + 1.0); t += dt) {
       V2 c, h, cam;
@@ -80,13 +89,15 @@ StreetTraffic::StreetTraffic(const StreetOptions& o, const Trajectory& drive) : 
       camera_at(t, cam);
       // The camera (and the right one, 0.54 m beside it) stays clear of the body by a metre or more.
       if (overlap({c, h, 0.5 * v.length + 1.0, 0.5 * v.width + 1.0}, {cam, h, 0.8, 0.8})) return false;
-      for (const Vehicle& u : vehicles) {
+      for (size_t ui : near) {
+        const Vehicle& u = vehicles[ui];
         V2 cu, hu;
         if (!place(u, t, cu, hu)) continue;
         if (overlap({c, h, 0.5 * v.length + 0.5, 0.5 * v.width + 0.3}, {cu, hu, 0.5 * u.length + 0.5, 0.5 * u.width + 0.3}))
           return false;
       }
     }
+    for (long w = window(v.t0); w <= window(v.t1); ++w) by_time[w].push_back(vehicles.size());
     vehicles.push_back(std::move(v));
     return true;
   };
