@@ -19,5 +19,5 @@ if(CHUNGS_WITH_WEB)
   set_tests_properties(view_browser PROPERTIES TIMEOUT 300 SKIP_RETURN_CODE 77 LABELS browser
                        ENVIRONMENT "OMP_NUM_THREADS=2")
 else()
-  message(STATUS "Browser test view_browser: not registered (no node/npm, so no viewer page)")
+  message(STATUS "Browser test view_browser: not registered (no viewer page: CHUNGS_WEB=OFF or no node/npm)")
 endif()

@@ -70,6 +70,9 @@ ViewServer::ViewServer(std::shared_ptr<MapFollower> follower, ViewServerOptions 
   if (options_.port < 0 || options_.port > 65535) fail("port ", options_.port, " is outside 0..65535");
   // The library's default adds SO_REUSEPORT, which lets a second server share a port that is in
   // use; only SO_REUSEADDR (a restart while old connections linger), so a taken port is refused.
+  // Each open event stream (/api/events) holds a thread for as long as its page is open; the
+  // library's default of 8 would leave a few pages waiting for chunks. Idle threads cost nothing.
+  server_->new_task_queue = [] { return new httplib::ThreadPool(32); };
   server_->set_socket_options([](int sock) {
     int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);

@@ -11,6 +11,7 @@
 //                           /api/map) replays the ones after V; a comment line every second otherwise
 //   GET /...                the page's files from the web root (index.html for /)
 // /api/map also carries "version": the follower's version of the snapshot it describes.
+// Requests are answered on a pool of 32 threads; an open event stream keeps one of them.
 // Errors are JSON {"error": "..."}: 404 for an unknown chunk or API path, 400 for a malformed id or
 // query value (named in the message), 500 for a chunk that cannot be read. Paths that climb out of
 // the web root are refused by the library's path check (400) before any file is looked up.
