@@ -127,7 +127,8 @@ async function liveRun(browser) {
   const map = join(work, "live-map");
   rmSync(room, { recursive: true, force: true });
   rmSync(map, { recursive: true, force: true });
-  runCli(["-q", "synth", "room", "--out", room, "--frames", "45", "--width", "96", "--height", "72"]);
+  // Long enough to outlast the page's start on a loaded machine; stopped once enough is measured.
+  runCli(["-q", "synth", "room", "--out", room, "--frames", "240", "--width", "96", "--height", "72"]);
   const cfg = join(work, "live.yaml");
   writeFileSync(cfg, "mapper:\n  checkpoint_every: 1\n  checkpoint_seconds: 0\n  checkpoint_max_share: 0\n");
   const run = spawn(cli, ["-q", "run", "--dataset", `tum:${room}`, "--device", "cpu", "--out", map, "--no-eval",
@@ -135,7 +136,6 @@ async function liveRun(browser) {
     { stdio: ["ignore", "ignore", "pipe"], env: { ...process.env, OMP_NUM_THREADS: "1" } });
   let runErr = "";
   run.stderr.on("data", (d) => (runErr += d));
-  const runExit = new Promise((r) => run.once("exit", r));
   // When each checkpoint was first seen on disk (a look every 20 ms).
   const committed = new Map();
   const watch = setInterval(() => {
@@ -161,30 +161,42 @@ async function liveRun(browser) {
     const page = await openViewer(browser, url, "kf=0&budget=100000000&follow=1", { width: 320, height: 240 });
     const readyAt = Date.now();
     say(`live page ready; run still mapping: ${run.exitCode === null}`);
-    await runExit;
-    await new Promise((r) => setTimeout(r, 3000)); // the last checkpoint's chunks reach the page
-    clearInterval(watch);
-    const { eventLog, shown, events } = await page.evaluate(() => ({
-      eventLog: window.viewer.eventLog,
-      shown: window.viewer.shown,
-      events: window.viewer.events,
-    }));
-    await page.close();
-    const latencies = [];
-    for (const e of eventLog) {
-      const commit = committed.get(e.checkpoint);
-      if (commit === undefined || commit < readyAt) continue;
-      for (const id of e.ids) {
-        const s = shown.find(([sid, at]) => sid === id && at >= e.heard);
-        if (s) latencies.push(s[1] - commit);
+    // Chunk updates of checkpoints committed after the page was ready, timed from the commit; until
+    // 8 are timed, the run ends, or 60 s pass (then the run is stopped: its folder is thrown away).
+    const measure = async () => {
+      const { eventLog, shown, events } = await page.evaluate(() => ({
+        eventLog: window.viewer.eventLog,
+        shown: window.viewer.shown,
+        events: window.viewer.events,
+      }));
+      const latencies = [];
+      for (const e of eventLog) {
+        const commit = committed.get(e.checkpoint);
+        if (commit === undefined || commit < readyAt) continue;
+        for (const id of e.ids) {
+          const s = shown.find(([sid, at]) => sid === id && at >= e.heard);
+          if (s) latencies.push(s[1] - commit);
+        }
       }
+      return { events, latencies };
+    };
+    let m = await measure();
+    while (m.latencies.length < 8 && run.exitCode === null && Date.now() - readyAt < 60000) {
+      await new Promise((r) => setTimeout(r, 500));
+      m = await measure();
     }
-    if (run.exitCode !== 0) throw new Error(`live run failed (${run.exitCode}): ${runErr}`);
-    return { events, latencies };
+    if (run.exitCode === null) await new Promise((r) => setTimeout(r, 3000)); // updates in flight land
+    m = await measure();
+    await page.close();
+    if (run.exitCode !== null && run.exitCode !== 0) throw new Error(`live run failed (${run.exitCode}): ${runErr}`);
+    return m;
   } finally {
     clearInterval(watch);
     v.kill("SIGINT");
-    if (run.exitCode === null) run.kill("SIGINT");
+    if (run.exitCode === null) {
+      run.kill("SIGKILL");
+      await new Promise((r) => run.once("exit", r));
+    }
   }
 }
 
