@@ -169,9 +169,9 @@ class Readers:
             time.sleep(self.pause)
 
 
-def run_mapper(cli, dataset, folder, config, threads):
+def run_mapper(cli, dataset, folder, config, threads, device):
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
-    cmd = [cli, "run", "--dataset", dataset, "--poses", "gt", "--device", "cpu", "--iterations", "3",
+    cmd = [cli, "run", "--dataset", dataset, "--poses", "gt", "--device", device, "--iterations", "3",
            "--final-iterations", "0", "--no-eval", "--out", str(folder), "--config", str(config)]
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
 
@@ -192,6 +192,7 @@ def main():
     ap.add_argument("--pause", type=float, default=0.02, help="seconds between reads")
     ap.add_argument("--threads", type=int, default=2, help="the mapper's OMP_NUM_THREADS")
     ap.add_argument("--max-drop", type=float, default=0.10, help="allowed FPS loss with readers")
+    ap.add_argument("--device", default="cpu", help="the mapper's --device (cpu, cuda)")
     args = ap.parse_args()
     cli = str(Path(args.cli).resolve())
     dataset = f"synth-street:length={args.length},width=160,height=48"
@@ -199,7 +200,7 @@ def main():
         work = Path(tmp)
         config = work / "config.yaml"
         config.write_text(CONFIG)
-        alone = run_mapper(cli, dataset, work / "alone", config, args.threads)
+        alone = run_mapper(cli, dataset, work / "alone", config, args.threads, args.device)
         fps_alone = finish(alone, "without readers")
         poses = work / "poses.txt"
         shutil.copy(work / "alone" / "trajectory.txt", poses)
@@ -212,7 +213,7 @@ def main():
         start = time.time()
         w = threading.Thread(target=watcher.loop)
         w.start()
-        mapper = run_mapper(cli, dataset, work / "map", config, args.threads)
+        mapper = run_mapper(cli, dataset, work / "map", config, args.threads, args.device)
         t = threading.Thread(target=readers.loop)
         t.start()
         fps_readers = finish(mapper, "with readers")
