@@ -155,6 +155,14 @@ FrameMotion estimate_frame_motion(const Features& prev, const Features& cur, con
     const double tol = opt.predict_translation + opt.predict_translation_share * predicted->t.norm();
     return (T.t - predicted->t).norm() < tol && angle_deg(T, *predicted) < opt.predict_rotation_deg;
   };
+  // Camera displacement in the previous camera's frame: x sideways, z forwards.
+  auto sideways = [&](const SE3& T) {
+    if (predicted || !(opt.sideways_limit > 0)) return false;
+    const Eigen::Vector3d d = T.inverse().t;
+    return std::abs(d.x()) > std::max(opt.sideways_limit, std::abs(d.z()));
+  };
+  bool any_forward = false;
+  for (const Motion& mo : motions) any_forward |= !sideways(mo.T);
   long chosen = -1;
   // Without a prediction that any motion agrees with, the static world seen whole (over several depths) is taken.
   bool any_agrees = false;
@@ -163,6 +171,7 @@ FrameMotion estimate_frame_motion(const Features& prev, const Features& cur, con
   for (size_t h = 0; h < motions.size(); ++h) {
     if (predicted && any_agrees && !agrees(motions[h].T)) continue;
     if (predicted && !any_agrees && !motions[h].whole()) continue;
+    if (any_forward && sideways(motions[h].T)) continue;
     // Depth spread first (a vehicle is one patch at one depth), then coverage, then support.
     if (chosen >= 0 && motions[h].whole() != motions[chosen].whole()) {
       if (motions[h].whole()) chosen = long(h);
@@ -201,6 +210,7 @@ FrameMotion estimate_frame_motion(const Features& prev, const Features& cur, con
     if (d.t.norm() < opt.distinct_translation && angle_deg(motions[h].T, w.T) < opt.distinct_rotation_deg) continue;
     out.runner_up_cells = std::max(out.runner_up_cells, motions[h].cells);
     out.runner_up_inliers = std::max(out.runner_up_inliers, int(motions[h].inliers.size()));
+    if (!predicted) out.chosen_without_prediction = true;
     for (int i : motions[h].inliers)
       if (!fits(k, w.T, m[i])) out.moving[m[i].c] = 1;
   }

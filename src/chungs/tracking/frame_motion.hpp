@@ -32,6 +32,9 @@ struct FrameMotionOptions {
   double predict_rotation_deg = 30;   // loose: a sudden turn is the camera; a moving object shifts (translation)
   float moving_px = 15;                // ... and its inliers that land this far from the prediction are moving
   int whole_view_cells = 16;           // whole_view: this many coverage cells over 3 or more depth bins
+  // Without a prediction (start-up), a motion that moves the camera sideways faster than forwards (and more
+  // than this many metres) is taken only when no other is left: a camera looking ahead from a vehicle.
+  double sideways_limit = 0.3;         // 0: no such preference
 };
 
 struct FrameMotion {
@@ -43,6 +46,7 @@ struct FrameMotion {
   int runner_up_cells = 0;    // coverage of the best other distinct motion (0: none)
   int runner_up_inliers = 0;  // most inliers of another distinct motion (0: none)
   bool disagrees = false;     // a prediction was given and no motion found agrees with it
+  bool chosen_without_prediction = false;  // more than one distinct motion and no prediction to tell them apart
   // The chosen motion's inliers fill most of the view at several depths (near, mid and far): the static
   // world seen whole, trusted over a prediction it disagrees with (after coasting behind a vehicle).
   bool whole_view = false;

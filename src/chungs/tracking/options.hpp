@@ -36,6 +36,7 @@ struct TrackerOptions {
   int confident_inliers = 40;           // fewer local-map inliers make a pose doubtful
   double max_speed = 40;                // m/s; a faster step is implausible (doubtful)
   double max_turn_rate = 180;           // degrees/s; likewise
+  double max_sideways_speed = 3;        // m/s; moving sideways faster than this and than forwards is implausible
   LoopOptions loop;
 };
 

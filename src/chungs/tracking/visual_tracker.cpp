@@ -203,7 +203,7 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
     predicted = measured ? fm.T_cp * last_T_cw_ : velocity_ ? *velocity_ * last_T_cw_ : last_T_cw_;
     have_prior = measured || velocity_.has_value();
     measured_whole = measured && fm.whole_view;
-    if (fm.ok && fm.runner_up_inliers >= fm.inliers / 2) doubts |= kDoubtAmbiguous;
+    if (fm.ok && (fm.runner_up_inliers >= fm.inliers / 2 || fm.chosen_without_prediction)) doubts |= kDoubtAmbiguous;
     if (fm.disagrees) doubts |= kDoubtDisagree;
     motion = track_motion(c, predicted);
     const SE3 motion_pose = c.T_cw;
@@ -326,8 +326,10 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
     if (inliers < opt_.confident_inliers) doubts |= kDoubtFewInliers;
   }
   const double dt = c.stamp - prev_stamp_;
+  const Eigen::Vector3d moved = step.inverse().t;  // in the previous camera's frame: x sideways, z forwards
   if (!recovered && dt > 0 &&
-      (step.inverse().t.norm() > opt_.max_speed * dt ||
+      (moved.norm() > opt_.max_speed * dt ||
+       std::abs(moved.x()) > std::max(opt_.max_sideways_speed * dt, std::abs(moved.z())) ||
        step.q.angularDistance(Eigen::Quaterniond::Identity()) * 180 / M_PI > opt_.max_turn_rate * dt))
     doubts |= kDoubtImplausible;
   if (doubts) {
