@@ -164,10 +164,11 @@ async function liveRun(browser) {
     // Chunk updates of checkpoints committed after the page was ready, timed from the commit; until
     // 8 are timed, the run ends, or 60 s pass (then the run is stopped: its folder is thrown away).
     const measure = async () => {
-      const { eventLog, shown, events } = await page.evaluate(() => ({
+      const { eventLog, shown, events, chartSamples } = await page.evaluate(() => ({
         eventLog: window.viewer.eventLog,
         shown: window.viewer.shown,
         events: window.viewer.events,
+        chartSamples: window.viewer.chartSamples,
       }));
       const latencies = [];
       for (const e of eventLog) {
@@ -178,7 +179,7 @@ async function liveRun(browser) {
           if (s) latencies.push(s[1] - commit);
         }
       }
-      return { events, latencies };
+      return { events, latencies, chartSamples };
     };
     let m = await measure();
     while (m.latencies.length < 8 && run.exitCode === null && Date.now() - readyAt < 60000) {
@@ -280,6 +281,7 @@ try {
   // commit (the median; the worst is printed). Commit times: when the manifest first names them.
   const live = await liveRun(browser);
   check(live.latencies.length > 0, `live: ${live.events} checkpoint events in the page, ${live.latencies.length} chunk updates timed`);
+  check(live.chartSamples > 0, `live: the timeline charts hold ${live.chartSamples} samples of the run`);
   const liveMedian = percentile(live.latencies, 0.5);
   check(liveMedian <= 2000, `live: commit to chunk in the page, median ${liveMedian?.toFixed(0)} ms, worst ${Math.max(...live.latencies).toFixed(0)} ms (median <= 2000)`);
 

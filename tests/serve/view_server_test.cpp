@@ -17,6 +17,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/mapping/map_state.hpp"
+#include "chungs/mapping/timeline.hpp"
 #include "chungs/serve/splat_pack.hpp"
 #include "chungs/serve/view_server.hpp"
 #include "store/random_block.hpp"
@@ -268,4 +269,40 @@ TEST(MapSnapshot, AFolderWithoutAManifestIsRefusedByName) {
     EXPECT_NE(std::string(e.what()).find("empty: not a map folder"), std::string::npos) << e.what();
   }
   EXPECT_TRUE(fs::is_empty(dir / "empty"));
+}
+
+TEST(ViewServer, TimelineIsTheRunStateCommittedWithTheCheckpointColumnByColumn) {
+  test::TempDir dir;
+  make_map(dir / "map");
+  std::vector<TimelineSample> samples(3);
+  for (int i = 0; i < 3; ++i) {
+    samples[size_t(i)].seconds = 1.5 * i;
+    samples[size_t(i)].iterations = uint64_t(10 * i);
+    samples[size_t(i)].total = uint64_t(100 + i);
+    samples[size_t(i)].resident = uint64_t(60 + i);
+    samples[size_t(i)].rss_mb = 30.25 + i;
+    samples[size_t(i)].loads = uint64_t(i);
+  }
+  // Checkpoint 4 names its numbered run state until the writer renames it: that one is read.
+  write_json_atomically(checkpoint_file(dir / "map", 4, "run_state.json"), {{"timeline", to_json(samples)}}, false);
+  samples.resize(1);
+  write_json_atomically(dir / "map" / "run_state.json", {{"timeline", to_json(samples)}}, false);
+  ViewServer s(std::make_shared<MapSnapshot>(dir / "map"), ViewServerOptions{"127.0.0.1", 0, {}});
+  s.bind();
+  Running running(s);
+  const Reply r = get(s.port(), "/api/timeline");
+  running.stop();
+  ASSERT_EQ(r.status, 200) << r.body;
+  const auto j = nlohmann::json::parse(r.body);
+  EXPECT_EQ(j["seconds"], nlohmann::json({0.0, 1.5, 3.0}));
+  EXPECT_EQ(j["iterations"], nlohmann::json({0, 10, 20}));
+  EXPECT_EQ(j["on_disk"], nlohmann::json({40, 40, 40}));
+  EXPECT_EQ(j["rss_mb"][2], 32.25);
+  EXPECT_EQ(j["loads"], nlohmann::json({0, 1, 2}));
+}
+
+TEST_F(ViewServerTest, WithoutARunStateTheTimelineIsEmpty) {
+  const Reply r = get(port(), "/api/timeline");
+  ASSERT_EQ(r.status, 200);
+  EXPECT_TRUE(nlohmann::json::parse(r.body)["seconds"].empty());
 }

@@ -3,12 +3,15 @@
 // Query parameters: kf=N starts at keyframe N's pose; size=camera sizes the canvas to the map's
 // camera and uses its intrinsics (for pixel comparisons); budget=N splats (default 3,000,000);
 // sh=0..3; overlays=0 and hud=0 hide the drawn lines and the text; follow=1 moves the camera to each
-// new checkpoint's newest keyframe while a run writes the map (key F toggles it).
-// Keys: W/A/S/D/Q/E fly, mouse orbits; G grid, T trajectory and frusta, K next keyframe, F follow.
+// new checkpoint's newest keyframe while a run writes the map (key F toggles it); charts=0|1 hides or
+// shows the timeline charts (shown by default when the run left a timeline; key C).
+// Keys: W/A/S/D/Q/E fly, mouse orbits; G grid, T trajectory and frusta, K next keyframe, F follow,
+// C charts.
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 import { SparkRenderer } from "@sparkjsdev/spark";
 import { CheckpointEvent, MapInfo, fetchMap } from "./api";
+import { Charts, fetchTimeline } from "./charts";
 import { ChunkStreamer } from "./streamer";
 import { applyIntrinsics, applyPose, chunkGrid, trajectoryOverlay } from "./view";
 
@@ -24,6 +27,7 @@ interface ViewerState {
   // (added or changed), and each chunk mesh when it entered the scene.
   eventLog: { checkpoint: number; ids: string[]; heard: number }[];
   shown: [string, number][];
+  chartSamples: number; // timeline samples in the charts
 }
 
 declare global {
@@ -32,7 +36,7 @@ declare global {
   }
 }
 
-const state: ViewerState = { settledFrames: 0, ready: false, events: 0, eventLog: [], shown: [] };
+const state: ViewerState = { settledFrames: 0, ready: false, events: 0, eventLog: [], shown: [], chartSamples: 0 };
 window.viewer = state;
 const params = new URLSearchParams(location.search);
 const hud = document.getElementById("hud")!;
@@ -101,6 +105,20 @@ async function start(): Promise<void> {
   );
   state.streamer = streamer;
 
+  const charts = new Charts(document.body);
+  const chartsWanted = params.get("charts") ?? (params.get("hud") === "0" ? "0" : "auto");
+  charts.visible = false;
+  const refreshCharts = async () => {
+    const t = await fetchTimeline();
+    if (!t.seconds.length) return;
+    charts.show(t);
+    state.chartSamples = charts.samples();
+    if (!chartsDecided) charts.visible = true; // once: key C decides afterwards
+    chartsDecided = true;
+  };
+  let chartsDecided = false;
+  if (chartsWanted !== "0") refreshCharts().catch((e: unknown) => console.warn(`charts: ${String(e)}`));
+
   // A run writing the map: each checkpoint's event brings the new description; chunks it changed
   // are dropped and fetched again by the streamer, the overlays are drawn anew.
   let follow = params.get("follow") === "1";
@@ -126,6 +144,7 @@ async function start(): Promise<void> {
       traj.visible = trajShown;
       grid.visible = gridShown;
       overlays.add(traj, grid);
+      if (chartsWanted !== "0") await refreshCharts();
       if (follow && next.keyframes.length) {
         applyPose(camera, next.keyframes[next.keyframes.length - 1].pose, next.origin);
         const f = new THREE.Vector3(0, 0, -1).applyQuaternion(camera.quaternion);
@@ -143,6 +162,7 @@ async function start(): Promise<void> {
     if (e.key === "g") grid.visible = !grid.visible;
     if (e.key === "t") traj.visible = !traj.visible;
     if (e.key === "f") follow = !follow;
+    if (e.key === "c") charts.visible = !charts.visible;
     const m = streamer.map;
     if (e.key === "k" && m.keyframes.length) {
       kfCursor = (kfCursor + 1) % m.keyframes.length;
@@ -209,7 +229,7 @@ async function start(): Promise<void> {
       `in the page: ${s.loaded} chunks, ${s.splats.toLocaleString()} of ${s.budget.toLocaleString()} splats` +
       (s.loading ? `, ${s.loading} loading` : "") +
       (s.failed ? `\n${s.failed} chunk requests failed: ${s.errors[s.errors.length - 1]}` : "") +
-      `\nmouse: orbit   W A S D Q E: fly   K: next keyframe   G: chunk grid   T: trajectory   F: follow`;
+      `\nmouse: orbit   W A S D Q E: fly   K: next keyframe   G: chunk grid   T: trajectory   F: follow   C: charts`;
   });
 }
 

@@ -48,6 +48,16 @@ MapSnapshot::MapSnapshot(const fs::path& folder) : folder_(folder) {
         if (fs::exists(pending)) throw;  // damaged, not renamed away meanwhile
       }
     if (!read && fs::exists(folder / "keyframes.txt")) keyframes_ = read_keyframe_records(folder / "keyframes.txt");
+    timeline_.clear();
+    const fs::path state = committed_file(folder, checkpoint_, "run_state.json");
+    if (fs::is_regular_file(state)) try {
+        const nlohmann::json j = read_json_file(state);
+        if (j.is_object() && j.contains("timeline")) timeline_ = timeline_from_json(j["timeline"]);
+      } catch (const std::exception& e) {
+        // Renamed away by the next checkpoint meanwhile (the check below reads again), or damaged:
+        // the charts are left out, the map is still shown.
+        log::debug("viewer: timeline left out: ", e.what());
+      }
     if (checkpoint_tag(Manifest::read(folder / "manifest.txt").config) == checkpoint_) break;
     if (attempt == kAttempts) fail(folder.string(), ": the map changed faster than it could be read; try again");
     log::info(folder.string(), ": the map was committed again while it was read; reading the new commit");
@@ -64,6 +74,30 @@ MapSnapshot::MapSnapshot(const fs::path& folder) : folder_(folder) {
     } catch (const Error& e) {
       log::warn("viewer: run statistics left out: ", e.what());
     }
+}
+
+nlohmann::json MapSnapshot::timeline_json() const {
+  nlohmann::json j = nlohmann::json::object();
+  auto column = [&](const char* name, auto get) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& t : timeline_) a.push_back(get(t));
+    j[name] = std::move(a);
+  };
+  using T = TimelineSample;
+  column("seconds", [](const T& t) { return t.seconds; });
+  column("frame", [](const T& t) { return t.frame; });
+  column("keyframes", [](const T& t) { return t.keyframes; });
+  column("iterations", [](const T& t) { return t.iterations; });
+  column("resident", [](const T& t) { return t.resident; });
+  column("total", [](const T& t) { return t.total; });
+  column("on_disk", [](const T& t) { return t.total > t.resident ? t.total - t.resident : 0; });
+  column("rss_mb", [](const T& t) { return t.rss_mb; });
+  column("vram_mb", [](const T& t) { return t.vram_mb; });
+  column("loads", [](const T& t) { return t.loads; });
+  column("saves", [](const T& t) { return t.saves; });
+  column("disk_mb", [](const T& t) { return t.disk_mb; });
+  column("wait_ms", [](const T& t) { return t.wait_ms; });
+  return j;
 }
 
 Eigen::Vector3d MapSnapshot::origin() const {

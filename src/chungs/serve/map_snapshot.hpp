@@ -1,6 +1,7 @@
 // One committed checkpoint of a map folder, opened for the viewer's server: the chunk store as a
 // reader (no lock; every chunk file of the manifest opened before any is read, manifest checksum
-// checked), the keyframe list committed with it, and the run's trajectory and report when present.
+// checked), the keyframe list and run state (its timeline) committed with it, and the run's trajectory
+// and report when present.
 // Nothing in the folder is created, repaired or changed. Chunk reads are safe from many threads.
 #pragma once
 #include <filesystem>
@@ -12,6 +13,7 @@
 
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/mapping/map_state.hpp"
+#include "chungs/mapping/timeline.hpp"
 #include "chungs/store/chunk_store.hpp"
 
 namespace chungs::serve {
@@ -29,6 +31,9 @@ class MapSnapshot {
   const Trajectory& trajectory() const { return trajectory_; }
   // report.json when the run wrote one that parses (its statistics are shown as they are).
   const std::optional<nlohmann::json>& report() const { return report_; }
+  // The run's timeline as committed with this checkpoint (run_state.json; empty without one).
+  const std::vector<TimelineSample>& timeline() const { return timeline_; }
+  nlohmann::json timeline_json() const;  // /api/timeline: one array per quantity, sample by sample
   // The point the page draws around: the first keyframe's position, else the chunks' mean centre.
   Eigen::Vector3d origin() const;
 
@@ -42,6 +47,7 @@ class MapSnapshot {
   std::vector<KeyframeRecord> keyframes_;
   Trajectory trajectory_;
   std::optional<nlohmann::json> report_;
+  std::vector<TimelineSample> timeline_;
 };
 
 }  // namespace chungs::serve

@@ -144,6 +144,13 @@ void ViewServer::routes() {
     res.set_content(j.dump(), "application/json");
   });
 
+  s.Get("/api/timeline", [follower](const httplib::Request&, httplib::Response& res) {
+    const auto map = follower->current();
+    if (!map) return json_error(res, 503, "the run has not committed its first checkpoint yet");
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(map->timeline_json().dump(), "application/json");
+  });
+
   s.Get("/api/events", [follower](const httplib::Request& req, httplib::Response& res) {
     uint64_t since = follower->version();
     if (req.has_param("since")) {
@@ -193,7 +200,7 @@ void ViewServer::routes() {
   });
 
   s.Get(R"(/api/.*)", [](const httplib::Request& req, httplib::Response& res) {
-    json_error(res, 404, "no such API path " + quoted(req.path) + " (there are /api/map, /api/chunk/<id>, /api/events)");
+    json_error(res, 404, "no such API path " + quoted(req.path) + " (there are /api/map, /api/chunk/<id>, /api/timeline, /api/events)");
   });
 
   // The library answers 400 itself for paths it refuses (.. out of the root); keep its status.

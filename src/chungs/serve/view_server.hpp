@@ -6,6 +6,9 @@
 //                           as the run wrote it, or null)
 //   GET /api/chunk/<id>     the chunk's Gaussians packed as splat_pack.hpp lays out; ?sh=0..3 picks the
 //                           SH degree (default the map's; above it, the map's)
+//   GET /api/timeline       JSON: the run's timeline committed with the checkpoint, one array per
+//                           quantity (seconds, frame, keyframes, iterations, resident, total, on_disk,
+//                           rss_mb, vram_mb, loads, saves, disk_mb, wait_ms); empty arrays without one
 //   GET /api/events         server-sent events, one `checkpoint` event per checkpoint the follower
 //                           took (map_follower.hpp), `id` its version; ?since=V (the `version` of
 //                           /api/map) replays the ones after V; a comment line every second otherwise
