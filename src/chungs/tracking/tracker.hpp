@@ -25,6 +25,7 @@ struct KeyframeRecord {
   std::vector<long> point_ids;             // one per observed point
   std::vector<Eigen::Vector3d> points;     // world positions, same order
   std::vector<Eigen::Vector2f> pixels;     // where this keyframe observes them
+  uint32_t doubts = 0;                     // TrackDoubt bits of the frame it was made from (0: confident)
 };
 
 // A loop closure: keyframe `query` recognised the place of keyframe `match`; every listed keyframe moved from

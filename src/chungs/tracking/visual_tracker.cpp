@@ -352,7 +352,10 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
   auto t2 = std::chrono::steady_clock::now();
   if (!coasting && need_keyframe(c, inliers)) {
     res.keyframe = true;
+    const size_t before = ops_.size();
     create_keyframe(c);
+    for (size_t k = before; k < ops_.size(); ++k)
+      if (ops_[k].kind == MapOperation::Kind::NewKeyframe) ops_[k].keyframe.doubts = doubts;
   }
   timings_.keyframe_ms += ms_since(t2);
   res.keyframe_id = ref_kf_;
