@@ -72,10 +72,10 @@ export class Charts {
   }
 
   get visible(): boolean {
-    return this.root.style.display !== "none";
+    return !this.root.hidden;
   }
   set visible(v: boolean) {
-    this.root.style.display = v ? "" : "none";
+    this.root.hidden = !v;
   }
 
   // The plots once, then their data.
@@ -85,13 +85,14 @@ export class Charts {
         (p) =>
           new uPlot(
             {
-              title: p.title,
-              width: 340,
-              height: 130,
+              title: `${p.title}: ${p.series.map((s) => s.label).join(", ")}`,
+              width: 300,
+              height: 110,
+              legend: { show: false },
               scales: { x: { time: false } },
               axes: [
                 { stroke: "#aaa", grid: { stroke: "#333" } },
-                { stroke: "#aaa", grid: { stroke: "#333" }, size: 60 },
+                { stroke: "#aaa", grid: { stroke: "#333" }, size: 72 },
               ],
               series: [{ label: "s" }, ...p.series.map((s) => ({ label: s.label, stroke: s.stroke, width: 1.5 }))],
             },

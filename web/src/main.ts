@@ -211,7 +211,7 @@ async function start(): Promise<void> {
       lastLook = look;
       quietFrames = 0;
     }
-    if (quietFrames++ < 60) renderer.render(scene, camera);
+    if (quietFrames++ < 30) renderer.render(scene, camera);
     const s = streamer.stats;
     if (state.firstFrameMs === undefined && s.loaded > 0) state.firstFrameMs = now;
     if (settled) {
