@@ -101,7 +101,7 @@ TEST(SparseAdam, FirstStepMovesEveryParameterByItsLearningRate) {
   auto moved = [](float now, float was, float grad) { return (was - now) * (grad > 0 ? 1 : -1); };
   EXPECT_NEAR(moved(b.params.mean[0], before.params.mean[0], g.mean[0]), 5e-5,
               5e-7);  // float rounding of p ~ 1
-  EXPECT_NEAR(moved(b.params.opacity[0], before.params.opacity[0], g.opacity[0]), 0.1, 5e-7);
+  EXPECT_NEAR(moved(b.params.opacity[0], before.params.opacity[0], g.opacity[0]), cfg.lr_opacity, 5e-7);
   EXPECT_NEAR(moved(b.params.log_scale[1], before.params.log_scale[1], g.log_scale[1]), 0.01, 5e-7);
   EXPECT_NEAR(moved(b.params.rotation[2], before.params.rotation[2], g.rotation[2]), 0.002, 5e-7);
   EXPECT_NEAR(moved(b.params.sh[1], before.params.sh[1], g.sh[1]), 0.005, 5e-7);

@@ -14,12 +14,36 @@ TEST(Prune, SelectsFaintAndOversizedGaussiansOnly) {
   p.opacity = {logit(0.04), logit(0.06), logit(0.5), logit(0.9), logit(0.01), std::nanf("")};
   const std::vector<uint32_t> ids{0, 1, 2, 3, 5};
   const std::vector<float> radius{3.f, 4.f, 321.f, 319.f, 2.f};  // W = 640: limit 320 px
-  const auto out = select_for_pruning({}, view_of(p), ids, radius, 640);
+  const PruneConfig paper;  // the paper's rule (the default): no wait for young Gaussians
+  const auto out = select_for_pruning(paper, view_of(p), ids, radius, 640);
   EXPECT_EQ(out, (std::vector<uint32_t>{0, 2, 5}));  // faint, too large, diverged; 4 is not listed
-  const auto opacity_only = select_for_pruning({}, view_of(p), ids, {}, 640);
+  const auto opacity_only = select_for_pruning(paper, view_of(p), ids, {}, 640);
   EXPECT_EQ(opacity_only, (std::vector<uint32_t>{0, 5}));
-  EXPECT_THROW(select_for_pruning({}, view_of(p), ids, std::vector<float>{1.f}, 640), Error);
-  EXPECT_THROW(select_for_pruning({}, view_of(p), std::vector<uint32_t>{6}, {}, 640), Error);
+  EXPECT_THROW(select_for_pruning(paper, view_of(p), ids, std::vector<float>{1.f}, 640), Error);
+  EXPECT_THROW(select_for_pruning(paper, view_of(p), std::vector<uint32_t>{6}, {}, 640), Error);
+  PruneConfig waits;
+  waits.min_visits = 5;
+  EXPECT_THROW(select_for_pruning(waits, view_of(p), ids, radius, 640), Error);  // no visit counts given
+}
+
+TEST(Prune, WaitsForYoungGaussiansButNotForDivergedOrOversizedOnes) {
+  GaussianParams p;
+  p.resize(5);
+  auto logit = [](double o) { return float(std::log(o / (1 - o))); };
+  p.opacity = {logit(0.04), logit(0.03), logit(0.02), std::nanf(""), logit(0.5)};
+  const std::vector<uint32_t> visits{4, 5, 9, 0, 1};
+  const std::vector<uint32_t> ids{0, 1, 2, 3, 4};
+  const std::vector<float> radius{1.f, 1.f, 1.f, 1.f, 400.f};  // W = 640: 4 is too large
+  PruneConfig c;
+  c.min_visits = 5;
+  // 0 is faint but has been optimised in 4 steps only; 1 and 2 have had their 5.
+  EXPECT_EQ(select_for_pruning(c, view_of(p), ids, radius, 640, visits), (std::vector<uint32_t>{1, 2, 3, 4}));
+  c.min_visits = 0;  // the paper's rule: visits are not read
+  EXPECT_EQ(select_for_pruning(c, view_of(p), ids, radius, 640), (std::vector<uint32_t>{0, 1, 2, 3, 4}));
+  c.min_visits = 5;
+  EXPECT_THROW(select_for_pruning(c, view_of(p), ids, radius, 640, std::vector<uint32_t>{9, 9}), Error);
+  c.min_visits = -1;
+  EXPECT_THROW(c.validate(), Error);
 }
 
 }  // namespace

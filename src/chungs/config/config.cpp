@@ -79,7 +79,7 @@ void fields(V& v, AdamConfig& c) {
   v("position_lr_floor", c.position_lr_floor, "lowest position lr factor");
   v("lr_sh_dc", c.lr_sh_dc, "");
   v("lr_sh_rest", c.lr_sh_rest, "");
-  v("lr_opacity", c.lr_opacity, "");
+  v("lr_opacity", c.lr_opacity, "on the opacity logit (the paper: 0.1)");
   v("lr_scale", c.lr_scale, "");
   v("lr_rotation", c.lr_rotation, "");
   v("beta1", c.beta1, "");
@@ -91,6 +91,7 @@ void fields(V& v, PruneConfig& c) {
   v("min_opacity", c.min_opacity, "");
   v("max_radius_fraction", c.max_radius_fraction, "screen radius limit as a fraction of image width");
   v("every", c.every, "iterations between pruning passes");
+  v("min_visits", c.min_visits, "steps a Gaussian was visible in before the opacity test applies (0: from birth)");
 }
 
 template <class V>

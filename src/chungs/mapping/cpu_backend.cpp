@@ -59,7 +59,9 @@ LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCam
   raster_.backward(dloss_, grads_);
   sparse_adam_step(adam, mut_view_of(pool_.params()), adam_state_of(pool_.storage()), slots, out.visible,
                    grads_);
-  if (prune) to_prune = select_for_pruning(*prune, view_of(pool_.params()), slots, out.radius, camera.width);
+  if (prune)
+    to_prune = select_for_pruning(*prune, view_of(pool_.params()), slots, out.radius, camera.width,
+                                  pool_.storage().adam_steps);
   return terms;
 }
 

@@ -101,7 +101,8 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
   const AdamState state{params_of(d, 1), params_of(d, 2), d.adam_steps, d.lr_position_factor, d.capacity};
   sparse_adam_step(adam, params_of(d, 0), state, ids_.data(), out.visible, slots.size(), g);
   if (prune) {
-    // The rule reads only opacities (whole array: one copy) and the screen radii of this render.
+    // The rule reads only opacities (whole array: one copy), the screen radii of this render and, when
+    // it waits for young Gaussians, the visit counts.
     opacity_.resize(d.capacity);
     copy_to_host(opacity_.data(), d.opacity[0], d.capacity * sizeof(float), "pruning opacities");
     radius_.resize(slots.size());
@@ -109,7 +110,13 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
     // select_for_pruning checks every pointer of the view; the other arrays are never read.
     const float* o = opacity_.data();
     const GaussianArrays<float> view{o, o, o, o, o, d.capacity};
-    to_prune = select_for_pruning(*prune, view, slots, radius_, camera.width);
+    std::span<const uint32_t> visits;
+    if (prune->min_visits > 0) {
+      visits_.resize(d.capacity);
+      copy_to_host(visits_.data(), d.adam_steps, d.capacity * sizeof(uint32_t), "pruning visit counts");
+      visits = visits_;
+    }
+    to_prune = select_for_pruning(*prune, view, slots, radius_, camera.width, visits);
   }
   return terms;
 }

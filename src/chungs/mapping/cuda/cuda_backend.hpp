@@ -44,6 +44,7 @@ class CudaOptimBackend final : public OptimBackend {
   DeviceArray<float> target_rgb_, target_inv_, probability_;
   DeviceArray<uint8_t> mask_, pixel_mask_;
   std::vector<float> opacity_, radius_;  // host copies for the pruning rule
+  std::vector<uint32_t> visits_;         // ... and the visit counts when it waits for them
 };
 
 }  // namespace chungs::cuda
