@@ -143,9 +143,14 @@ class Readers:
             return "bad", f"{kind}: exit {p.returncode}: {err.strip()[-200:]}"
         if kind == "export":
             got = ply_count(self.work / "r.ply")
-            # The checkpoint the export read was committed before it ended: give the watcher a moment.
-            time.sleep(0.01)
-            match = [k for k, t in self.watcher.totals.items() if t == got]
+            # The checkpoint the export read was committed before it ended, but the niced watcher may
+            # not have read its manifest yet on a loaded machine: give it a few seconds to catch up.
+            deadline = time.time() + 5
+            while True:
+                match = [k for k, t in list(self.watcher.totals.items()) if t == got]
+                if match or time.time() > deadline:
+                    break
+                time.sleep(0.02)
             if not match:
                 return "bad", f"export wrote {got} Gaussians, no committed checkpoint had that many"
             self.seen.add(max(match))

@@ -86,7 +86,8 @@ async function openViewer(browser, url, query, size) {
   const logs = [];
   page.on("console", (m) => logs.push(m.text()));
   page.on("pageerror", (e) => logs.push(String(e)));
-  await page.goto(`${url}?${query}`);
+  // A loaded machine (ctest -j2 beside a mapping run) can take well over the default 30 s.
+  await page.goto(`${url}?${query}`, { timeout: 120000 });
   try {
     await page.waitForFunction(() => window.viewer && (window.viewer.ready || window.viewer.error), null, {
       timeout: 90000,
