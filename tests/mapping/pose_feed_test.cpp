@@ -10,6 +10,7 @@
 #include "chungs/mapping/run_pipeline.hpp"
 #include "chungs/synth/room.hpp"
 #include "chungs/synth/sequence.hpp"
+#include "chungs/synth/street_dataset.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
 #include "tiny_config.hpp"
@@ -71,6 +72,37 @@ TEST(TrackedRun, MapsOnTheTrackersPosesAndKeyframes) {
                 da <= o.config.mapper.pose_update_min_rotation_deg + 1e-6)
         << "keyframe " << k.id << " (frame " << k.frame << ") is " << dt << " m, " << da << " deg off";
   }
+}
+
+TEST(TrackedRun, TakesNoKeyframeFromADoubtfulPose) {
+  // The lorry of startup=cross fills most of frames 3-7, where the tracker says its poses are doubtful
+  // (tests/tracking/test_confidence.cpp): the run reports those frames and maps none of them.
+  test::TempDir dir;
+  synth::StreetDatasetOptions so;
+  so.street.length_m = 100;
+  so.street.seed = 3;
+  so.street.startup_cross = true;
+  so.width = 620;
+  so.height = 188;
+  so.max_frames = 12;
+  const synth::StreetDataset ds(so);
+  RunOptions o;
+  o.dataset = "synth-street:startup=cross";
+  o.poses = "track";
+  o.out = dir.path() / "map";
+  o.config = small_config();
+  o.config.mapper.keyframe_every = 1;  // every confident frame a keyframe, so a doubtful one would be too
+  o.config.mapper.holdout_every = 0;
+  const nlohmann::json r = run_mapping(o, ds);
+  const auto& t = r["tracking"];
+  const auto doubtful = t["doubtful_frame_list"].get<std::vector<size_t>>();
+  EXPECT_EQ(doubtful.size(), t["doubtful_frames"].get<size_t>());
+  EXPECT_GE(doubtful.size(), 2u) << "the frames behind the lorry";
+  Mapper reopened(o.out, o.config, true);
+  EXPECT_GT(reopened.keyframes().size(), 2u);
+  for (const auto& k : reopened.keyframes())
+    EXPECT_EQ(std::count(doubtful.begin(), doubtful.end(), k.frame), 0) << "keyframe from doubtful frame " << k.frame;
+  EXPECT_GE(t["doubtful_keyframes_not_mapped"].get<size_t>(), 1u);
 }
 
 TEST(TrackedRun, ResumeOfATrackedRunIsRefusedWithAReason) {
