@@ -14,14 +14,17 @@ and ENOSPC, the same run is made with operation N failing, and the outcome is ju
   crash      killed by a signal or an abort message on stderr
   hang       still running after the time limit
   recovered  exit status 0 after a warning naming the file and the reason: a chunk write behind the
-             optimiser that failed is tried again at the next checkpoint, and the retry succeeded
+             optimiser that failed is tried again at the next checkpoint, and the retry succeeded; a
+             chunk read ahead that failed is read again when needed, and that read succeeded
   absorbed   exit status 0 although the fault fired, and nothing said so
   unclear    not exactly one error line, or it names neither the file nor the reason
   damaged    the folder does not read or is not at its last commit
   stuck      `run --resume` failed or finished a different map
 
 A read fault follows: EIO on the n-th read of a chunk file during a run under a small budget (chunks
-are evicted and loaded back) must end the run with an error naming the chunk file.
+are evicted and loaded back) must end the run with an error naming the chunk file, or, where it hit a
+read ahead, the chunk is read again when needed after a warning naming the file and the reason
+(recovered).
 
 One line per failing case, then counts; exit status 1 when any case failed. Every case runs with
 OMP_NUM_THREADS=1 and one checkpoint thread, so that the runs are deterministic.
@@ -182,7 +185,14 @@ class Sweep:
             if not fired:
                 return "pass", label, "fault not reached"
             if rc == 0:
-                return "absorbed", label, "a chunk load failed and the run went on"
+                # A read ahead that failed is read again when the chunk is needed; the run may go on
+                # when that succeeds, but it must have said so, naming the file and the reason.
+                name = Path(fired[0].replace(" FAILED", "")).name
+                warned = [l for l in err.splitlines()
+                          if l.startswith("[warning]") and name in l and "Input/output error" in l]
+                if not warned:
+                    return "absorbed", label, "a chunk load failed and the run went on without a word"
+                return "recovered", label, warned[0][:160]
             errors = [l for l in err.splitlines() if l.startswith("diskchungs: error:") or l.startswith("[error]")]
             name = Path(fired[0].replace(" FAILED", "")).name
             if len(errors) != 1 or name not in errors[0] or "Input/output error" not in errors[0]:

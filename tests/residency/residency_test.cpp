@@ -263,6 +263,35 @@ TEST(Residency, AFailedBackgroundWriteThatARetryMendsIsStillReported) {
   EXPECT_TRUE(test::same_bits(r.store->load(cid(0)), modified));
 }
 
+// A chunk read ahead whose read failed (EIO once, in the fault sweep) was dropped with a debug line;
+// the load when it was needed read it again and succeeded, so the run went on and nothing said that
+// the disk had failed a read.
+TEST(Residency, AFailedReadAheadIsReportedAndTheChunkIsReadAgainWhenNeeded) {
+  Rig r({100, 100}, 1000, true);
+  ResidencyConfig rc;
+  rc.budget_gaussians = 1000;
+  rc.async_io = true;
+  rc.prefetch_max_gaussians = 1000;
+  r.res.reset();
+  r.res = std::make_unique<Residency>(*r.store, *r.pool, rc);
+  const GaussianBlock stored = r.store->load(cid(1));
+  const auto chunks = r.dir / "chunks";
+  std::filesystem::rename(chunks, r.dir / "chunks.away");
+  std::ofstream(chunks) << "not a folder";
+  testing::internal::CaptureStderr();
+  const ChunkId ahead = cid(1);
+  r.res->prefetch(std::span<const ChunkId>(&ahead, 1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the read ahead fails meanwhile
+  const std::string err = testing::internal::GetCapturedStderr();
+  std::filesystem::remove(chunks);
+  std::filesystem::rename(r.dir / "chunks.away", chunks);
+  EXPECT_NE(err.find("reading ahead"), std::string::npos) << err;
+  EXPECT_NE(err.find(chunk_name(ahead)), std::string::npos) << err;
+  ASSERT_TRUE(r.pin1(ahead).ok);
+  EXPECT_TRUE(test::same_bits(r.gathered(ahead), stored));
+  r.unpin1(ahead);
+}
+
 TEST(Residency, FailedBackgroundWriteKeepsTheDataReportsTheErrorAndRetries) {
   Rig r({100, 100}, 1000, true);
   r.pin1(cid(0));

@@ -95,10 +95,13 @@ with tempfile.TemporaryDirectory() as tmp:
           f"run --view 70000 refused before mapping: {r.stderr.strip()}")
     cfg = os.path.join(tmp, "every.yaml")
     with open(cfg, "w") as f:
-        f.write("mapper:\n  checkpoint_every: 1\n  checkpoint_seconds: 0\n  checkpoint_max_share: 0\n")
+        # Every frame a keyframe and a checkpoint, each keyframe long enough (300 steps) that the poller
+        # sees several of them even on a loaded machine.
+        f.write("mapper:\n  checkpoint_every: 1\n  checkpoint_seconds: 0\n  checkpoint_max_share: 0\n"
+                "  keyframe_every: 1\n")
     live = os.path.join(tmp, "live")
     p = subprocess.Popen([args.cli, "-q", "run", "--dataset", "tum:" + room, "--device", "cpu", "--out", live,
-                          "--no-eval", "--iterations", "40", "--final-iterations", "0", "--chunk-size", "1",
+                          "--no-eval", "--iterations", "300", "--final-iterations", "0", "--chunk-size", "1",
                           "--config", cfg, "--view", "0"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                          env={**os.environ, "OMP_NUM_THREADS": "2"})
     line = p.stdout.readline()

@@ -58,7 +58,9 @@ MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
       }
     if (fs::exists(folder / name)) read(folder / name);
   };
-  constexpr int kAttempts = 5;
+  // A read of the keyframe list and sky must fit between two commits; on a loaded machine beside a
+  // mapper that commits every few keyframes, a fair share of attempts do not (5 gave up in a test run).
+  constexpr int kAttempts = 20;
   for (int attempt = 1;; ++attempt) {
     impl_ = std::make_unique<Impl>(folder, config);
     keyframes_.clear();

@@ -202,8 +202,9 @@ bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
     try {
       if (store_.contains(id)) data = std::make_shared<const GaussianBlock>(store_.load(id));
     } catch (const std::exception& e) {
-      // The caller's own read of this chunk will fail with the same error where it can act.
-      log::debug("chunk I/O: prefetch of ", chunk_name(id), " failed: ", e.what());
+      // The caller's own read of this chunk reads it again and fails where it can act, or succeeds
+      // (a transient error): said aloud either way, since a disk that failed once is worth knowing.
+      log::warn("chunk I/O: reading ahead ", chunk_name(id), " failed (", e.what(), "); it is read again when needed");
     }
     lock.lock();
     reading_.reset();

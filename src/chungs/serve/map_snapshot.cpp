@@ -34,7 +34,9 @@ MapSnapshot::MapSnapshot(const fs::path& folder) : folder_(folder) {
   // The keyframe list is the mapper's, committed with the manifest under a numbered name first and
   // renamed after the commit; a reader renames nothing. When the manifest moved on while the list
   // was read, the list may belong to the next checkpoint: read everything again.
-  constexpr int kAttempts = 5;
+  // A read of the keyframe list and sky must fit between two commits; on a loaded machine beside a
+  // mapper that commits every few keyframes, a fair share of attempts do not (5 gave up in a test run).
+  constexpr int kAttempts = 20;
   for (int attempt = 1;; ++attempt) {
     store_ = std::make_unique<ChunkStore>(folder, reader_config());
     checkpoint_ = checkpoint_tag(store_->manifest().config);
