@@ -1,6 +1,5 @@
 #include "chungs/mapping/tracker_feed.hpp"
 
-#include <algorithm>
 #include <thread>
 #include <vector>
 
@@ -62,11 +61,10 @@ class TrackerFeed : public FrameFeed {
     const auto& t = tracker_.timings();
     nlohmann::json j = {{"tracker", tracker_.describe()}, {"frames", t.frames},
                         {"keyframes", t.keyframes},       {"lost_frames", lost_},
-                        {"loop_closures", loops_},        {"doubtful_frames", doubtful_.size()},
+                        {"loop_closures", loops_},        {"doubtful_frames", doubtful_count_},
                         {"doubtful_keyframes_not_mapped", doubtful_keyframes_}};
     // The first ones by frame index (all of them on any excerpt a user would read through).
-    j["doubtful_frame_list"] = std::vector<size_t>(
-        doubtful_.begin(), doubtful_.begin() + std::min<size_t>(doubtful_.size(), kListedDoubtful));
+    j["doubtful_frame_list"] = doubtful_;
     j.update(tracker_time_report(t));
     if (gt_.size() >= 3) {
       const AteResult ate = compute_ate(gt_, tracker_.trajectory(), {Alignment::SE3, 0.02});
@@ -110,7 +108,7 @@ class TrackerFeed : public FrameFeed {
         // motion, coasting behind a vehicle) would put Gaussians where the world is not: the tracker
         // keeps it for its own map, the Gaussian map does not take it.
         if (r.doubtful()) {
-          doubtful_.push_back(i);
+          if (doubtful_count_++ < kListedDoubtful) doubtful_.push_back(i);
           doubtful_keyframes_ += r.keyframe && !is_held_out(i, holdout_every_);
         }
         item.keyframe = r.keyframe && !r.doubtful() && !is_held_out(i, holdout_every_);
@@ -143,8 +141,8 @@ class TrackerFeed : public FrameFeed {
   // Written by the tracking thread; read after it has ended (final_poses, report).
   std::vector<double> stamps_;
   Trajectory gt_;
-  size_t lost_ = 0, loops_ = 0, doubtful_keyframes_ = 0;
-  std::vector<size_t> doubtful_;  // frame indices
+  size_t lost_ = 0, loops_ = 0, doubtful_count_ = 0, doubtful_keyframes_ = 0;
+  std::vector<size_t> doubtful_;  // frame indices, the first kListedDoubtful
   static constexpr size_t kListedDoubtful = 1000;
 };
 
