@@ -29,7 +29,7 @@
 #include <string>
 
 #include "chungs/common/log.hpp"
-#include "chungs/mapping/evaluation.hpp"
+#include "chungs/pipeline/evaluation.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "chungs/synth/room.hpp"
 #include "chungs/synth/scene.hpp"

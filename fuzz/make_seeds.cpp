@@ -7,7 +7,7 @@
 #include "chungs/image/image_io.hpp"
 #include "chungs/mapping/map_state.hpp"
 #include "chungs/mapping/sky_file.hpp"
-#include "chungs/mapping/timeline.hpp"
+#include "chungs/pipeline/timeline.hpp"
 #include "chungs/store/chunk_file.hpp"
 #include "chungs/store/keyframe_file.hpp"
 #include "chungs/store/manifest.hpp"

@@ -1,7 +1,7 @@
 // run_state.json, as `run --resume` reads it (mapping/map_state.hpp, run_pipeline.cpp): parsed,
 // checked, asked for the frame to continue at, and its timeline read back.
 #include "chungs/mapping/map_state.hpp"
-#include "chungs/mapping/timeline.hpp"
+#include "chungs/pipeline/timeline.hpp"
 #include "fuzz_input.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

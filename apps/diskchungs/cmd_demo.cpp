@@ -9,8 +9,8 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
-#include "chungs/mapping/ply_export.hpp"
-#include "chungs/mapping/run_pipeline.hpp"
+#include "chungs/pipeline/ply_export.hpp"
+#include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/synth/room.hpp"
 #include "chungs/synth/sequence.hpp"
 #include "command.hpp"

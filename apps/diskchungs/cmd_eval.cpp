@@ -10,7 +10,7 @@
 #include "chungs/eval/report.hpp"
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/image/image_io.hpp"
-#include "chungs/mapping/plot_canvas.hpp"
+#include "chungs/eval/plot_canvas.hpp"
 #include "command.hpp"
 #include "eval_plot.hpp"
 #include "flag_checks.hpp"

@@ -3,7 +3,7 @@
 #include <cstdio>
 
 #include "chungs/common/error.hpp"
-#include "chungs/mapping/ply_export.hpp"
+#include "chungs/pipeline/ply_export.hpp"
 #include "command.hpp"
 #include "flag_checks.hpp"
 #include "map_paths.hpp"

@@ -5,8 +5,8 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
-#include "chungs/mapping/frame_source.hpp"
-#include "chungs/mapping/render_poses.hpp"
+#include "chungs/pipeline/frame_source.hpp"
+#include "chungs/pipeline/render_poses.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
 #include "flag_checks.hpp"

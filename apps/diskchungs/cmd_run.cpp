@@ -3,7 +3,7 @@
 #include <cstdio>
 
 #include "chungs/common/log.hpp"
-#include "chungs/mapping/run_pipeline.hpp"
+#include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/serve/live_view.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"

@@ -14,7 +14,7 @@
 #include "chungs/datasets/dataset.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/geometry/trajectory.hpp"
-#include "chungs/mapping/tracker_feed.hpp"
+#include "chungs/pipeline/tracker_feed.hpp"
 #include "chungs/tracking/visual_tracker.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"

@@ -4,7 +4,7 @@
 #pragma once
 #include <string>
 
-#include "chungs/mapping/run_pipeline.hpp"
+#include "chungs/pipeline/run_pipeline.hpp"
 #include "command.hpp"
 
 namespace chungs::app {

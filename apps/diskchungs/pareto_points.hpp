@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "chungs/mapping/pareto_plot.hpp"
+#include "chungs/pipeline/pareto_plot.hpp"
 
 namespace chungs::app {
 

@@ -11,7 +11,7 @@
 
 #include "chungs/eval/lpips_weights.hpp"
 #include "chungs/image/image_io.hpp"
-#include "chungs/mapping/pareto_plot.hpp"
+#include "chungs/pipeline/pareto_plot.hpp"
 #include "cli/cli_support.hpp"
 #include "eval/lpips_fixtures.hpp"
 #include "test_support.hpp"

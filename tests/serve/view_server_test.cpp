@@ -17,7 +17,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/mapping/map_state.hpp"
-#include "chungs/mapping/timeline.hpp"
+#include "chungs/pipeline/timeline.hpp"
 #include "chungs/serve/splat_pack.hpp"
 #include "chungs/serve/view_server.hpp"
 #include "store/random_block.hpp"

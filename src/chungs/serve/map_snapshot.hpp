@@ -13,7 +13,7 @@
 
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/mapping/map_state.hpp"
-#include "chungs/mapping/timeline.hpp"
+#include "chungs/pipeline/timeline.hpp"
 #include "chungs/store/chunk_store.hpp"
 
 namespace chungs::serve {

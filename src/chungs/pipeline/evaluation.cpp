@@ -1,0 +1,86 @@
+#include "chungs/pipeline/evaluation.hpp"
+
+#include <algorithm>
+#include <cstdio>
+
+#include "chungs/common/progress.hpp"
+#include "chungs/eval/report.hpp"
+#include "chungs/image/image_io.hpp"
+#include "chungs/pipeline/frame_source.hpp"
+
+namespace chungs {
+
+nlohmann::json ViewSetScore::to_json(bool per_view) const {
+  nlohmann::json j = {{"count", views.size()},
+                      {"mean_psnr", mean_psnr},
+                      {"mean_ssim", mean_ssim},
+                      {"mean_lpips", lpips_json(mean_lpips)}};
+  if (!mean_lpips) j["lpips_unavailable"] = lpips_unavailable;
+  if (per_view) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& v : views)
+      a.push_back({{"frame", v.frame}, {"psnr", v.metrics.psnr}, {"ssim", v.metrics.ssim}, {"lpips", lpips_json(v.lpips)}});
+    j["views"] = a;
+  }
+  return j;
+}
+
+Image8 stack_vertically(const ImageF& top, const ImageF& bottom) {
+  const ImageF a = to_rgb(top), b = to_rgb(bottom);
+  const int w = std::max(a.width(), b.width());
+  ImageF out(w, a.height() + b.height(), 3, 0.f);
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x)
+      for (int c = 0; c < 3; ++c) out(x, y, c) = a(x, y, c);
+  for (int y = 0; y < b.height(); ++y)
+    for (int x = 0; x < b.width(); ++x)
+      for (int c = 0; c < 3; ++c) out(x, a.height() + y, c) = b(x, y, c);
+  return to_u8(out);
+}
+
+ViewSetScore score_views(Mapper& mapper, const Dataset& dataset, const std::vector<std::optional<SE3>>& poses,
+                         const std::vector<size_t>& frames, double resolution,
+                         const std::filesystem::path& render_dir, const std::string& prefix, int max_saved,
+                         const LpipsSetting* lpips) {
+  ViewSetScore s;
+  const Lpips* metric = lpips && lpips->metric ? &*lpips->metric : nullptr;
+  s.lpips_unavailable = metric ? "" : lpips ? lpips->unavailable : "LPIPS not requested";
+  Progress progress("scoring " + prefix, (long long)frames.size());
+  int saved = 0;
+  for (size_t i : frames) {
+    progress.step();
+    if (i >= poses.size() || !poses[i]) continue;
+    const MappingFrame m = load_mapping_frame(dataset, i, resolution, DepthMode::None, {}, false);
+    const RenderOutput<float> r = mapper.render(m.frame.camera, *poses[i]);
+    ImageF render = r.rgb;
+    for (auto& v : render.vec()) v = std::clamp(v, 0.f, 1.f);  // what an 8-bit render would show
+    const ImageF ref = to_rgb_float(m.frame.left);
+    ViewScore v{i, compare_images(ref, render), {}};
+    if (metric) v.lpips = metric->distance(ref, render);
+    s.views.push_back(v);
+    if (!render_dir.empty() && saved < max_saved) {
+      char name[64];
+      std::snprintf(name, sizeof name, "%s_%06zu.png", prefix.c_str(), i);
+      write_png(render_dir / name, stack_vertically(render, ref));
+      ++saved;
+    }
+  }
+  progress.finish();
+  for (const auto& v : s.views) {
+    s.mean_psnr += v.metrics.psnr;
+    s.mean_ssim += v.metrics.ssim;
+  }
+  if (!s.views.empty()) {
+    s.mean_psnr /= double(s.views.size());
+    s.mean_ssim /= double(s.views.size());
+  }
+  if (metric && s.views.empty()) s.lpips_unavailable = "no view was scored";
+  if (metric && !s.views.empty()) {
+    double sum = 0;
+    for (const auto& v : s.views) sum += *v.lpips;
+    s.mean_lpips = sum / double(s.views.size());
+  }
+  return s;
+}
+
+}  // namespace chungs

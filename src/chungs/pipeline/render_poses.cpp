@@ -1,0 +1,248 @@
+#include "chungs/pipeline/render_poses.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+
+#include "chungs/common/log.hpp"
+#include "chungs/common/progress.hpp"
+#include "chungs/image/image_io.hpp"
+#include "chungs/pipeline/evaluation.hpp"
+#include "chungs/pipeline/frame_source.hpp"
+#include "chungs/mapping/mapper.hpp"
+#include "chungs/mapping/sky_file.hpp"
+#include "chungs/render/cpu/rasterizer.hpp"
+#include "chungs/render/gaussian_view.hpp"
+#include "chungs/render/render_camera.hpp"
+#include "chungs/residency/frustum_culler.hpp"
+#include "chungs/residency/residency.hpp"
+
+namespace chungs {
+
+namespace fs = std::filesystem;
+
+struct MapRenderer::Impl {
+  ChunkStore store;
+  CpuGaussianPool pool;
+  Residency residency;
+  FrustumCuller culler;
+  CpuRasterizer<float> raster;
+  std::optional<SkyTexture> sky;  // the map's sky.bin, when it has one
+  ImageF sky_px;
+  Impl(const fs::path& folder, const Config& c)
+      : store(folder, reader_config(c.store)),  // rendering never repairs or rewrites the map
+        pool(c.residency.budget_gaussians, store.sh_degree()),
+        residency(store, pool, c.residency),
+        culler(store.chunk_size(), c.culling),
+        raster(c.raster) {}
+};
+
+MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
+  if (!fs::exists(folder / "manifest.txt")) fail(folder.string(), ": not a map folder (no manifest.txt)");
+  // The camera and sky of the checkpoint the manifest names, even where its run failed before they
+  // took their final names: a reader renames nothing. A mapper may be running: it renames them
+  // after its commit, so a numbered file can vanish between looking and reading (then the final
+  // name holds it), and the final name holds the next checkpoint's once that one is committed,
+  // which the manifest, read again afterwards, tells: then the whole read starts over.
+  auto checkpoint_of = [](const std::optional<std::string>& tag) {
+    return tag ? std::strtoull(tag->c_str(), nullptr, 10) : 0ull;
+  };
+  auto read_committed = [&](uint64_t seq, const std::string& name, auto&& read) {
+    const fs::path pending = checkpoint_file(folder, seq, name);
+    if (seq > 0 && fs::exists(pending)) try {
+        read(pending);
+        return;
+      } catch (const Error&) {
+        if (fs::exists(pending)) throw;
+      }
+    if (fs::exists(folder / name)) read(folder / name);
+  };
+  // A read of the keyframe list and sky must fit between two commits; on a loaded machine beside a
+  // mapper that commits every few keyframes, a fair share of attempts do not (5 gave up in a test run).
+  constexpr int kAttempts = 20;
+  for (int attempt = 1;; ++attempt) {
+    impl_ = std::make_unique<Impl>(folder, config);
+    keyframes_.clear();
+    const uint64_t seq = checkpoint_of(impl_->store.config_value("checkpoint"));
+    read_committed(seq, "keyframes.txt", [&](const fs::path& f) { keyframes_ = read_keyframe_records(f); });
+    read_committed(seq, "sky.bin", [&](const fs::path& f) { impl_->sky = read_sky_file(f); });
+    const Manifest now = Manifest::read(folder / "manifest.txt");
+    const auto tag = now.config.find("checkpoint");
+    if (checkpoint_of(tag == now.config.end() ? std::nullopt : std::optional(tag->second)) == seq) break;
+    if (attempt == kAttempts) fail(folder.string(), ": the map changed faster than it could be read; try again");
+    log::info(folder.string(), ": the map was committed again while it was read; reading the new commit");
+  }
+}
+
+MapRenderer::~MapRenderer() = default;
+
+const Camera& MapRenderer::mapping_camera() const {
+  if (keyframes_.empty()) fail("map ", impl_->store.folder().string(), ": no keyframes.txt, so no camera to render with");
+  return keyframes_.front().camera;
+}
+
+uint64_t MapRenderer::total_gaussians() const {
+  uint64_t n = 0;
+  for (const auto& kv : impl_->residency.catalogue()) n += kv.second;
+  return n;
+}
+size_t MapRenderer::peak_resident_gaussians() const { return impl_->residency.peak_resident_gaussians(); }
+size_t MapRenderer::budget() const { return impl_->residency.budget(); }
+IoStats MapRenderer::io_stats() const { return impl_->residency.stats(); }
+
+RenderOutput<float> MapRenderer::render(const Camera& camera, const SE3& pose) {
+  Residency& res = impl_->residency;
+  impl_->culler.set_chunks_from(res.catalogue(), res.catalogue_version());
+  // Nearest chunks first, so that the budget drops the far field, which covers the fewest pixels.
+  std::vector<std::pair<double, ChunkId>> by_dist;
+  for (ChunkId id : impl_->culler.cull(camera, pose))
+    if (res.count(id) > 0)
+      by_dist.emplace_back((chunk_centre(chunk_coord(id), impl_->store.chunk_size()) - pose.t).squaredNorm(), id);
+  std::sort(by_dist.begin(), by_dist.end());
+  std::vector<ChunkId> chunks;
+  uint64_t total = 0, visible = 0;
+  for (auto [d, id] : by_dist) {
+    visible += res.count(id);
+    const uint64_t n = res.count(id);
+    if (total + n > res.budget()) {
+      ++skipped_;
+      continue;
+    }
+    total += n;
+    chunks.push_back(id);
+  }
+  largest_view_ = std::max(largest_view_, visible);
+  const PinResult pr = res.pin(chunks);
+  if (!pr.ok) fail("render: cannot make the visible chunks resident: ", pr.message);
+  RenderOutput<float> out;
+  try {
+    std::vector<uint32_t> slots;
+    res.append_slots(chunks, slots);
+    const RenderCamera<float> rc = make_render_camera<float>(camera, pose);
+    out = impl_->raster.forward(view_of(impl_->pool.params()), slots, rc);
+    if (impl_->sky) {
+      sky_colours(*impl_->sky, rc, impl_->sky_px);
+      compose_sky(impl_->sky_px, out.alpha, out.rgb);
+    }
+  } catch (...) {
+    res.unpin(chunks);
+    throw;
+  }
+  res.unpin(chunks);
+  ++views_;
+  return out;
+}
+
+size_t map_budget_from_report(const fs::path& folder) {
+  const fs::path f = folder / "report.json";
+  if (!fs::exists(f)) return 0;
+  const nlohmann::json j = read_json_file(f);
+  if (!j.is_object()) fail(f.string(), ": not a run report (a JSON object), got ", j.type_name());
+  if (!j.contains("settings")) return 0;
+  const nlohmann::json& s = j["settings"];
+  if (!s.is_object()) fail(f.string(), ": 'settings' must be an object, got ", s.dump());
+  if (!s.contains("budget_gaussians")) return 0;
+  // Checked here, naming the file: json's get<size_t>() wraps -5 to 2^64 - 5 and truncates 1.5, and
+  // a budget beyond the pool's slots ended in a bare type_error or "vector larger than max_size()".
+  const nlohmann::json& b = s["budget_gaussians"];
+  if (!b.is_number_unsigned() || b.get<uint64_t>() < 1 || b.get<uint64_t>() > GaussianPool::kMaxCapacity)
+    fail(f.string(), ": 'settings.budget_gaussians' must be a whole number in [1, ",
+         GaussianPool::kMaxCapacity, "], got ", b.dump());
+  return b.get<size_t>();
+}
+
+nlohmann::json RenderPosesSummary::to_json() const {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& v : views) {
+    nlohmann::json e = {{"index", v.index}};
+    if (v.metrics) {
+      e["psnr"] = v.metrics->psnr;
+      e["ssim"] = v.metrics->ssim;
+    }
+    a.push_back(e);
+  }
+  nlohmann::json j = {{"rendered", views.size()}, {"seconds", seconds}, {"views", a}};
+  if (scored) {
+    j["scored"] = scored;
+    j["mean_psnr"] = mean_psnr;
+    j["mean_ssim"] = mean_ssim;
+  }
+  return j;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+fs::path png_name(const fs::path& out, size_t index) {
+  char name[48];
+  std::snprintf(name, sizeof name, "render_%06zu.png", index);
+  return out / name;
+}
+
+ImageF clamped_rgb(const RenderOutput<float>& r) {
+  ImageF img = r.rgb;
+  for (auto& v : img.vec()) v = std::clamp(v, 0.f, 1.f);  // what an 8-bit render shows
+  return img;
+}
+
+void finish(RenderPosesSummary& s, Clock::time_point t0) {
+  for (const auto& v : s.views)
+    if (v.metrics) {
+      s.mean_psnr += v.metrics->psnr;
+      s.mean_ssim += v.metrics->ssim;
+      ++s.scored;
+    }
+  if (s.scored) {
+    s.mean_psnr /= double(s.scored);
+    s.mean_ssim /= double(s.scored);
+  }
+  s.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+RenderPosesSummary render_trajectory(MapRenderer& renderer, const Trajectory& traj, const Camera& camera,
+                                     const fs::path& out, size_t stride) {
+  if (stride == 0) fail("render: stride must be positive");
+  camera.validate("render camera");
+  fs::create_directories(out);
+  const auto t0 = Clock::now();
+  RenderPosesSummary s;
+  Progress progress("rendering", (long long)((traj.size() + stride - 1) / stride));
+  for (size_t i = 0; i < traj.size(); i += stride) {
+    progress.step();
+    write_png(png_name(out, i), to_u8(clamped_rgb(renderer.render(camera, traj.poses[i]))));
+    s.views.push_back({i, std::nullopt});
+  }
+  progress.finish();
+  finish(s, t0);
+  return s;
+}
+
+RenderPosesSummary render_dataset(MapRenderer& renderer, const Dataset& dataset,
+                                  const std::vector<std::optional<SE3>>& poses, double resolution,
+                                  const fs::path& out, size_t stride, bool stack) {
+  if (stride == 0) fail("render: stride must be positive");
+  if (!(resolution > 0 && resolution <= 1)) fail("render: resolution must be in (0, 1], got ", resolution);
+  fs::create_directories(out);
+  const auto t0 = Clock::now();
+  RenderPosesSummary s;
+  const size_t n = std::min(poses.size(), dataset.size());
+  Progress progress("rendering", (long long)((n + stride - 1) / stride));
+  for (size_t i = 0; i < n; i += stride) {
+    progress.step();
+    if (!poses[i]) continue;
+    const MappingFrame m = load_mapping_frame(dataset, i, resolution, DepthMode::None, {}, false);
+    const ImageF render = clamped_rgb(renderer.render(m.frame.camera, *poses[i]));
+    const ImageF ref = to_rgb_float(m.frame.left);
+    s.views.push_back({i, compare_images(ref, render)});
+    write_png(png_name(out, i), stack ? stack_vertically(render, ref) : to_u8(render));
+  }
+  progress.finish();
+  finish(s, t0);
+  return s;
+}
+
+}  // namespace chungs

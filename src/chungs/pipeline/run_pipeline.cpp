@@ -1,0 +1,500 @@
+#include "chungs/pipeline/run_pipeline.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <unordered_map>
+#include <mutex>
+
+#include "chungs/common/heap.hpp"
+#include "chungs/common/log.hpp"
+#include "chungs/common/progress.hpp"
+#include "chungs/eval/report.hpp"
+#include "chungs/pipeline/evaluation.hpp"
+#include "chungs/pipeline/frame_feed.hpp"
+#include "chungs/pipeline/frame_lookahead.hpp"
+#include "chungs/pipeline/frame_source.hpp"
+#include "chungs/pipeline/memory_flatness.hpp"
+#include "chungs/pipeline/pacing_summary.hpp"
+#include "chungs/mapping/optim_backend.hpp"
+#include "chungs/pipeline/pose_updates.hpp"
+#include "chungs/pipeline/timeline.hpp"
+#include "chungs/pipeline/tracker_feed.hpp"
+#include "chungs/store/atomic_file.hpp"
+#include "chungs/store/disk_usage.hpp"
+
+namespace chungs {
+
+namespace fs = std::filesystem;
+
+bool is_held_out(size_t frame, int holdout_every) {
+  return holdout_every > 0 && frame % size_t(holdout_every) == size_t(holdout_every - 1);
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+TimelineSample sample_now(const Mapper& m, double seconds, uint64_t frame, double disk_mb) {
+  TimelineSample t;
+  t.seconds = seconds;
+  t.frame = frame;
+  t.keyframes = m.keyframes().size();
+  t.iterations = m.iterations();
+  t.resident = m.resident_gaussians();
+  t.total = m.total_gaussians();
+  t.chunks = m.chunk_count();
+  t.rss_mb = double(current_rss_bytes()) / (1024.0 * 1024.0);
+  const IoStats io = m.io_stats();
+  t.loads = io.loads;
+  t.saves = io.saves;
+  t.io_ms = io.load_ms + io.save_ms;
+  t.read_mb = double(io.bytes_read) / 1048576.0;
+  t.written_mb = double(io.bytes_written) / 1048576.0;
+  t.wait_ms = m.optimiser_io_wait_ms();
+  t.disk_mb = disk_mb;
+  const auto dm = m.device_memory();
+  t.vram_mb = dm ? dm->used_mb : 0.0;
+  return t;
+}
+
+void write_text(const fs::path& file, const std::string& text) {
+  const ConstBuffer part{text.data(), text.size()};
+  write_file_atomically(file, std::span<const ConstBuffer>(&part, 1), false);
+}
+
+}  // namespace
+
+nlohmann::json run_mapping(const RunOptions& o) {
+  resolve_device(o.config.mapper.device);  // an unusable device fails before the dataset is read
+  const auto dataset = open_dataset(o.dataset);
+  return run_mapping(o, *dataset);
+}
+
+nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
+  const Config& cfg = o.config;
+  cfg.mapper.validate();
+  const MapperConfig& mc = cfg.mapper;
+  const Dataset* dataset = &data;
+  const DatasetInfo& info = dataset->info();
+  const DepthMode mode = resolve_depth_mode(parse_depth_mode(mc.depth), info.has_depth, info.has_right);
+  if (mode == DepthMode::None)
+    fail("dataset ", o.dataset,
+         ": depth source 'none' places Gaussians only at a tracker's sparse points, "
+         "and mapping on given poses has none; use an RGB-D or stereo dataset");
+  const int width = std::max(1, int(std::lround(info.camera.width * mc.resolution)));
+  const int height = std::max(1, int(std::lround(info.camera.height * mc.resolution)));
+  {
+    // The loss's SSIM window and the tracker's feature pyramid need some image: refused before the
+    // folder is touched (a 2x1 mapping image used to fail only at the evaluation, after mapping).
+    constexpr int kMinSide = 16;
+    if (width < kMinSide || height < kMinSide)
+      fail("dataset ", o.dataset, ": its ", info.camera.width, "x", info.camera.height,
+           " images at resolution ", mc.resolution, " are ", width, "x", height, ", below the ", kMinSide,
+           "x", kMinSide, " that mapping needs");
+  }
+  const bool tracked = o.poses == "track";
+  if (tracked && o.resume)
+    fail(o.out.string(),
+         ": --resume continues runs on given poses only; for a tracked run write the "
+         "trajectory with `diskchungs track` and map it with --poses FILE");
+  const size_t n = o.max_frames ? std::min(o.max_frames, dataset->size()) : dataset->size();
+  // Given poses are read before the map folder is touched, so a bad file changes nothing.
+  std::vector<std::optional<SE3>> given;
+  if (!tracked) given = frame_poses(*dataset, o.poses);
+  // The LPIPS weights too: a bad file is refused now, not after the whole run.
+  const LpipsSetting lpips =
+      o.evaluate ? lpips_setting(mc.lpips_weights, "--lpips-weights or mapper.lpips_weights") : LpipsSetting{};
+  if (lpips.metric && (width < kLpipsMinSide || height < kLpipsMinSide))
+    fail("dataset ", o.dataset, ": ", width, "x", height, " mapping images are below the ", kLpipsMinSide, "x",
+         kLpipsMinSide, " LPIPS needs (raise --resolution or drop --lpips-weights)");
+
+  Mapper mapper(o.out, cfg, o.resume);
+  const nlohmann::json& prev = mapper.resumed_state();
+  size_t start = 0;
+  double carried_seconds = 0;
+  std::vector<TimelineSample> timeline;
+  if (o.resume && !prev.is_null()) {
+    if (prev.value("dataset", std::string()) != o.dataset)
+      fail(o.out.string(), ": the map was made from ", prev.value("dataset", std::string("?")), ", not ",
+           o.dataset);
+    start = resume_frame(prev, o.out / "run_state.json", dataset->size());
+    carried_seconds = prev.value("seconds", 0.0);
+    try {
+      if (prev.contains("timeline")) timeline = timeline_from_json(prev["timeline"]);
+    } catch (const std::exception& e) {
+      fail(o.out.string(), "/run_state.json: 'timeline' is damaged (", e.what(), ")");
+    }
+    log::info("resuming ", o.out.string(), " at frame ", start, " with ", mapper.keyframes().size(),
+              " keyframes and ", mapper.total_gaussians(), " Gaussians");
+  }
+  // The chunks in flight at their limits, made resident now and kept: host RSS stays level once
+  // the budget is reached instead of rising each time a queue first fills (common/heap.hpp). Only
+  // where the map can outgrow the budget (a keyframe adds at most one Gaussian per pixel): a small
+  // dataset never pays for a reserve sized to the budget (204 MB at the default one).
+  const uint64_t can_hold =
+      mapper.total_gaussians() + uint64_t(n - std::min(start, n)) * uint64_t(width) * uint64_t(height);
+  const bool can_fill = can_hold > cfg.residency.budget_gaussians;
+  keep_heap_for_reuse(can_fill ? in_flight_max_gaussians(cfg.residency) * kBlockBytesPerGaussian : 0);
+  log::info("mapping ", o.dataset, " (", n, " frames, ", info.camera.width, "x", info.camera.height, " x ",
+            mc.resolution, ", depth ", depth_mode_name(mode), ", poses ", o.poses, ", budget ",
+            cfg.residency.budget_gaussians, " Gaussians, chunks of ", cfg.store.chunk_size, " m, device ",
+            mapper.device(), ")");
+
+  const auto t0 = Clock::now();
+  auto seconds = [&] { return carried_seconds + since(t0); };
+  auto state = [&](size_t next_frame, bool finished) {
+    return nlohmann::json{
+        {"dataset", o.dataset}, {"poses", o.poses},     {"next_frame", next_frame},     {"frames", n},
+        {"finished", finished}, {"seconds", seconds()}, {"timeline", to_json(timeline)}};
+  };
+  // Frame i arrives (anytime pacing) at its dataset time divided by the speed factor.
+  const double stamp0 = n ? dataset->timestamp(0) : 0;
+  // The folder walk grows with the map (one file per chunk and keyframe), so it runs at most every
+  // couple of seconds rather than at every keyframe.
+  double disk_mb = 0, disk_measured_at = -1e9;
+  const TimelineSample base = timeline.empty() ? TimelineSample() : timeline.back();
+  uint64_t dropped = 0;
+  double path_m = 0;
+  auto record = [&](uint64_t frame) {
+    if (seconds() - disk_measured_at >= 2.0) {
+      disk_mb = double(disk_usage(o.out).bytes) / 1048576.0;
+      disk_measured_at = seconds();
+    }
+    TimelineSample t = sample_now(mapper, seconds(), frame, disk_mb);
+    // Counters of this process continue those of the run it resumed.
+    t.sampled = base.sampled + mapper.sampled_total();
+    t.pruned = base.pruned + mapper.pruned_total();
+    t.dropped = base.dropped + dropped;
+    t.checkpoint_ms = base.checkpoint_ms + mapper.io_stats().checkpoint_ms;
+    t.path_m = base.path_m + path_m;
+    timeline.push_back(t);
+  };
+  auto arrival = [&](size_t i) { return (dataset->timestamp(i) - stamp0) / mc.speed; };
+
+  std::unique_ptr<FrameFeed> feed =
+      tracked
+          ? make_tracker_feed(*dataset, n, mc, o.tracker)
+          : make_given_pose_feed(
+                given, start, n, mc,
+                mapper.keyframes().empty() ? std::nullopt : std::optional(mapper.keyframes().back().pose));
+  PoseUpdateApplier updates(mapper, mc);
+  std::optional<size_t> stopped_at;  // in-core comparison: the frame at which the map outgrew memory
+  Progress progress("mapping", (long long)(n - std::min(start, n)));
+  size_t keyframes_since_checkpoint = 0;
+  double last_checkpoint = seconds(), checkpoint_ms_at_last = 0;
+  // From the tracker's feed only the frames it has tracked are pulled ahead (their dense stereo for
+  // the map then runs side by side, where one keyframe at a time had held tracked runs below 10 Hz).
+  // When each keyframe's load ran (seconds of the run), for the debug log's account of its lag.
+  const bool log_lag = mc.pacing == "anytime" && log::enabled(log::Level::Debug);
+  std::mutex load_times_mutex;
+  std::unordered_map<size_t, std::pair<double, double>> load_times;
+  StereoDepthConfig stereo = cfg.stereo;
+  stereo.cuda = mapper.device() == "cuda";  // a few ms a pair there, against 50-250 ms on the host
+  FrameLookahead ahead(
+      *feed, size_t(mc.frame_lookahead),
+      [&](size_t i) {
+        const double begin = seconds();
+        MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, stereo);
+        if (log_lag) {
+          std::lock_guard lock(load_times_mutex);
+          load_times[i] = {begin, seconds()};
+        }
+        return m;
+      },
+      mc.pacing == "anytime" ? FrameLookahead::SecondsUntil([&](size_t i) { return arrival(i) - seconds(); })
+                             : FrameLookahead::SecondsUntil());
+  const bool anytime = mc.pacing == "anytime";
+  std::optional<SE3> last_pose;
+  auto checkpoint_due = [&] {
+    const double elapsed = seconds() - last_checkpoint;
+    const bool due = (mc.checkpoint_seconds > 0 && elapsed >= mc.checkpoint_seconds) ||
+                     (mc.checkpoint_every > 0 && keyframes_since_checkpoint >= size_t(mc.checkpoint_every));
+    // The last checkpoint's cost to the optimiser (its copies continue after it began) bounds the cadence.
+    const double cost_s = (mapper.io_stats().checkpoint_ms - checkpoint_ms_at_last) / 1000.0;
+    return due && !(mc.checkpoint_max_share > 0 && cost_s > mc.checkpoint_max_share * elapsed);
+  };
+  // The optimiser thread's time outside the steps and keyframes (report.json time.optimiser_ms).
+  double frames_wait_ms = 0, record_ms = 0, checkpoint_call_ms = 0, updates_ms = 0;
+  auto timed = [](double& acc, auto&& f) {
+    const auto a = Clock::now();
+    f();
+    acc += since(a) * 1000.0;
+  };
+  while (true) {
+    // Real time: while a live source (the tracker) has no frame for the map yet, the map trains.
+    if (anytime && !mapper.keyframes().empty())
+      while (!ahead.next_ready()) mapper.step();
+    std::optional<FrameLookahead::Entry> entry;
+    timed(frames_wait_ms, [&] { entry = ahead.next(); });
+    if (!entry) break;
+    progress.step();
+    const FeedItem* item = &entry->item;
+    const size_t i = item->frame;
+    if (item->pose) {
+      if (last_pose) path_m += (item->pose->t - last_pose->t).norm();
+      last_pose = item->pose;
+    }
+    bool added = false;
+    if (entry->has_frame()) {
+      bool drop = false;
+      if (anytime && !mapper.keyframes().empty()) {
+        // Real time: the latest keyframe gets its floor of steps whatever the intake does ...
+        while (mapper.steps_since_keyframe() < uint64_t(mc.min_steps_per_keyframe)) mapper.step();
+        // ... and a keyframe that a later loaded one supersedes is dropped, not queued behind.
+        drop = ahead.later_keyframe_ready();
+        // Otherwise the map trains until the frame has arrived and its depth is computed.
+        if (!drop)
+          while (!FrameLookahead::ready(*entry)) mapper.step();
+      }
+      if (drop) {
+        ++dropped;
+        if (log_lag) {
+          std::lock_guard lock(load_times_mutex);
+          load_times.erase(i);
+        }
+        log::debug("frame ", i, ": dropped (a later keyframe has already arrived and been loaded)");
+      } else {
+        MappingFrame m;
+        timed(frames_wait_ms, [&] { m = entry->frame.get(); });
+        feed->set_scene_depth(m.median_depth);
+        const SampleStats ss =
+            mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose);
+        updates.added(item->keyframe_id, mapper.keyframes().back().id);
+        added = true;
+        log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
+                   " without depth, ", ss.excluded, " in chunks left out of the render, ", ss.capped,
+                   " over the cap) in ", ss.chunks, " chunks");
+        if (log_lag) {
+          std::pair<double, double> load{0, 0};
+          {
+            std::lock_guard lock(load_times_mutex);
+            if (auto it = load_times.find(i); it != load_times.end()) load = it->second, load_times.erase(it);
+          }
+          log::debug("frame ", i, ": arrived at ", arrival(i), " s, loaded ", load.first, "-", load.second,
+                     " s, added at ", seconds(), " s");
+        }
+        if (mc.pacing == "fixed")
+          for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
+      }
+    }
+    PoseUpdateApplier::Applied applied;
+    timed(updates_ms, [&] { applied = updates.apply(item->updates); });
+    if (!added && !applied.keyframes_moved) continue;
+    timed(record_ms, [&] { record(i); });
+    if (added) ++keyframes_since_checkpoint;
+    if (checkpoint_due() || applied.loop) {
+      checkpoint_ms_at_last = mapper.io_stats().checkpoint_ms;
+      timed(checkpoint_call_ms, [&] { mapper.checkpoint(state(i + 1, false), /*behind=*/true); });
+      keyframes_since_checkpoint = 0;
+      last_checkpoint = seconds();
+    }
+    if (mc.in_core_only && mapper.total_gaussians() > cfg.residency.budget_gaussians) {
+      stopped_at = i;
+      log::warn("frame ", i, ": the map (", mapper.total_gaussians(), " Gaussians) outgrew the budget of ",
+                cfg.residency.budget_gaussians,
+                " and mapper.in_core_only keeps every chunk in memory: stopping");
+      break;
+    }
+  }
+  progress.finish();
+  const size_t done = stopped_at ? *stopped_at + 1 : n;  // frames the map covers
+  if (mapper.keyframes().empty()) fail("dataset ", o.dataset, ": no frame with a pose became a keyframe");
+  if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
+    Progress refine("refining", mc.final_iterations);
+    for (int k = 0; k < mc.final_iterations; ++k) {
+      mapper.step();
+      refine.step();
+    }
+    refine.finish();
+  }
+  record(done ? done - 1 : 0);
+  mapper.checkpoint(state(done, !stopped_at));
+  const std::vector<std::optional<SE3>> poses = feed->final_poses();
+  Trajectory traj;  // the poses the map was made on (after every correction), TUM format
+  for (size_t i = 0; i < std::min(done, poses.size()); ++i)
+    if (poses[i]) traj.push_back(dataset->timestamp(i), *poses[i]);
+  write_tum_trajectory(o.out / "trajectory.txt", traj);
+  // The last sample sees the run as it ends (after the final checkpoint), so the plot, the CSV and
+  // the report's times agree.
+  disk_measured_at = -1e9;
+  record(done ? done - 1 : 0);
+  const double map_seconds = timeline.back().seconds;
+  const double io_wait_ms = timeline.back().wait_ms;
+
+  nlohmann::json report;
+  report["dataset"] = o.dataset;
+  report["poses"] = o.poses;
+  report["frames"] = n;
+  if (stopped_at)
+    report["stopped"] = {{"frame", *stopped_at},
+                         {"reason", "in_core_only: the map outgrew the budget"},
+                         {"gaussians", mapper.total_gaussians()}};
+  report["resolution"] = {info.camera.width * mc.resolution, info.camera.height * mc.resolution};
+  report["depth"] = depth_mode_name(mode);
+  report["settings"] = {{"pacing", mc.pacing},
+                        {"iterations_per_keyframe", mc.iterations_per_keyframe},
+                        {"final_iterations", mc.final_iterations},
+                        {"speed", mc.speed},
+                        {"holdout_every", mc.holdout_every},
+                        {"budget_gaussians", cfg.residency.budget_gaussians},
+                        {"chunk_size_m", cfg.store.chunk_size},
+                        {"lambda_depth", cfg.loss.lambda_depth},
+                        {"lr_position", cfg.adam.lr_position},
+                        {"sampler_density", cfg.sampler.density},
+                        {"seed", mc.seed}};
+  report["device"] = mapper.device();
+  if (tracked) report["tracking"] = feed->report();
+  report["pose_updates"] = updates.report();
+  report["keyframes"] = mapper.keyframes().size();
+  report["keyframes_without_depth"] = mapper.keyframes_without_depth();
+  {
+    // Whether the optimiser kept up: the figures a starving run shows first.
+    nlohmann::json pj = pacing_summary(timeline).to_json();
+    pj["min_steps_per_keyframe"] = mc.min_steps_per_keyframe;
+    pj["views_over_budget"] = mapper.views_over_budget();
+    if (mapper.views_over_budget()) pj["largest_view_gaussians"] = mapper.largest_view();
+    if (const Mapper::WindowStats& w = mapper.window_stats(); w.updates) {
+      // How much of the selection cell the budget left trainable.
+      const double n = double(std::max<uint64_t>(w.narrowed, 1));
+      pj["training_window"] = {{"narrowed_share", double(w.narrowed) / double(w.updates)},
+                               {"mean_keyframes", w.keyframes / n},
+                               {"mean_cell_keyframes", w.cell_keyframes / n},
+                               {"mean_reach_m", w.reach_m / n},
+                               {"partial_step_share",
+                                double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
+                               {"partial_too_small", w.partial_too_small},
+                               {"trimmed_step_share",
+                                double(w.trimmed_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))}};
+    }
+    report["pacing"] = pj;
+  }
+  report["iterations"] = mapper.iterations();
+  if (const Mapper::StepTimes& t = mapper.step_times(); t.steps) {
+    // Per step, on the optimiser thread: culling and pinning its chunks, the backend's render, loss,
+    // backward and Adam (keyframe loads included), and the rest (dirty marks, pruning's bookkeeping).
+    const double n = double(t.steps);
+    report["step_ms"] = {{"mean", t.total_ms / n},
+                         {"chunks", t.chunks_ms / n},
+                         {"backend", t.backend_ms / n},
+                         {"keyframe_load", t.keyframe_load_ms / n},
+                         {"keyframe_loads_per_step", double(t.keyframe_loads) / n},
+                         {"bookkeeping", (t.total_ms - t.chunks_ms - t.backend_ms) / n}};
+  }
+  report["time"] = {
+      {"mapping_s", map_seconds},
+      {"processing_fps", map_seconds > 0 ? double(done) / map_seconds : 0},
+      // Everything the optimiser thread lost to I/O (chunks, checkpoints, keyframes).
+      {"io_wait_ms", io_wait_ms},
+      {"io_wait_share", map_seconds > 0 ? io_wait_ms / 1000.0 / map_seconds : 0}};
+  {
+    // Where the optimiser thread's mapping time went: steps, keyframes (the sampler's render, its
+    // draws, handing them to residency), waiting for frames, timeline samples, checkpoints and pose
+    // updates. What is left is the loop's own overhead.
+    const Mapper::KeyframeTimes& k = mapper.keyframe_times();
+    report["time"]["optimiser_ms"] = {{"steps", mapper.step_times().total_ms},
+                                      {"keyframes", k.total_ms},
+                                      {"keyframe_render", k.render_ms},
+                                      {"keyframe_sample", k.sample_ms},
+                                      {"keyframe_add", k.add_ms},
+                                      {"frame_wait", frames_wait_ms},
+                                      {"timeline", record_ms},
+                                      {"checkpoints", checkpoint_call_ms},
+                                      {"pose_updates", updates_ms}};
+  }
+  {
+    // Distance covered, for drives: the intake rate in km/h is what the paper's settings name.
+    const double path_m = traj.path_length();
+    report["time"]["path_km"] = path_m / 1000.0;
+    report["time"]["processing_kmh"] = map_seconds > 0 ? path_m / map_seconds * 3.6 : 0;
+    const double span = done > 1 ? (dataset->timestamp(done - 1) - stamp0) / mc.speed : 0;
+    if (mc.pacing == "anytime" && span > 0) report["time"]["intake_kmh"] = path_m / span * 3.6;
+  }
+  const IoStats io = mapper.io_stats();
+  report["gaussians"] = {{"total", mapper.total_gaussians()},
+                         {"peak_resident", mapper.peak_resident_gaussians()},
+                         {"budget", mapper.budget()},
+                         {"chunks", mapper.chunk_count()},
+                         {"pruned", mapper.pruned_total()}};
+  double peak_rss = 0;
+  for (const auto& t : timeline) peak_rss = std::max(peak_rss, t.rss_mb);
+  const DiskUsage du = disk_usage(o.out);
+  report["disk"] = {{"files", du.files}, {"bytes", du.bytes}, {"allocated_bytes", du.allocated_bytes}};
+  report["memory"] = {{"peak_rss_mb_sampled", peak_rss},
+                      {"peak_rss_mb_process", double(peak_rss_bytes()) / 1048576.0}};
+  if (const auto dm = mapper.device_memory()) {
+    double peak_vram = 0;
+    for (const auto& t : timeline) peak_vram = std::max(peak_vram, t.vram_mb);
+    // Device-wide (cudaMemGetInfo): includes the CUDA context and any other process on the GPU.
+    report["memory"]["vram_used_mb_peak_sampled"] = peak_vram;
+    report["memory"]["vram_used_mb_end"] = dm->used_mb;
+    report["memory"]["vram_total_mb"] = dm->total_mb;
+  }
+  // Once the budget is reached, memory should stay level however far the map grows.
+  if (const auto flat = memory_flatness(timeline, mapper.budget()))
+    report["memory"]["after_budget"] = flat->to_json();
+  report["chunk_io"] = {
+      {"loads", io.loads},
+      {"saves", io.saves},
+      {"mean_load_ms", io.mean_load_ms()},
+      {"mean_save_ms", io.mean_save_ms()},
+      {"io_time_share", map_seconds > 0 ? (io.load_ms + io.save_ms) / 1000.0 / map_seconds : 0},
+      // The optimiser's own loss to I/O: blocking loads, full write queues and checkpoints. The
+      // background thread's time (io_time_share) overlaps with training and is not a cost by itself.
+      {"wait_time_share", map_seconds > 0 ? io.optimiser_wait_ms() / 1000.0 / map_seconds : 0},
+      {"wait_ms", io.wait_ms},
+      {"checkpoints", io.checkpoints},
+      {"checkpoint_ms", io.checkpoint_ms},
+      {"checkpoints_behind", io.checkpoints_behind},
+      {"checkpoint_behind_ms", io.checkpoint_behind_ms},
+      {"barrier_ms", io.barrier_ms},
+      {"bytes_read", io.bytes_read},
+      {"bytes_written", io.bytes_written},
+      // Chunks made resident, and how: read ahead in the background, or waited for by the optimiser.
+      {"pool_loads", io.pool_loads},
+      {"prefetch_hits", io.prefetch_hits},
+      {"waited_loads", io.sync_loads},
+      {"evictions_clean", io.evictions_clean},
+      {"evictions_dirty", io.evictions_dirty},
+      {"summary", io.summary()}};
+  const IoStats kio = mapper.keyframe_io_stats();
+  report["keyframe_io"] = {{"loads", kio.loads},
+                           {"saves", kio.saves},
+                           {"mean_load_ms", kio.mean_load_ms()},
+                           {"mean_save_ms", kio.mean_save_ms()},
+                           {"read_ahead", kio.prefetch_hits},
+                           {"read_on_demand", kio.sync_loads},
+                           {"waits", kio.waits},
+                           {"wait_ms", kio.wait_ms},
+                           {"barrier_ms", kio.barrier_ms},
+                           {"bytes_read", kio.bytes_read},
+                           {"bytes_written", kio.bytes_written}};
+  if (o.evaluate) {
+    const auto te = Clock::now();
+    std::vector<size_t> held, kfs;
+    for (size_t i = 0; i < done; ++i)
+      if (is_held_out(i, mc.holdout_every)) held.push_back(i);
+    if (mc.eval_keyframe_stride > 0)
+      for (size_t k = 0; k < mapper.keyframes().size(); k += size_t(mc.eval_keyframe_stride))
+        kfs.push_back(mapper.keyframes()[k].frame);
+    const fs::path rd = o.out / "renders";
+    const ViewSetScore h =
+        score_views(mapper, *dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders, &lpips);
+    const ViewSetScore k = score_views(mapper, *dataset, poses, kfs, mc.resolution, rd, "keyframe", 4, &lpips);
+    report["held_out"] = h.to_json(true);
+    report["keyframes_eval"] = k.to_json(false);
+    report["time"]["evaluation_s"] = since(te);
+    log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, ", ",
+              h.mean_lpips ? cat("LPIPS ", *h.mean_lpips) : "LPIPS not available (" + h.lpips_unavailable + ")",
+              " over ", h.views.size(), " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
+  }
+  write_text(o.out / "timeline.csv", timeline_csv(timeline));
+  write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());
+  write_json(o.out / "report.json", report);
+  log::info("map ", o.out.string(), ": ", mapper.total_gaussians(), " Gaussians in ", mapper.chunk_count(),
+            " chunks, ", mapper.keyframes().size(), " keyframes, ", map_seconds, " s (", io.summary(), ")");
+  return report;
+}
+
+}  // namespace chungs
