@@ -5,6 +5,7 @@
 
 #include "chungs/common/log.hpp"
 #include "chungs/datasets/readers.hpp"
+#include "chungs/datasets/rosbag_reader.hpp"
 
 namespace chungs {
 
@@ -31,6 +32,7 @@ std::string kinds_list() {
 std::vector<std::string> dataset_kinds() {
   std::vector<std::string> out;
   for (const auto& [name, open] : openers()) out.push_back(name);
+  out.push_back("rosbag");
   return out;
 }
 
@@ -41,6 +43,8 @@ std::unique_ptr<Dataset> open_dataset(const std::string& spec) {
   std::string kind = spec.substr(0, colon);
   std::filesystem::path path = spec.substr(colon + 1);
   if (path.empty()) fail("dataset '", spec, "': the path after '", kind, ":' is empty");
+  // A bag is a file with topics after '?', not a folder.
+  if (kind == "rosbag") return ds::open_rosbag(spec.substr(colon + 1));
   for (const auto& [name, open] : openers()) {
     if (name != kind) continue;
     require_dir(path, cat(kind, " dataset folder"));
