@@ -9,6 +9,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -17,6 +19,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/mapping/map_state.hpp"
+#include "chungs/mapping/sky_file.hpp"
 #include "chungs/pipeline/timeline.hpp"
 #include "chungs/serve/splat_pack.hpp"
 #include "chungs/serve/view_server.hpp"
@@ -305,4 +308,53 @@ TEST_F(ViewServerTest, WithoutARunStateTheTimelineIsEmpty) {
   const Reply r = get(port(), "/api/timeline");
   ASSERT_EQ(r.status, 200);
   EXPECT_TRUE(nlohmann::json::parse(r.body)["seconds"].empty());
+}
+
+TEST_F(ViewServerTest, WithoutASkyTheMapSaysSoAndTheSkyIsNotFound) {
+  EXPECT_TRUE(nlohmann::json::parse(get(port(), "/api/map").body)["sky"].is_null());
+  const Reply r = get(port(), "/api/sky");
+  EXPECT_EQ(r.status, 404);
+  EXPECT_NE(nlohmann::json::parse(r.body)["error"].get<std::string>().find("sky"), std::string::npos);
+}
+
+TEST(ViewServer, SkyIsTheTextureCommittedWithTheCheckpointTexelsMarkedTrainedOrNot) {
+  test::TempDir dir;
+  make_map(dir / "map");
+  const double R[9] = {0, 0, 1, 1, 0, 0, 0, 1, 0};  // a camera whose up (-y) is not world z
+  SkyConfig config;
+  config.width = 8;
+  config.height = 4;
+  SkyTexture sky = make_sky(config, R);
+  for (size_t i = 0; i < sky.rgb.size(); ++i) sky.rgb[i] = float((i * 37) % 101) / 100.f;
+  sky.rgb[5] = 0.5f / 255;  // rounds up to 1
+  for (size_t i = 0; i < sky.texels(); i += 3) sky.updates[i] = uint32_t(i + 1);  // the others never trained
+  // Checkpoint 4 names its numbered sky until the writer renames it: that one is served, not an
+  // older checkpoint's under the final name.
+  write_sky_file(checkpoint_file(dir / "map", 4, "sky.bin"), sky, false);
+  SkyTexture older = sky;
+  std::fill(older.rgb.begin(), older.rgb.end(), 0.f);
+  write_sky_file(dir / "map" / "sky.bin", older, false);
+  ViewServer s(std::make_shared<MapSnapshot>(dir / "map"), ViewServerOptions{"127.0.0.1", 0, {}});
+  s.bind();
+  Running running(s);
+  const Reply map = get(s.port(), "/api/map");
+  const Reply r = get(s.port(), "/api/sky");
+  running.stop();
+  EXPECT_EQ(nlohmann::json::parse(map.body)["sky"], nlohmann::json({{"width", 8}, {"height", 4}}));
+  ASSERT_EQ(r.status, 200) << r.body;
+  ASSERT_EQ(r.body.size(), 64u + 4 * 8 * 4);
+  EXPECT_EQ(r.body.substr(0, 8), "DCSKYTX1");
+  uint32_t size[2];
+  float axes[9];
+  std::memcpy(size, r.body.data() + 8, sizeof size);
+  std::memcpy(axes, r.body.data() + 16, sizeof axes);
+  EXPECT_EQ(size[0], 8u);
+  EXPECT_EQ(size[1], 4u);
+  for (int i = 0; i < 9; ++i) EXPECT_EQ(axes[i], sky.axes[i]) << i;
+  const auto* t = reinterpret_cast<const uint8_t*>(r.body.data() + 64);
+  for (size_t i = 0; i < sky.texels(); ++i) {
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(t[4 * i + c], std::lround(sky.rgb[3 * i + c] * 255)) << i << " " << c;
+    EXPECT_EQ(t[4 * i + 3], i % 3 == 0 ? 255 : 0) << i;
+  }
+  EXPECT_EQ(t[4 * 1 + 2], 1);
 }

@@ -37,6 +37,7 @@ export interface MapInfo {
   keyframes: KeyframeInfo[];
   trajectory: [number, number, number][];
   camera: CameraInfo | null;
+  sky: { width: number; height: number } | null; // the learned sky's texture (GET /api/sky), if any
   report: Record<string, unknown> | null;
 }
 

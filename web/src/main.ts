@@ -4,14 +4,17 @@
 // camera and uses its intrinsics (for pixel comparisons); budget=N splats (default 3,000,000);
 // sh=0..3; overlays=0 and hud=0 hide the drawn lines and the text; follow=1 moves the camera to each
 // new checkpoint's newest keyframe while a run writes the map (key F toggles it); charts=0|1 hides or
-// shows the timeline charts (shown by default when the run left a timeline; key C).
+// shows the timeline charts (shown by default when the run left a timeline; key C); sky=0 leaves
+// the map's learned sky out (key B); fov=DEG the vertical field of view (default: the map camera's
+// horizontal one across the window).
 // Keys: W/A/S/D/Q/E fly, mouse orbits; G grid, T trajectory and frusta, K next keyframe, F follow,
-// C charts.
+// C charts, B sky.
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 import { SparkRenderer } from "@sparkjsdev/spark";
 import { CheckpointEvent, MapInfo, fetchMap } from "./api";
 import { Charts, fetchTimeline } from "./charts";
+import { SkyBackground, fetchSky } from "./sky";
 import { ChunkStreamer } from "./streamer";
 import { applyIntrinsics, applyPose, chunkGrid, trajectoryOverlay } from "./view";
 
@@ -77,8 +80,25 @@ async function start(): Promise<void> {
   });
   scene.add(spark);
 
+  // The map's sky behind everything, as `render` composites it; redrawn at each checkpoint of a run.
+  const sky = new SkyBackground();
+  scene.add(sky.mesh);
+  let skyWanted = params.get("sky") !== "0";
+  let skyVersion = 0;
+  const refreshSky = async (m: MapInfo) => {
+    sky.set(m.sky ? await fetchSky() : null);
+    sky.mesh.visible &&= skyWanted;
+    skyVersion++;
+  };
+  if (skyWanted) await refreshSky(map).catch((e: unknown) => console.warn(`sky: ${String(e)}`));
+
   const span = map.chunk_size * 50;
-  const camera = new THREE.PerspectiveCamera(60, width / height, 0.01, span);
+  // The map camera's horizontal field of view across the window (a street camera is wide and
+  // short; 60 degrees tall would look far above what it saw); fov=DEG sets the vertical one.
+  const k = map.camera;
+  const sameWidth = k ? (2 * Math.atan(k.width / (2 * k.fx) / (width / height)) * 180) / Math.PI : 60;
+  const fov = params.get("fov") !== null ? intParam("fov", 60, 10, 150) : Math.min(100, Math.max(20, sameWidth));
+  const camera = new THREE.PerspectiveCamera(fov, width / height, 0.01, span);
   const kfIndex = intParam("kf", 0, 0, Math.max(0, map.keyframes.length - 1));
   if (map.keyframes.length) applyPose(camera, map.keyframes[kfIndex].pose, map.origin);
   else camera.position.set(0, -map.chunk_size, -map.chunk_size);
@@ -145,6 +165,7 @@ async function start(): Promise<void> {
       grid.visible = gridShown;
       overlays.add(traj, grid);
       if (chartsWanted !== "0") await refreshCharts();
+      if (skyWanted) await refreshSky(next);
       if (follow && next.keyframes.length) {
         applyPose(camera, next.keyframes[next.keyframes.length - 1].pose, next.origin);
         const f = new THREE.Vector3(0, 0, -1).applyQuaternion(camera.quaternion);
@@ -163,6 +184,12 @@ async function start(): Promise<void> {
     if (e.key === "t") traj.visible = !traj.visible;
     if (e.key === "f") follow = !follow;
     if (e.key === "c") charts.visible = !charts.visible;
+    if (e.key === "b") {
+      skyWanted = !skyWanted;
+      if (skyWanted) refreshSky(streamer.map).catch((err: unknown) => console.warn(`sky: ${String(err)}`));
+      else sky.mesh.visible = false;
+      skyVersion++;
+    }
     const m = streamer.map;
     if (e.key === "k" && m.keyframes.length) {
       kfCursor = (kfCursor + 1) % m.keyframes.length;
@@ -206,7 +233,7 @@ async function start(): Promise<void> {
     const settled = streamer.update(camera.position, frustum);
     // Drawn only while something changes, and a while after (Spark sorts on a worker and shows the
     // new order a few frames later): an idle page leaves the CPU/GPU to the mapper beside it.
-    const look = `${camera.matrixWorld.elements.join()}|${streamer.stats.loaded}|${streamer.stats.disposed}|${overlays.visible}${traj.visible}${grid.visible}|${innerWidth}x${innerHeight}`;
+    const look = `${camera.matrixWorld.elements.join()}|${streamer.stats.loaded}|${streamer.stats.disposed}|${overlays.visible}${traj.visible}${grid.visible}|${skyVersion}|${innerWidth}x${innerHeight}`;
     if (look !== lastLook) {
       lastLook = look;
       quietFrames = 0;
@@ -229,7 +256,7 @@ async function start(): Promise<void> {
       `in the page: ${s.loaded} chunks, ${s.splats.toLocaleString()} of ${s.budget.toLocaleString()} splats` +
       (s.loading ? `, ${s.loading} loading` : "") +
       (s.failed ? `\n${s.failed} chunk requests failed: ${s.errors[s.errors.length - 1]}` : "") +
-      `\nmouse: orbit   W A S D Q E: fly   K: next keyframe   G: chunk grid   T: trajectory   F: follow   C: charts`;
+      `\nmouse: orbit   W A S D Q E: fly   K: next keyframe   G: chunk grid   T: trajectory   F: follow   C: charts   B: sky`;
   });
 }
 

@@ -12,6 +12,7 @@ export interface StreamStats {
   loaded: number; // chunks with a mesh in the scene
   loading: number;
   splats: number; // Gaussians in loaded and loading chunks
+  peakSplats: number; // the most `splats` has been since the page opened
   budget: number;
   fetches: number;
   disposed: number;
@@ -61,7 +62,7 @@ export class ChunkStreamer {
     private concurrency = 4,
     private onShown?: (id: string) => void, // a chunk's mesh entered the scene
   ) {
-    this.stats = { loaded: 0, loading: 0, splats: 0, budget, fetches: 0, disposed: 0, failed: 0, fetchMs: [], errors: [] };
+    this.stats = { loaded: 0, loading: 0, splats: 0, peakSplats: 0, budget, fetches: 0, disposed: 0, failed: 0, fetchMs: [], errors: [] };
   }
 
   // A newer checkpoint of the map: chunks it changed or removed leave the page now (the changed
@@ -114,6 +115,7 @@ export class ChunkStreamer {
     this.slots.set(c.id, slot);
     this.stats.loading++;
     this.stats.splats += c.count;
+    this.stats.peakSplats = Math.max(this.stats.peakSplats, this.stats.splats);
     this.stats.fetches++;
     const t0 = performance.now();
     fetchChunk(c.id, this.sh, slot.abort!.signal)

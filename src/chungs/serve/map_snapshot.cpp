@@ -4,6 +4,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/mapping/sky_file.hpp"
 
 namespace chungs::serve {
 
@@ -59,6 +60,26 @@ MapSnapshot::MapSnapshot(const fs::path& folder) : folder_(folder) {
         // Renamed away by the next checkpoint meanwhile (the check below reads again), or damaged:
         // the charts are left out, the map is still shown.
         log::debug("viewer: timeline left out: ", e.what());
+      }
+    sky_.reset();
+    const fs::path sky_pending = checkpoint_file(folder, checkpoint_, "sky.bin");
+    bool sky_read = false;
+    if (checkpoint_ > 0 && fs::exists(sky_pending)) try {
+        sky_ = read_sky_file(sky_pending);
+        sky_read = true;
+      } catch (const Error& e) {
+        // Still there, so damaged rather than renamed away meanwhile: the map is shown without it
+        // (the final name holds an older checkpoint's sky).
+        if (fs::exists(sky_pending)) {
+          log::warn("viewer: sky left out: ", e.what());
+          sky_read = true;
+        }
+      }
+    if (!sky_read && fs::exists(folder / "sky.bin")) try {
+        sky_ = read_sky_file(folder / "sky.bin");
+      } catch (const Error& e) {
+        // Replaced by the next checkpoint's while read (the check below reads again), or damaged.
+        log::debug("viewer: sky left out: ", e.what());
       }
     if (checkpoint_tag(Manifest::read(folder / "manifest.txt").config) == checkpoint_) break;
     if (attempt == kAttempts) fail(folder.string(), ": the map changed faster than it could be read; try again");
@@ -141,6 +162,8 @@ nlohmann::json MapSnapshot::describe() const {
                       {"chunks", chunks},
                       {"keyframes", kfs},
                       {"trajectory", traj},
+                      {"sky", sky_ ? nlohmann::json{{"width", sky_->width}, {"height", sky_->height}}
+                                   : nlohmann::json(nullptr)},
                       {"camera", keyframes_.empty() ? nlohmann::json(nullptr) : camera_json(keyframes_.front().camera)},
                       {"report", report_ ? *report_ : nlohmann::json(nullptr)}};
   return j;

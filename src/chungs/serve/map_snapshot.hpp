@@ -1,7 +1,7 @@
 // One committed checkpoint of a map folder, opened for the viewer's server: the chunk store as a
 // reader (no lock; every chunk file of the manifest opened before any is read, manifest checksum
-// checked), the keyframe list and run state (its timeline) committed with it, and the run's trajectory
-// and report when present.
+// checked), the keyframe list, run state (its timeline) and learned sky committed with it, and the
+// run's trajectory and report when present.
 // Nothing in the folder is created, repaired or changed. Chunk reads are safe from many threads.
 #pragma once
 #include <filesystem>
@@ -14,6 +14,7 @@
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/mapping/map_state.hpp"
 #include "chungs/pipeline/timeline.hpp"
+#include "chungs/render/sky.hpp"
 #include "chungs/store/chunk_store.hpp"
 
 namespace chungs::serve {
@@ -34,6 +35,9 @@ class MapSnapshot {
   // The run's timeline as committed with this checkpoint (run_state.json; empty without one).
   const std::vector<TimelineSample>& timeline() const { return timeline_; }
   nlohmann::json timeline_json() const;  // /api/timeline: one array per quantity, sample by sample
+  // The sky texture committed with this checkpoint (sky.bin; none for maps made without a sky, or
+  // when the file is damaged: the map is shown without it).
+  const std::optional<SkyTexture>& sky() const { return sky_; }
   // The point the page draws around: the first keyframe's position, else the chunks' mean centre.
   Eigen::Vector3d origin() const;
 
@@ -48,6 +52,7 @@ class MapSnapshot {
   Trajectory trajectory_;
   std::optional<nlohmann::json> report_;
   std::vector<TimelineSample> timeline_;
+  std::optional<SkyTexture> sky_;
 };
 
 }  // namespace chungs::serve

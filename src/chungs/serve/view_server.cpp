@@ -11,6 +11,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/serve/sky_pack.hpp"
 #include "chungs/serve/splat_pack.hpp"
 
 #ifndef CHUNGS_WEB_BUILD_DIR
@@ -199,8 +200,16 @@ void ViewServer::routes() {
     res.set_content(pack_splats(block.params, degree, origin, id, generation), "application/octet-stream");
   });
 
+  s.Get("/api/sky", [follower](const httplib::Request&, httplib::Response& res) {
+    const auto map = follower->current();
+    if (!map) return json_error(res, 503, "the run has not committed its first checkpoint yet");
+    if (!map->sky()) return json_error(res, 404, "this map has no learned sky (sky.bin)");
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(pack_sky(*map->sky()), "application/octet-stream");
+  });
+
   s.Get(R"(/api/.*)", [](const httplib::Request& req, httplib::Response& res) {
-    json_error(res, 404, "no such API path " + quoted(req.path) + " (there are /api/map, /api/chunk/<id>, /api/timeline, /api/events)");
+    json_error(res, 404, "no such API path " + quoted(req.path) + " (there are /api/map, /api/chunk/<id>, /api/sky, /api/timeline, /api/events)");
   });
 
   // The library answers 400 itself for paths it refuses (.. out of the root); keep its status.

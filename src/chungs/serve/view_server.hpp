@@ -2,10 +2,13 @@
 //   GET /api/map            JSON: checkpoint, chunk size, SH degree, origin, chunks (id as a decimal
 //                           string, coord, min/max corners, count, generation), keyframes (id,
 //                           frame, stamp, 4x4 camera-to-world pose as rows), trajectory (positions),
-//                           camera (the first keyframe's intrinsics and size) and report (report.json
-//                           as the run wrote it, or null)
+//                           camera (the first keyframe's intrinsics and size), sky ({width, height}
+//                           of the learned sky's texture, or null) and report (report.json as the run
+//                           wrote it, or null)
 //   GET /api/chunk/<id>     the chunk's Gaussians packed as splat_pack.hpp lays out; ?sh=0..3 picks the
 //                           SH degree (default the map's; above it, the map's)
+//   GET /api/sky            the learned sky committed with the checkpoint, packed as sky_pack.hpp
+//                           lays out; 404 for a map without one
 //   GET /api/timeline       JSON: the run's timeline committed with the checkpoint, one array per
 //                           quantity (seconds, frame, keyframes, iterations, resident, total, on_disk,
 //                           rss_mb, vram_mb, loads, saves, disk_mb, wait_ms); empty arrays without one
