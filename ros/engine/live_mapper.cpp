@@ -1,0 +1,383 @@
+// LiveMapper: frames arrive one at a time with their pose; keyframes are chosen by the rule the
+// given-pose run uses (mapper.keyframe_*), loaded at the mapping resolution with the same depth
+// source as `diskchungs run` (load_mapping_frame on a one-frame dataset), and trained the same way,
+// so a recording played into the node makes the map `run --dataset` makes of it.
+#include "ros/engine/live_mapper.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
+#include "chungs/config/config.hpp"
+#include "chungs/depth/depth_source.hpp"
+#include "chungs/mapping/mapper.hpp"
+#include "chungs/mapping/optim_backend.hpp"
+#include "chungs/pipeline/frame_source.hpp"
+#include "chungs/pipeline/ply_export.hpp"
+#include "chungs/pipeline/run_pipeline.hpp"
+#include "chungs/store/chunk_id.hpp"
+#include "chungs/store/chunk_store.hpp"
+#include "presets.hpp"
+
+namespace chungs::live {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+Image8 to_image(const rosbag_io::Picture& p) {
+  Image8 img(p.width, p.height, p.channels);
+  std::copy(p.pixels.begin(), p.pixels.end(), img.data());
+  return img;
+}
+
+ImageF to_depth(const rosbag_io::Picture& p) {
+  ImageF img(p.width, p.height, 1);
+  std::copy(p.metres.begin(), p.metres.end(), img.data());
+  return img;
+}
+
+SE3 to_se3(const rosbag_io::Pose& p) {
+  return SE3(Eigen::Quaterniond(p.q[3], p.q[0], p.q[1], p.q[2]).normalized(),
+             Eigen::Vector3d(p.t[0], p.t[1], p.t[2]));
+}
+
+rosbag_io::Pose to_pose(const SE3& p) {
+  return {{p.t.x(), p.t.y(), p.t.z()}, {p.q.x(), p.q.y(), p.q.z(), p.q.w()}};
+}
+
+// One received frame as a dataset, so that scaling and depth go through the offline run's code.
+class OneFrame : public Dataset {
+ public:
+  explicit OneFrame(Frame f) : frame_(std::move(f)) {
+    info_.kind = "live";
+    info_.frames = 1;
+    info_.camera = frame_.camera;
+    info_.baseline = frame_.baseline;
+    info_.has_right = frame_.right.has_value();
+    info_.has_depth = frame_.depth.has_value();
+    info_.color = frame_.left.channels() == 3;
+  }
+  const DatasetInfo& info() const override { return info_; }
+  Frame frame(size_t) const override { return frame_; }
+  double timestamp(size_t) const override { return frame_.timestamp; }
+  std::optional<SE3> gt_pose(size_t) const override { return frame_.gt_pose; }
+
+ private:
+  Frame frame_;
+  DatasetInfo info_;
+};
+
+}  // namespace
+
+struct LiveMapper::Impl {
+  Settings settings;
+  Config config;
+  std::unique_ptr<Mapper> mapper;
+  std::mutex
+      map_mutex;  // the mapper is single-threaded: the mapping thread and the node's queries take turns
+
+  std::mutex queue_mutex;
+  std::condition_variable queue_cv;
+  std::deque<LiveFrame> queue;
+  bool finishing = false, finished = false;
+  std::thread worker;
+  std::string error;
+
+  uint64_t next_frame = 0, dropped = 0;
+  std::optional<SE3> last_keyframe;
+  size_t since_keyframe = 0;
+  double scene_depth = 0;
+  size_t keyframes_since_checkpoint = 0;
+  Clock::time_point started = Clock::now(), last_checkpoint = Clock::now();
+  double carried_seconds = 0;
+  uint64_t rate_iterations = 0;
+  Clock::time_point rate_at = Clock::now();
+  double steps_per_s = 0;
+
+  double seconds() const {
+    return carried_seconds + std::chrono::duration<double>(Clock::now() - started).count();
+  }
+
+  nlohmann::json state(bool done) const {
+    return {{"dataset", settings.source}, {"poses", "external"}, {"next_frame", next_frame},
+            {"frames", next_frame},       {"finished", done},    {"seconds", seconds()}};
+  }
+
+  // The given-pose run's keyframe rule (pipeline/frame_feed.cpp), on frames as they come.
+  bool is_keyframe(const SE3& pose) {
+    const MapperConfig& c = config.mapper;
+    ++since_keyframe;
+    bool key = !last_keyframe;
+    if (last_keyframe) {
+      const double moved = (pose.t - last_keyframe->t).norm();
+      key = (c.keyframe_every > 0 && since_keyframe >= size_t(c.keyframe_every)) ||
+            (c.keyframe_translation > 0 && moved >= c.keyframe_translation) ||
+            (c.keyframe_parallax > 0 && moved >= c.keyframe_parallax * scene_depth && moved > 0) ||
+            (c.keyframe_rotation_deg > 0 &&
+             (last_keyframe->inverse() * pose).angle() * 180.0 / M_PI >= c.keyframe_rotation_deg);
+    }
+    if (key) {
+      since_keyframe = 0;
+      last_keyframe = pose;
+    }
+    return key;
+  }
+
+  void map_frame(const LiveFrame& in) {
+    const uint64_t i = next_frame++;
+    // Held out as in `diskchungs run`, so a recording's map can be scored on frames it never saw.
+    if (is_held_out(i, config.mapper.holdout_every)) return;
+    const SE3 pose = to_se3(in.pose);
+    if (!is_keyframe(pose)) return;
+    Frame f;
+    f.index = i;
+    f.timestamp = in.stamp;
+    f.left = to_image(in.left);
+    if (in.right) f.right = to_image(*in.right);
+    if (in.depth) f.depth = to_depth(*in.depth);
+    f.camera = Camera(in.left.width, in.left.height, in.fx, in.fy, in.cx, in.cy);
+    f.baseline = in.baseline;
+    f.source = cat(settings.source, " frame ", i);
+    OneFrame one(std::move(f));
+    const MapperConfig& mc = config.mapper;
+    const DepthMode mode =
+        resolve_depth_mode(parse_depth_mode(mc.depth), one.info().has_depth, one.info().has_right);
+    StereoDepthConfig stereo = config.stereo;
+    stereo.cuda = mapper->device() == "cuda";
+    MappingFrame m = load_mapping_frame(one, 0, mc.resolution, mode, stereo);
+    if (m.median_depth > 0 && std::isfinite(m.median_depth)) scene_depth = m.median_depth;
+    {
+      std::lock_guard lock(map_mutex);
+      mapper->add_keyframe(i, in.stamp, m.frame.left, m.depth, m.frame.camera, pose);
+    }
+    ++keyframes_since_checkpoint;
+    if (mc.pacing == "fixed")
+      for (int k = 0; k < mc.iterations_per_keyframe; ++k) step();
+    const double since_checkpoint = std::chrono::duration<double>(Clock::now() - last_checkpoint).count();
+    if ((mc.checkpoint_seconds > 0 && since_checkpoint >= mc.checkpoint_seconds) ||
+        (mc.checkpoint_every > 0 && keyframes_since_checkpoint >= size_t(mc.checkpoint_every)))
+      commit(false, true);
+  }
+
+  void step() {
+    std::lock_guard lock(map_mutex);
+    mapper->step();
+  }
+
+  void commit(bool done, bool behind) {
+    std::lock_guard lock(map_mutex);
+    mapper->checkpoint(state(done), behind);
+    keyframes_since_checkpoint = 0;
+    last_checkpoint = Clock::now();
+  }
+
+  bool has_keyframes() {
+    std::lock_guard lock(map_mutex);
+    return !mapper->keyframes().empty();
+  }
+
+  void run() {
+    try {
+      while (true) {
+        std::optional<LiveFrame> frame;
+        {
+          std::unique_lock lock(queue_mutex);
+          // Anytime pacing trains while no frame waits; fixed pacing trains only per keyframe.
+          const bool idle_training = config.mapper.pacing == "anytime";
+          if (!idle_training) queue_cv.wait(lock, [&] { return !queue.empty() || finishing; });
+          if (!queue.empty()) {
+            frame = std::move(queue.front());
+            queue.pop_front();
+          } else if (finishing) {
+            break;
+          }
+        }
+        if (frame) {
+          map_frame(*frame);
+        } else if (has_keyframes()) {
+          step();
+        } else {
+          std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+      }
+      if (has_keyframes()) {
+        for (int k = 0; k < config.mapper.final_iterations; ++k) step();
+        commit(true, false);
+        log::info("map ", settings.out, ": ", mapper->total_gaussians(), " Gaussians, ",
+                  mapper->keyframes().size(), " keyframes from ", next_frame, " frames");
+      } else {
+        log::warn("map ", settings.out, ": no keyframe arrived; nothing was mapped");
+      }
+    } catch (const std::exception& e) {
+      std::lock_guard lock(queue_mutex);
+      error = e.what();
+      log::error("mapping stopped: ", e.what());
+    }
+  }
+};
+
+LiveMapper::LiveMapper(const Settings& s) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.settings = s;
+  if (s.preset != "outdoor" && s.preset != "indoor")
+    fail("preset must be outdoor or indoor, got '", s.preset, "'");
+  app::apply_preset(m.config, s.preset, "");
+  if (!s.config_yaml.empty()) m.config = config_from_yaml(s.config_yaml, "ROS parameters", m.config);
+  m.config.mapper.device = s.device;
+  m.config.mapper.validate();
+  resolve_device(m.config.mapper.device);
+  m.mapper = std::make_unique<Mapper>(s.out, m.config, s.resume);
+  if (s.resume && m.mapper->resumed_state().is_object()) {
+    m.next_frame = m.mapper->resumed_state().value("next_frame", uint64_t(0));
+    m.carried_seconds = m.mapper->resumed_state().value("seconds", 0.0);
+    if (!m.mapper->keyframes().empty()) m.last_keyframe = m.mapper->keyframes().back().pose;
+  }
+  m.worker = std::thread([&m] { m.run(); });
+}
+
+LiveMapper::~LiveMapper() {
+  try {
+    finish();
+  } catch (const std::exception& e) {
+    log::error("finishing the map: ", e.what());
+  }
+}
+
+void LiveMapper::push(LiveFrame frame) {
+  Impl& m = *impl_;
+  {
+    std::lock_guard lock(m.queue_mutex);
+    if (m.finishing) return;
+    if (m.settings.max_queue > 0 && m.queue.size() >= m.settings.max_queue) {
+      m.queue.pop_front();
+      ++m.dropped;
+      ++m.next_frame;  // the dropped frame keeps its index: held-out frames stay where they were
+    }
+    m.queue.push_back(std::move(frame));
+  }
+  m.queue_cv.notify_one();
+}
+
+std::optional<rosbag_io::Picture> LiveMapper::render_latest() {
+  Impl& m = *impl_;
+  std::lock_guard lock(m.map_mutex);
+  if (m.mapper->keyframes().empty()) return std::nullopt;
+  const KeyframeRecord& kf = m.mapper->keyframes().back();
+  RenderOutput<float> r = m.mapper->render(kf.camera, kf.pose);
+  Image8 rgb = to_u8(r.rgb);
+  rosbag_io::Picture p;
+  p.width = rgb.width();
+  p.height = rgb.height();
+  p.channels = rgb.channels();
+  p.pixels = std::move(rgb.vec());
+  return p;
+}
+
+std::vector<float> LiveMapper::centres(double radius) {
+  Impl& m = *impl_;
+  Eigen::Vector3d at;
+  {
+    std::lock_guard lock(m.map_mutex);
+    if (m.mapper->keyframes().empty()) return {};
+    at = m.mapper->keyframes().back().pose.t;
+  }
+  std::vector<float> out;
+  std::error_code ec;
+  if (!std::filesystem::exists(std::filesystem::path(m.settings.out) / "manifest.txt", ec)) return out;
+  ChunkStore store(m.settings.out, reader_config());  // the committed checkpoint; never blocks the mapper
+  for (ChunkId id : store.ids()) {
+    Eigen::Vector3d lo, hi;
+    chunk_box(chunk_coord(id), store.chunk_size(), lo, hi);
+    if ((at.cwiseMax(lo).cwiseMin(hi) - at).norm() > radius) continue;
+    const GaussianBlock block = store.load(id);
+    out.insert(out.end(), block.params.mean.begin(), block.params.mean.end());
+  }
+  return out;
+}
+
+std::vector<rosbag_io::Pose> LiveMapper::keyframe_poses() {
+  Impl& m = *impl_;
+  std::lock_guard lock(m.map_mutex);
+  std::vector<rosbag_io::Pose> out;
+  for (const auto& kf : m.mapper->keyframes()) out.push_back(to_pose(kf.pose));
+  return out;
+}
+
+Status LiveMapper::status() {
+  Impl& m = *impl_;
+  Status s;
+  {
+    std::lock_guard lock(m.queue_mutex);
+    s.queued = m.queue.size();
+    s.dropped = m.dropped;
+    s.error = m.error;
+    s.frames = m.next_frame;
+  }
+  std::lock_guard lock(m.map_mutex);
+  const Mapper& mp = *m.mapper;
+  s.keyframes = mp.keyframes().size();
+  s.iterations = mp.iterations();
+  s.gaussians = mp.total_gaussians();
+  s.resident = mp.resident_gaussians();
+  s.budget = mp.budget();
+  s.chunks = mp.chunk_count();
+  s.io_wait_ms = mp.optimiser_io_wait_ms();
+  s.seconds = m.seconds();
+  const double dt = std::chrono::duration<double>(Clock::now() - m.rate_at).count();
+  if (dt >= 1.0) {
+    m.steps_per_s = double(s.iterations - m.rate_iterations) / dt;
+    m.rate_iterations = s.iterations;
+    m.rate_at = Clock::now();
+  }
+  s.steps_per_s = m.steps_per_s;
+  return s;
+}
+
+void LiveMapper::checkpoint() {
+  Impl& m = *impl_;
+  if (!m.has_keyframes()) fail(m.settings.out, ": nothing to commit yet (no keyframe has arrived)");
+  m.commit(false, false);
+}
+
+uint64_t LiveMapper::export_ply(const std::string& file, const std::vector<double>& box) {
+  Impl& m = *impl_;
+  if (!box.empty() && box.size() != 6)
+    fail("export box needs 6 numbers (x0 y0 z0 x1 y1 z1), got ", box.size());
+  {
+    std::lock_guard lock(m.queue_mutex);
+    if (!m.finished) {
+      // The export reads what is committed: commit the map as it is now first.
+      std::lock_guard map_lock(m.map_mutex);
+      if (!m.mapper->keyframes().empty()) m.mapper->checkpoint(m.state(false), false);
+    }
+  }
+  ChunkStore store(m.settings.out, reader_config());
+  PlySelection s;
+  if (!box.empty()) {
+    s.box_lo = Eigen::Vector3d(box[0], box[1], box[2]);
+    s.box_hi = Eigen::Vector3d(box[3], box[4], box[5]);
+  }
+  return chungs::export_ply(store, file, s);
+}
+
+void LiveMapper::finish() {
+  Impl& m = *impl_;
+  {
+    std::lock_guard lock(m.queue_mutex);
+    if (m.finished) return;
+    m.finishing = true;
+  }
+  m.queue_cv.notify_all();
+  if (m.worker.joinable()) m.worker.join();
+  std::lock_guard lock(m.queue_mutex);
+  m.finished = true;
+  if (!m.error.empty()) fail("mapping failed: ", m.error);
+}
+
+}  // namespace chungs::live

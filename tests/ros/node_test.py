@@ -1,0 +1,244 @@
+#!/usr/bin/python3
+"""diskchungs_node end to end (issue 26).
+
+Starts its own roscore on 127.0.0.1 (a free port, logs in a temporary folder), launches the node with
+ros/launch/kitti_stereo.launch (or rgbd.launch) and plays a bag written from ../shared/data/kitti_seq1
+(or the synthetic RGB-D room) into it with `rosbag play`, the poses coming from the bag's tf. Checks:
+renders and point clouds are published, the export service writes a PLY, the node maps every frame,
+exits cleanly on SIGINT with the map committed, reopens it with resume:=true, and its map scores
+within --tolerance dB of `diskchungs run` on the same frames (both maps rendered at the bag's frames).
+
+Needs Debian's python3 (rospy, rosbag). Exit 77 (skipped) when the shared data is missing.
+"""
+import argparse
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+# Same settings for the node and the CLI: small, CPU, fixed pacing, single-threaded so both are
+# deterministic (see rosbag_dataset_test.py).
+SETTINGS = {"device": "cpu", "mapper": {"resolution": 0.25, "iterations_per_keyframe": 5, "final_iterations": 20,
+                                        "pacing": "fixed", "checkpoint_every": 4}}
+CLI_ARGS = ["--resolution", "0.25", "--iterations", "5", "--final-iterations", "20", "--device", "cpu"]
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def fail(msg):
+    print("FAIL: " + msg)
+    sys.exit(1)
+
+
+class Ros:
+    """A roscore of the test's own, and the environment that points at it."""
+
+    def __init__(self, tmp, package_dir):
+        self.env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{free_port()}", ROS_IP="127.0.0.1",
+                        ROS_HOSTNAME="127.0.0.1", ROS_HOME=os.path.join(tmp, "ros_home"),
+                        ROS_LOG_DIR=os.path.join(tmp, "ros_log"), OMP_NUM_THREADS="1",
+                        ROS_PACKAGE_PATH=package_dir + ":" + os.environ.get("ROS_PACKAGE_PATH", ""),
+                        PYTHONUNBUFFERED="1")
+        os.environ.update(self.env)  # rospy in this process talks to the same master
+        port = self.env["ROS_MASTER_URI"].rsplit(":", 1)[1]
+        self.core = subprocess.Popen(["roscore", "-p", port], env=self.env, stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.STDOUT, start_new_session=True)
+        deadline = time.time() + 60
+        while time.time() < deadline:
+            if subprocess.run(["rosparam", "list"], env=self.env, capture_output=True).returncode == 0:
+                return
+            time.sleep(0.5)
+        fail("roscore did not come up within 60 s")
+
+    def close(self):
+        if self.core.poll() is None:
+            os.killpg(self.core.pid, signal.SIGINT)
+            try:
+                self.core.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.core.pid, signal.SIGKILL)
+
+
+def cli_run(cli, dataset, out, frames, preset):
+    r = subprocess.run([cli, "run", "--dataset", dataset, "--out", out, "--max-frames", str(frames), "--preset", preset,
+                        "--no-eval"] + CLI_ARGS, capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="1"))
+    if r.returncode != 0:
+        fail(f"diskchungs run {dataset}: {r.stderr.strip()[-1500:]}")
+
+
+def score(cli, map_dir, bag_spec, out):
+    r = subprocess.run([cli, "render", "--map", map_dir, "--dataset", bag_spec, "--out", out, "--json"],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        fail(f"diskchungs render --map {map_dir}: {r.stderr.strip()[-1500:]}")
+    return json.loads(r.stdout)["mean_psnr"]
+
+
+def launch(ros, launch_file, out, settings, resume=False, extra=()):
+    log = open(out + (".resume" if resume else "") + ".log", "w")
+    p = subprocess.Popen(["roslaunch", "--wait", launch_file, f"out:={out}", f"settings:={settings}",
+                          f"resume:={'true' if resume else 'false'}"] + list(extra),
+                         env=ros.env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    return p, log
+
+
+def wait_service(service, process, log, seconds=120):
+    import rospy
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        if process.poll() is not None:
+            fail(f"roslaunch exited ({process.returncode}) before {service} appeared; log {log.name}: "
+                 f"{open(log.name).read()[-2000:]}")
+        try:
+            rospy.wait_for_service(service, timeout=1)
+            return
+        except rospy.ROSException:
+            pass
+    fail(f"{service} did not appear within {seconds} s; log {log.name}: {open(log.name).read()[-2000:]}")
+
+
+def wait_for(predicate, seconds, what):
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        if predicate():
+            return
+        time.sleep(0.2)
+    fail(f"timed out after {seconds} s waiting for {what}")
+
+
+def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, preset, extra=()):
+    import rospy
+    from sensor_msgs.msg import Image, PointCloud2
+    from std_msgs.msg import String
+    from std_srvs.srv import Trigger
+
+    settings = os.path.join(tmp, name + "_settings.yaml")
+    with open(settings, "w") as f:
+        json.dump(SETTINGS, f)  # JSON is YAML
+    out = os.path.join(tmp, name + "_node_map")
+    t0 = time.time()
+    node, log = launch(ros, launch_file, out, settings, extra=extra)
+    got = {"render": 0, "cloud_points": 0, "status": None}
+    subs = [rospy.Subscriber("/diskchungs/render", Image, lambda m: got.__setitem__("render", got["render"] + 1)),
+            rospy.Subscriber("/diskchungs/cloud", PointCloud2,
+                             lambda m: got.__setitem__("cloud_points", max(got["cloud_points"], m.width))),
+            rospy.Subscriber("/diskchungs/status", String, lambda m: got.__setitem__("status", json.loads(m.data)))]
+    wait_service("/diskchungs/export", node, log)
+    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", bag], env=ros.env,
+                          capture_output=True, text=True, timeout=300)
+    if play.returncode != 0:
+        fail(f"rosbag play: {play.stderr[-1000:]}")
+    wait_for(lambda: got["status"] and got["status"]["frames"] >= frames and got["status"]["queued"] == 0, 300,
+             f"{name}: the node to map all {frames} frames (status {got['status']})")
+    wait_for(lambda: got["render"] > 0 and got["cloud_points"] > 0, 60,
+             f"{name}: a render and a non-empty point cloud (got {got['render']} renders, "
+             f"{got['cloud_points']} points)")
+    ply = os.path.join(tmp, name + "_export.ply")
+    rospy.set_param("/diskchungs/export_path", ply)
+    res = rospy.ServiceProxy("/diskchungs/export", Trigger)()
+    if not res.success or not os.path.isfile(ply):
+        fail(f"{name}: export service: {res.message}")
+    with open(ply, "rb") as f:
+        head = f.read(400).decode("latin-1")
+    if not head.startswith("ply") or "element vertex 0\n" in head:
+        fail(f"{name}: {ply} is not a PLY with Gaussians: {head[:200]!r}")
+    # Shutdown as a robot's launch ends it: SIGINT to roslaunch, which passes it to the node.
+    os.killpg(node.pid, signal.SIGINT)
+    try:
+        node.wait(timeout=300)
+    except subprocess.TimeoutExpired:
+        fail(f"{name}: the node did not exit within 300 s of SIGINT")
+    for s in subs:
+        s.unregister()
+    text = open(log.name).read()
+    if "map committed" not in text or "has died" in text:
+        fail(f"{name}: the node did not exit cleanly; log {log.name}: {text[-2000:]}")
+    with open(os.path.join(out, "run_state.json")) as f:
+        state = json.load(f)
+    if not state.get("finished") or state.get("next_frame") != frames:
+        fail(f"{name}: run_state.json is {state}")
+    node_seconds = time.time() - t0
+
+    # The committed folder reopens: the node resumes on it and stops again cleanly.
+    again, log2 = launch(ros, launch_file, out, settings, resume=True, extra=extra)
+    wait_service("/diskchungs/stop", again, log2)
+    rospy.ServiceProxy("/diskchungs/stop", Trigger)()
+    try:
+        again.wait(timeout=120)
+    except subprocess.TimeoutExpired:
+        fail(f"{name}: the resumed node did not stop")
+    if "map committed" not in open(log2.name).read():
+        fail(f"{name}: the resumed node did not commit; log {log2.name}")
+
+    ref = os.path.join(tmp, name + "_cli_map")
+    cli_run(a.cli, direct, ref, frames, preset)
+    p_node = score(a.cli, out, bag_spec, os.path.join(tmp, name + "_r_node"))
+    p_cli = score(a.cli, ref, bag_spec, os.path.join(tmp, name + "_r_cli"))
+    print(f"{name}: node map {p_node:.4f} dB, `run --dataset {direct.split(':')[0]}:` map {p_cli:.4f} dB "
+          f"(difference {p_node - p_cli:+.4f} dB over the bag's {frames} frames); {got['render']} renders, "
+          f"cloud of {got['cloud_points']} points; node run {node_seconds:.1f} s")
+    if abs(p_node - p_cli) > a.tolerance:
+        fail(f"{name}: the node's map is {p_node - p_cli:+.4f} dB from the CLI's (tolerance {a.tolerance})")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--cli", required=True)
+    ap.add_argument("--to-bag", required=True)
+    ap.add_argument("--package-dir", required=True, help="folder with package.xml and diskchungs_node")
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--tolerance", type=float, default=0.5)
+    ap.add_argument("--keep", action="store_true")
+    a = ap.parse_args()
+    kitti = os.path.join(a.data, "kitti_seq1")
+    if not os.path.isdir(kitti):
+        print(f"SKIP: {kitti} is missing")
+        return 77
+    tmp = tempfile.mkdtemp(prefix="ros_node_test_")
+    ros = None
+    try:
+        ros = Ros(tmp, os.path.abspath(a.package_dir))
+        import rospy
+        rospy.init_node("diskchungs_test", anonymous=True, disable_signals=True)
+
+        bag = os.path.join(tmp, "kitti.bag")
+        subprocess.run([a.to_bag, "kitti:" + kitti, bag, "--max-frames", str(a.frames)], check=True,
+                       capture_output=True)
+        node_case(a, ros, tmp, "kitti_stereo", os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag,
+                  f"rosbag:{bag}?left=/stereo/left/image_rect&right=/stereo/right/image_rect", "kitti:" + kitti,
+                  a.frames, "outdoor")
+
+        room = os.path.join(tmp, "room")
+        subprocess.run([a.cli, "synth", "room", "--out", room, "--frames", "30", "--width", "320", "--height", "240"],
+                       check=True, capture_output=True)
+        room_bag = os.path.join(tmp, "room.bag")
+        subprocess.run([a.to_bag, "tum:" + room, room_bag], check=True, capture_output=True)
+        node_case(a, ros, tmp, "room_rgbd", os.path.join(ROOT, "ros/launch/rgbd.launch"), room_bag,
+                  f"rosbag:{room_bag}?color=/camera/color/image_raw&depth=/camera/depth/image_raw", "tum:" + room, 30,
+                  "indoor", extra=["depth:=/camera/depth/image_raw"])
+        print("PASS")
+        return 0
+    finally:
+        if ros:
+            ros.close()
+        if a.keep:
+            print(f"kept {tmp}")
+        else:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
