@@ -5,7 +5,17 @@
 # CHUNGS_SKIP_APT=1 to skip the package step (no root needed then), CHUNGS_SKIP_FUZZ=1 to skip the
 # fuzz targets' build (build-fuzz, with clang; ctest's fuzz_short runs them). The build runs `npm ci` in
 # $BUILD_DIR/web for the viewer page when node and npm are found (CHUNGS_WEB=AUTO|ON|OFF).
+# --ros (or CI=true) also installs Debian's ROS 1 packages (about 140 packages, 220 MB) for the rosbag:
+# dataset, the node (ros/) and their tests; the build finds them (CHUNGS_ROS=AUTO|ON|OFF).
 set -euo pipefail
+WITH_ROS=0
+for arg in "$@"; do
+  case "$arg" in
+    --ros) WITH_ROS=1 ;;
+    *) echo "setup.sh: unknown argument '$arg' (known: --ros)" >&2; exit 2 ;;
+  esac
+done
+[ "${CI:-}" = true ] && WITH_ROS=1
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
 
@@ -18,11 +28,18 @@ if [ "${CHUNGS_SKIP_APT:-0}" != 1 ]; then
   # The viewer page (web/) is built with the machine's Node.js and npm where it has them (npm ci from the
   # committed lockfile during the build); Debian's only where none is installed.
   command -v npm >/dev/null || $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+  if [ "$WITH_ROS" = 1 ]; then
+    # ROS 1 (ros_comm 1.15): C++ headers for the bag reader and the node; roscore, roslaunch, rosbag
+    # play and the python messages the ROS tests use (they run with Debian's /usr/bin/python3).
+    $SUDO apt-get install -y -qq --no-install-recommends librosbag-storage-dev libroscpp-dev libsensor-msgs-dev libgeometry-msgs-dev libnav-msgs-dev libtf2-ros-dev libtf2-msgs-dev libmessage-filters-dev libstd-srvs-dev python3-rosbag python3-roslaunch rosout python3-sensor-msgs python3-geometry-msgs python3-nav-msgs python3-tf2-msgs python3-std-srvs >/dev/null
+  fi
 fi
 
 jobs=$(nproc)
+ros=${CHUNGS_ROS:-AUTO}
+[ "$WITH_ROS" = 1 ] && ros=${CHUNGS_ROS:-ON}
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHUNGS_CUDA="${CHUNGS_CUDA:-AUTO}" \
-  -DCHUNGS_WEB="${CHUNGS_WEB:-AUTO}"
+  -DCHUNGS_WEB="${CHUNGS_WEB:-AUTO}" -DCHUNGS_ROS="$ros"
 cmake --build "$BUILD_DIR" -j "$jobs"
 if [ "${CHUNGS_SKIP_FUZZ:-0}" != 1 ] && command -v clang++ >/dev/null; then
   # Only the modules the targets link are compiled (fuzz/CMakeLists.txt).
