@@ -1,6 +1,7 @@
 // The optimisation on the host: CpuGaussianPool, CpuRasterizer, the CPU loss and sparse Adam.
 #pragma once
 #include "chungs/mapping/optim_backend.hpp"
+#include "chungs/mapping/step_phases.hpp"
 #include "chungs/render/cpu/rasterizer.hpp"
 
 namespace chungs {
@@ -18,6 +19,8 @@ class CpuOptimBackend final : public OptimBackend {
                               const SamplerConfig& sampler, const ImageF& image) override;
   void set_sky(const SkyTexture& sky, double lr) override;
   std::optional<SkyTexture> sky() const override { return sky_; }
+  void set_profiling(bool on) override { clock_.set_on(on); }
+  const StepPhaseTimes& phase_times() const override { return clock_.times(); }
 
  private:
   CpuGaussianPool pool_;
@@ -30,6 +33,7 @@ class CpuOptimBackend final : public OptimBackend {
   RenderOutput<float> composed_;   // rgb with the sky behind it (and the inverse depth), for the loss
   std::vector<float> sky_grad_;
   std::vector<SkyTap> sky_taps_;  // of the last step's camera, shared by its forward and backward
+  StepPhaseClock clock_;
 };
 
 }  // namespace chungs

@@ -304,6 +304,7 @@ uint64_t Mapper::new_gaussian_cap(const Image8& image) {
 
 StepStats Mapper::step() {
   if (keyframes_.empty()) fail("mapper: an optimisation step needs at least one keyframe");
+  const auto t0 = std::chrono::steady_clock::now();
   residency_->advance_checkpoint();
   // The keyframe after this one is drawn now and its chunks are read in the background while this
   // step runs, so the next pin finds them in host memory instead of waiting on the disk.
@@ -316,6 +317,7 @@ StepStats Mapper::step() {
     residency_->prefetch(ahead);
     keyframe_store_->prefetch(next->id);
   }
+  step_times_.pick_ms += ms_since(t0);
   return step_keyframe(keyframe);
 }
 
@@ -352,6 +354,7 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   const KeyframeRecord& kf = *found;
   std::vector<ChunkId> left_out;
   std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose, &left_out);
+  step_times_.cull_ms += ms_since(t0);
   // Outside the window: the resident part of the view, scored only where it explains the image.
   std::optional<Image8> pixel_mask;
   if (!whole_view && !selector_.in_window(kf.id)) {
@@ -374,8 +377,11 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
         [&](ChunkId c) { return !std::binary_search(left_out.begin(), left_out.end(), c); }, true);
     ++window_stats_.trimmed_steps;
   }
+  const auto tp = clock::now();
+  auto t2 = tp;
   const PinResult pr = residency_->pin(chunks, !pixel_mask);
   if (!pr.ok) fail("mapper: cannot make the chunks of keyframe ", kf.id, " resident: ", pr.message);
+  step_times_.pin_ms += ms_since(tp);
   try {
     slots_.clear();
     residency_->append_slots(chunks, slots_);
@@ -397,6 +403,7 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
         backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
                        config_.adam, prune ? &config_.prune : nullptr, to_prune_);
     step_times_.backend_ms += ms_since(t1);
+    t2 = clock::now();
     if (!std::isfinite(terms.total) && nonfinite_losses_++ == 0)
       log::warn("keyframe ", kf.id, ": a step's loss is not finite (", terms.total, ", L1 ", terms.l1, ", SSIM ",
                 terms.ssim, ", depth ", terms.depth, "): the render or the target holds a non-finite value");
@@ -434,6 +441,7 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   residency_->unpin(chunks);
   // A partial step's loss counts pixels it could not explain: not a measure of the keyframe.
   if (!pixel_mask) selector_.report_loss(kf.id, st.loss);
+  step_times_.bookkeeping_ms += ms_since(t2);
   ++step_times_.steps;
   step_times_.total_ms += ms_since(t0);
   return st;

@@ -94,11 +94,18 @@ class Mapper {
   uint64_t largest_view() const { return largest_view_; }  // Gaussians of the largest such view
   // Where the optimiser thread's step time went (sums; the backend's includes keyframe loads it
   // asked for, and on the GPU the wait for the device).
+  // chunks_ms = cull_ms + pin_ms + the slot list; pick_ms: drawing the next step's keyframe, culling
+  // its view and queueing its reads (step() only); bookkeeping_ms: after the backend (dirty marks,
+  // pruned slots back to their chunks, unpinning, the selector's loss).
   struct StepTimes {
     uint64_t steps = 0, keyframe_loads = 0;
     double total_ms = 0, chunks_ms = 0, keyframe_load_ms = 0, backend_ms = 0;
+    double pick_ms = 0, cull_ms = 0, pin_ms = 0, bookkeeping_ms = 0;
   };
   const StepTimes& step_times() const { return step_times_; }
+  // The backend's per-phase timings (optim_backend.hpp), for benchmarks: on costs a device wait a step.
+  void set_step_profiling(bool on) { backend_->set_profiling(on); }
+  const StepPhaseTimes& step_phase_times() const { return backend_->phase_times(); }
   // Where add_keyframe's time went (sums): the sampler's render and acceptance map, drawing the new
   // Gaussians, handing them to residency.
   struct KeyframeTimes {

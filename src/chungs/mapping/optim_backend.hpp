@@ -28,6 +28,21 @@ struct DeviceMemory {
   double used_mb = 0, total_mb = 0;  // whole device (cudaMemGetInfo), not only this process
 };
 
+// Where a backend's steps spent their time, summed over the steps taken while profiling was on
+// (milliseconds). host: wall time on the calling thread from one phase boundary to the next, which
+// on the GPU is launch work plus any wait for the device inside the phase. device: GPU time between
+// the same boundaries (CUDA events on the step's stream; zero on the CPU). Reading the events waits
+// for the device at the end of each step, so profiling is off unless a benchmark asks for it.
+struct StepPhaseTimes {
+  enum Phase { targets, upload, forward, loss, sky, backward, adam, prune, count };
+  static constexpr const char* names[count] = {"targets", "upload", "forward", "loss",
+                                               "sky",     "backward", "adam", "prune"};
+  uint64_t steps = 0;
+  double host_ms[count] = {}, device_ms[count] = {};
+  double host_total_ms = 0;    // the whole step() call
+  double device_span_ms = 0;   // first boundary to last on the device
+};
+
 class OptimBackend {
  public:
   virtual ~OptimBackend() = default;
@@ -55,6 +70,9 @@ class OptimBackend {
   virtual std::optional<SkyTexture> sky() const = 0;
   // Device memory now, on a GPU backend; none on the CPU.
   virtual std::optional<DeviceMemory> device_memory() const { return std::nullopt; }
+  // Phase timings of the steps taken while on (see StepPhaseTimes); switching on clears them.
+  virtual void set_profiling(bool on) = 0;
+  virtual const StepPhaseTimes& phase_times() const = 0;
 };
 
 // "auto" -> "cuda" when this build has the CUDA backend and a device is present, else "cpu".

@@ -372,10 +372,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   }
   report["iterations"] = mapper.iterations();
   if (const Mapper::StepTimes& t = mapper.step_times(); t.steps) {
-    // Per step, on the optimiser thread: culling and pinning its chunks, the backend's render, loss,
-    // backward and Adam (keyframe loads included), and the rest (dirty marks, pruning's bookkeeping).
+    // Per step, on the optimiser thread: drawing the next keyframe and reading its chunks ahead (pick,
+    // outside `mean`), culling and pinning its chunks, the backend's render, loss, backward and Adam
+    // (keyframe loads included), and the rest (dirty marks, pruning's bookkeeping).
     const double n = double(t.steps);
     report["step_ms"] = {{"mean", t.total_ms / n},
+                         {"pick", t.pick_ms / n},
+                         {"cull", t.cull_ms / n},
+                         {"pin", t.pin_ms / n},
                          {"chunks", t.chunks_ms / n},
                          {"backend", t.backend_ms / n},
                          {"keyframe_load", t.keyframe_load_ms / n},

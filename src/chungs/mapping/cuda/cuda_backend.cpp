@@ -19,11 +19,42 @@ CudaOptimBackend::CudaOptimBackend(size_t capacity, int sh_degree, const RasterC
                                    size_t target_cache_bytes)
     : pool_(capacity, sh_degree), raster_(raster), targets_(target_cache_bytes) {}
 
-const DeviceRenderOutput& CudaOptimBackend::forward(std::span<const uint32_t> slots,
-                                                    const RenderCamera<float>& camera) {
+void CudaOptimBackend::upload_slots(std::span<const uint32_t> slots) {
   ids_.upload(slots.data(), slots.size());
   pool_.wait_uploads();  // chunks scattered by Residency since the last render
+}
+
+const DeviceRenderOutput& CudaOptimBackend::forward(std::span<const uint32_t> slots,
+                                                    const RenderCamera<float>& camera) {
+  upload_slots(slots);
   return raster_.forward(params_of(pool_.device_arrays(), 0), ids_.data(), slots.size(), camera);
+}
+
+void CudaOptimBackend::set_profiling(bool on) {
+  clock_.set_on(on);
+  if (on && !events_) events_ = std::make_unique<BoundaryEvents>(int(StepPhaseTimes::count) + 1);
+}
+
+void CudaOptimBackend::begin_phases() {
+  if (!clock_.on()) return;
+  clock_.begin();
+  marked_.clear();
+  events_->record(0);
+}
+
+void CudaOptimBackend::mark(StepPhaseTimes::Phase phase) {
+  if (!clock_.on()) return;
+  clock_.mark(phase);
+  marked_.push_back(phase);
+  events_->record(int(marked_.size()));
+}
+
+void CudaOptimBackend::end_phases() {
+  if (!clock_.on()) return;
+  StepPhaseTimes& t = clock_.times();
+  for (size_t i = 0; i < marked_.size(); ++i) t.device_ms[marked_[i]] += events_->elapsed_ms(int(i), int(i) + 1);
+  if (!marked_.empty()) t.device_span_ms += events_->elapsed_ms(0, int(marked_.size()));
+  clock_.end();
 }
 
 RenderOutput<float> CudaOptimBackend::render(std::span<const uint32_t> slots,
@@ -69,13 +100,13 @@ ImageF CudaOptimBackend::sampling_probability(std::span<const uint32_t> slots, c
 LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                                  const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
+  using P = StepPhaseTimes;
+  begin_phases();
   to_prune.clear();
   const DeviceTargets t = targets_.expand(targets, target_rgb_, target_inv_, mask_);
   const bool depth = t.depth;
-  const DeviceRenderOutput& out = forward(slots, camera);
-  if (out.width != t.width || out.height != t.height)
-    fail("cuda mapping step: target ", t.width, "x", t.height, " does not match the ", out.width, "x", out.height,
-         " render");
+  mark(P::targets);
+  upload_slots(slots);
   if (targets.pixel_mask) {
     if (targets.pixel_mask->width() != t.width || targets.pixel_mask->height() != t.height ||
         targets.pixel_mask->channels() != 1)
@@ -83,6 +114,13 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
            " does not match the ", t.width, "x", t.height, " target");
     pixel_mask_.upload(targets.pixel_mask->data(), targets.pixel_mask->pixels());
   }
+  mark(P::upload);
+  const DeviceRenderOutput& out =
+      raster_.forward(params_of(pool_.device_arrays(), 0), ids_.data(), slots.size(), camera);
+  mark(P::forward);
+  if (out.width != t.width || out.height != t.height)
+    fail("cuda mapping step: target ", t.width, "x", t.height, " does not match the ", out.width, "x", out.height,
+         " render");
   const bool sky = !sky_.empty();
   DeviceRenderOutput scored = out;
   if (sky) scored.rgb = sky_.compose(out, camera);
@@ -90,34 +128,31 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
                                          depth ? mask_.data() : nullptr, sky || !slots.empty(),
                                          targets.pixel_mask ? pixel_mask_.data() : nullptr);
   DeviceRenderGrads grads = loss_.grads();
+  mark(P::loss);
   if (sky) {
     // The alpha gradient the sky adds reaches the Gaussians through the rasterizer's backward.
     grads.alpha = sky_.backward(grads.rgb, out, camera);
     sky_.adam_step(sky_lr_);
+    mark(P::sky);
   }
-  if (slots.empty()) return terms;
+  if (slots.empty()) {
+    end_phases();
+    return terms;
+  }
   const DeviceGaussianGrads& g = raster_.backward(grads);
+  mark(P::backward);
   const PoolDeviceArrays& d = pool_.device_arrays();
   const AdamState state{params_of(d, 1), params_of(d, 2), d.adam_steps, d.lr_position_factor, d.capacity};
-  sparse_adam_step(adam, params_of(d, 0), state, ids_.data(), out.visible, slots.size(), g);
+  // The forward above refused out-of-range slots of this same list: Adam need not wait to check.
+  sparse_adam_step(adam, params_of(d, 0), state, ids_.data(), out.visible, slots.size(), g, /*ids_checked=*/true);
+  mark(P::adam);
   if (prune) {
-    // The rule reads only opacities (whole array: one copy), the screen radii of this render and, when
-    // it waits for young Gaussians, the visit counts.
-    opacity_.resize(d.capacity);
-    copy_to_host(opacity_.data(), d.opacity[0], d.capacity * sizeof(float), "pruning opacities");
-    radius_.resize(slots.size());
-    copy_to_host(radius_.data(), out.radius, slots.size() * sizeof(float), "pruning radii");
-    // select_for_pruning checks every pointer of the view; the other arrays are never read.
-    const float* o = opacity_.data();
-    const GaussianArrays<float> view{o, o, o, o, o, d.capacity};
-    std::span<const uint32_t> visits;
-    if (prune->min_visits > 0) {
-      visits_.resize(d.capacity);
-      copy_to_host(visits_.data(), d.adam_steps, d.capacity * sizeof(uint32_t), "pruning visit counts");
-      visits = visits_;
-    }
-    to_prune = select_for_pruning(*prune, view, slots, radius_, camera.width, visits);
+    // On the device: only the selected slots come back (cuda/prune.hpp).
+    pruner_.select(*prune, d.opacity[0], d.capacity, ids_.data(), slots.size(), out.radius, camera.width,
+                   prune->min_visits > 0 ? d.adam_steps : nullptr, to_prune);
+    mark(P::prune);
   }
+  end_phases();
   return terms;
 }
 

@@ -1,13 +1,15 @@
 // The optimisation on the GPU: CudaGaussianPool (VRAM slots; Residency loads and evicts chunks through
 // its host<->device copies), CudaRasterizer, the fused CUDA loss and fused sparse Adam. Per step only
-// the slot list goes up (keyframe images stay in DeviceTargetCache), and only the loss sums come back (plus the screen radii and
-// opacities on pruning steps); render() downloads the images for the evaluation; the sampler's map is computed on the device.
+// the slot list goes up (keyframe images stay in DeviceTargetCache), and only the loss sums come back (plus
+// the selected slots on pruning steps); render() downloads the images for the evaluation; the sampler's map is computed on the device.
 // Built only with CHUNGS_WITH_CUDA; no CUDA headers here.
 #pragma once
 #include "chungs/mapping/cuda/log_probability.hpp"
 #include "chungs/mapping/cuda/target_cache.hpp"
 #include "chungs/mapping/optim_backend.hpp"
+#include "chungs/mapping/step_phases.hpp"
 #include "chungs/optim/cuda/loss.hpp"
+#include "chungs/optim/cuda/prune.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
 #include "chungs/render/cuda/rasterizer.hpp"
 #include "chungs/render/cuda/sky.hpp"
@@ -29,9 +31,16 @@ class CudaOptimBackend final : public OptimBackend {
   std::optional<DeviceMemory> device_memory() const override;
   void set_sky(const SkyTexture& sky, double lr) override;
   std::optional<SkyTexture> sky() const override;
+  void set_profiling(bool on) override;
+  const StepPhaseTimes& phase_times() const override { return clock_.times(); }
 
  private:
   const DeviceRenderOutput& forward(std::span<const uint32_t> slots, const RenderCamera<float>& camera);
+  void upload_slots(std::span<const uint32_t> slots);
+  // Phase boundaries while profiling: host clock and a device event each (see StepPhaseTimes).
+  void begin_phases();
+  void mark(StepPhaseTimes::Phase phase);
+  void end_phases();
 
   CudaGaussianPool pool_;
   CudaRasterizer raster_;
@@ -43,8 +52,10 @@ class CudaOptimBackend final : public OptimBackend {
   DeviceArray<uint32_t> ids_;
   DeviceArray<float> target_rgb_, target_inv_, probability_;
   DeviceArray<uint8_t> mask_, pixel_mask_;
-  std::vector<float> opacity_, radius_;  // host copies for the pruning rule
-  std::vector<uint32_t> visits_;         // ... and the visit counts when it waits for them
+  CudaPruneSelector pruner_;
+  StepPhaseClock clock_;
+  std::unique_ptr<BoundaryEvents> events_;  // while profiling
+  std::vector<StepPhaseTimes::Phase> marked_;  // phase ended at each recorded boundary after the first
 };
 
 }  // namespace chungs::cuda

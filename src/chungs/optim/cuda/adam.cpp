@@ -11,7 +11,7 @@ namespace chungs::cuda {
 
 void sparse_adam_step(const AdamConfig& cfg, const GaussianArraysMut<float>& params, const AdamState& state,
                       const uint32_t* ids, const uint8_t* visible, size_t n,
-                      const DeviceGaussianGrads& grads) {
+                      const DeviceGaussianGrads& grads, bool ids_checked) {
   cfg.validate();
   if (grads.count != n) fail("CUDA sparse Adam: ", n, " indices but ", grads.count, " gradients");
   if (n == 0) return;
@@ -36,7 +36,7 @@ void sparse_adam_step(const AdamConfig& cfg, const GaussianArraysMut<float>& par
                        cfg.lr_sh_dc,
                        cfg.position_decay,
                        cfg.position_lr_floor};
-  const uint32_t bad = detail::launch_sparse_adam(a);
+  const uint32_t bad = detail::launch_sparse_adam(a, !ids_checked);
   if (bad != 0xFFFFFFFFu)
     fail("CUDA sparse Adam: index ", bad, " is at or above the ", a.capacity,
          " slots of the parameters/state");

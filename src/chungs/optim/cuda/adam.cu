@@ -17,7 +17,7 @@ __global__ void adam_kernel(AdamLaunch a, uint32_t* __restrict__ bad) {
   if (j >= a.n || !a.visible[j]) return;  // warp-uniform
   const uint32_t s = a.ids[j];
   if (s >= a.capacity) {
-    if (lane == 0) atomicMin(bad, j);
+    if (lane == 0 && bad) atomicMin(bad, j);
     return;
   }
   const uint32_t t = a.steps[s] + 1;
@@ -56,15 +56,15 @@ void check(cudaError_t e, const char* what) {
 
 }  // namespace
 
-uint32_t launch_sparse_adam(const AdamLaunch& a) {
+uint32_t launch_sparse_adam(const AdamLaunch& a, bool check_ids) {
   // The out-of-range flag; one per thread so concurrent optimisers do not share it.
   thread_local DeviceArray<uint32_t> flag(1);
   uint32_t host_bad = 0xFFFFFFFFu;
-  check(cudaMemsetAsync(flag.data(), 0xFF, sizeof(uint32_t)), "memset");
+  if (check_ids) check(cudaMemsetAsync(flag.data(), 0xFF, sizeof(uint32_t)), "memset");
   const unsigned threads = 256, blocks = unsigned((size_t(a.n) * 32 + threads - 1) / threads);
-  adam_kernel<<<blocks, threads>>>(a, flag.data());
+  adam_kernel<<<blocks, threads>>>(a, check_ids ? flag.data() : nullptr);
   check(cudaGetLastError(), "launch");
-  check(cudaMemcpy(&host_bad, flag.data(), sizeof host_bad, cudaMemcpyDeviceToHost), "step");
+  if (check_ids) check(cudaMemcpy(&host_bad, flag.data(), sizeof host_bad, cudaMemcpyDeviceToHost), "step");
   return host_bad;
 }
 

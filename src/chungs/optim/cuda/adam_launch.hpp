@@ -23,8 +23,8 @@ struct AdamLaunch {
   float lr_sh_dc, decay, floor;
 };
 
-// Runs the step and waits for it; returns the smallest j whose slot is out of range (those are
-// skipped), or 0xFFFFFFFF. Throws Error on a CUDA failure.
-uint32_t launch_sparse_adam(const AdamLaunch& a);
+// Runs the step; with check, waits for it and returns the smallest j whose slot is out of range (those
+// are skipped), else launches only and returns 0xFFFFFFFF. Throws Error on a CUDA failure.
+uint32_t launch_sparse_adam(const AdamLaunch& a, bool check = true);
 
 }  // namespace chungs::cuda::detail

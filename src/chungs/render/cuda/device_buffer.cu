@@ -87,4 +87,29 @@ double EventTimer::stop_ms() {
   return ms;
 }
 
+BoundaryEvents::BoundaryEvents(int count) {
+  for (int i = 0; i < count; ++i) {
+    cudaEvent_t e;
+    check(cudaEventCreate(&e), "cudaEventCreate", "phase boundaries", 0);
+    events_.push_back(e);
+  }
+}
+
+BoundaryEvents::~BoundaryEvents() {
+  for (void* e : events_) cudaEventDestroy(static_cast<cudaEvent_t>(e));
+}
+
+void BoundaryEvents::record(int i) {
+  check(cudaEventRecord(static_cast<cudaEvent_t>(events_.at(size_t(i)))), "event record", "phase boundary", 0);
+}
+
+double BoundaryEvents::elapsed_ms(int a, int b) {
+  auto eb = static_cast<cudaEvent_t>(events_.at(size_t(b)));
+  check(cudaEventSynchronize(eb), "event synchronize", "phase boundary", 0);
+  float ms = 0;
+  check(cudaEventElapsedTime(&ms, static_cast<cudaEvent_t>(events_.at(size_t(a))), eb), "event elapsed",
+        "phase boundary", 0);
+  return ms;
+}
+
 }  // namespace chungs::cuda

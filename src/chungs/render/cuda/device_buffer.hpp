@@ -53,6 +53,22 @@ class EventTimer {
   void* end_ = nullptr;
 };
 
+// CUDA events at numbered boundaries on the default stream (a step's phases): record(i) marks
+// boundary i after the work launched so far; elapsed_ms(a, b) waits for boundary b.
+class BoundaryEvents {
+ public:
+  explicit BoundaryEvents(int count);
+  ~BoundaryEvents();
+  BoundaryEvents(const BoundaryEvents&) = delete;
+  BoundaryEvents& operator=(const BoundaryEvents&) = delete;
+  int count() const { return int(events_.size()); }
+  void record(int i);
+  double elapsed_ms(int a, int b);
+
+ private:
+  std::vector<void*> events_;
+};
+
 // A typed array of `size()` elements in device memory.
 template <typename T>
 class DeviceArray {

@@ -1,0 +1,223 @@
+// The mapper's real step loop on a realistic map, phase by phase (issue 22): a synthetic street at
+// KITTI's size (1241x376, outdoor settings as `run` picks them for synth-street, rendered depth) is
+// mapped keyframe by keyframe, with a few steps after each, until the steps render about `--visible`
+// Gaussians; then `--steps` steps are timed twice: plain (the figure that counts: nothing waits for
+// the device but what the step itself waits for) and profiled (each phase bounded by a CUDA event,
+// so the device is waited for at the end of every step).
+//
+//   bench_step_loop [--visible 200000] [--steps 500] [--device auto|cpu|cuda] [--width W --height H]
+//                   [--density F] [--json FILE] [--folder DIR] [--map MAP]
+//
+// --map: instead of growing a street, steps on a copy of a map folder that `diskchungs run` made with
+// the outdoor preset (e.g. of ../shared/data/kitti_seq1), resumed as `run --resume` would.
+//
+// Phases: pick (next keyframe drawn, its view culled, its chunks read ahead), cull, pin, then the
+// backend's targets, upload (slot list, pending chunk copies), forward, loss, sky, backward, adam,
+// prune, then bookkeeping. "GPU idle" is the share of the step's wall time in which the device had no
+// phase of the step to run: wall minus the device span of the backend's phases.
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
+#include "chungs/config/config.hpp"
+#include "chungs/mapping/mapper.hpp"
+#include "chungs/synth/street_dataset.hpp"
+
+using namespace chungs;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Options {
+  size_t visible = 200000;
+  int steps = 500, width = 1241, height = 376;
+  double density = 0;  // 0: the sampler's default
+  std::string device = "auto", json, folder, map;
+};
+
+double number(const char* flag, const char* text) {
+  char* end = nullptr;
+  const double v = std::strtod(text, &end);
+  if (!end || *end || !(v > 0)) fail(flag, " needs a positive number, got '", text, "'");
+  return v;
+}
+
+Options parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (i + 1 >= argc) fail("bench_step_loop: ", a, " needs a value (or is unknown)");
+    const char* v = argv[++i];
+    if (a == "--visible") o.visible = size_t(number("--visible", v));
+    else if (a == "--steps") o.steps = int(number("--steps", v));
+    else if (a == "--width") o.width = int(number("--width", v));
+    else if (a == "--height") o.height = int(number("--height", v));
+    else if (a == "--density") o.density = number("--density", v);
+    else if (a == "--device") o.device = v;
+    else if (a == "--json") o.json = v;
+    else if (a == "--folder") o.folder = v;
+    else if (a == "--map") o.map = v;
+    else fail("bench_step_loop: unknown flag ", a);
+  }
+  return o;
+}
+
+// `run`'s outdoor preset (apps/diskchungs/presets.cpp), which it picks for synth-street.
+Config outdoor(const Options& o) {
+  Config c;
+  c.loss = LossConfig::kitti();
+  c.adam.lr_position = AdamConfig::kitti().lr_position;
+  c.sampler.fill_depth = 80.0;
+  c.sky.enabled = true;
+  c.mapper.device = o.device;
+  // The map is grown to the wanted size here, not paced: no cap on what a keyframe adds.
+  c.sampler.new_per_step = 0;
+  if (o.density > 0) c.sampler.density = o.density;
+  c.residency.budget_gaussians = std::max<size_t>(c.residency.budget_gaussians, 2 * o.visible);
+  return c;
+}
+
+struct Timed {
+  double wall_ms = 0;
+  double rendered = 0;  // mean Gaussians a step rendered
+  Mapper::StepTimes mapper;
+  StepPhaseTimes backend;
+};
+
+Timed time_steps(Mapper& m, int steps, bool profile) {
+  m.set_step_profiling(profile);
+  const Mapper::StepTimes before = m.step_times();
+  const auto t0 = std::chrono::steady_clock::now();
+  double rendered = 0;
+  for (int i = 0; i < steps; ++i) rendered += double(m.step().rendered);
+  Timed t;
+  t.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  t.rendered = rendered / steps;
+  const Mapper::StepTimes& a = m.step_times();
+  t.mapper = a;
+  t.mapper.steps -= before.steps;
+  t.mapper.total_ms -= before.total_ms, t.mapper.chunks_ms -= before.chunks_ms;
+  t.mapper.backend_ms -= before.backend_ms, t.mapper.pick_ms -= before.pick_ms;
+  t.mapper.cull_ms -= before.cull_ms, t.mapper.pin_ms -= before.pin_ms;
+  t.mapper.bookkeeping_ms -= before.bookkeeping_ms, t.mapper.keyframe_load_ms -= before.keyframe_load_ms;
+  t.backend = m.step_phase_times();
+  m.set_step_profiling(false);
+  return t;
+}
+
+nlohmann::json report(const Timed& t, int steps) {
+  const double n = steps;
+  nlohmann::json j = {{"ms_per_step", t.wall_ms / n},
+                      {"steps_per_s", 1000.0 * n / t.wall_ms},
+                      {"rendered_mean", t.rendered},
+                      {"pick", t.mapper.pick_ms / n},
+                      {"cull", t.mapper.cull_ms / n},
+                      {"pin", t.mapper.pin_ms / n},
+                      {"backend", t.mapper.backend_ms / n},
+                      {"keyframe_load", t.mapper.keyframe_load_ms / n},
+                      {"bookkeeping", t.mapper.bookkeeping_ms / n}};
+  if (t.backend.steps) {
+    const double b = double(t.backend.steps);
+    nlohmann::json host, device;
+    for (int p = 0; p < StepPhaseTimes::count; ++p) {
+      host[StepPhaseTimes::names[p]] = t.backend.host_ms[p] / b;
+      device[StepPhaseTimes::names[p]] = t.backend.device_ms[p] / b;
+    }
+    j["backend_host"] = host;
+    j["backend_device"] = device;
+    j["device_span"] = t.backend.device_span_ms / b;
+    if (t.backend.device_span_ms > 0) j["gpu_idle_share"] = 1.0 - t.backend.device_span_ms / t.wall_ms;
+  }
+  return j;
+}
+
+void print(const char* title, const nlohmann::json& j) {
+  std::printf("%s: %.3f ms per step (%.0f steps/s), %.0f Gaussians rendered per step\n", title,
+              j["ms_per_step"].get<double>(), j["steps_per_s"].get<double>(), j["rendered_mean"].get<double>());
+  std::printf("  mapper   pick %.3f  cull %.3f  pin %.3f  backend %.3f  bookkeeping %.3f ms\n", j["pick"].get<double>(),
+              j["cull"].get<double>(), j["pin"].get<double>(), j["backend"].get<double>(),
+              j["bookkeeping"].get<double>());
+  if (!j.contains("backend_host")) return;
+  std::printf("  %-10s %10s %10s\n", "phase", "host ms", "device ms");
+  for (int p = 0; p < StepPhaseTimes::count; ++p)
+    std::printf("  %-10s %10.3f %10.3f\n", StepPhaseTimes::names[p], j["backend_host"][StepPhaseTimes::names[p]].get<double>(),
+                j["backend_device"][StepPhaseTimes::names[p]].get<double>());
+  if (j.contains("gpu_idle_share"))
+    std::printf("  device span %.3f ms, GPU idle %.1f %% of the step\n", j["device_span"].get<double>(),
+                100.0 * j["gpu_idle_share"].get<double>());
+}
+
+int run(const Options& o) {
+  log::set_level(log::Level::Warn);
+  const fs::path folder = o.folder.empty() ? fs::temp_directory_path() / "bench_step_loop" : fs::path(o.folder);
+  fs::remove_all(folder);
+  synth::StreetDatasetOptions so;
+  so.street.length_m = 1000;
+  so.width = o.width, so.height = o.height;
+  so.depth = true;
+  const synth::StreetDataset ds(so);
+  if (!o.map.empty()) {
+    if (!fs::is_directory(o.map)) fail("--map: no map folder at ", o.map);
+    fs::copy(o.map, folder, fs::copy_options::recursive);  // the user's folder is never written
+  }
+  Mapper m(folder, outdoor(o), !o.map.empty());
+  if (o.map.empty())
+    std::printf("device %s, %dx%d, growing the map to ~%zu Gaussians per step\n", m.device().c_str(), o.width,
+                o.height, o.visible);
+  else
+    std::printf("device %s, the map of %s\n", m.device().c_str(), o.map.c_str());
+  // Keyframes every frame (about 1 m apart) with 10 steps each, until the steps render enough.
+  double recent = 0;
+  size_t frames = 0;
+  for (size_t i = 0; o.map.empty() && i < ds.size() && recent < double(o.visible); ++i, ++frames) {
+    const Frame f = ds.frame(i);
+    m.add_keyframe(i, f.timestamp, f.left, f.depth, f.camera, *f.gt_pose);
+    double sum = 0;
+    for (int s = 0; s < 10; ++s) sum += double(m.step().rendered);
+    recent = 0.7 * recent + 0.3 * (sum / 10);
+    if (frames % 20 == 0)
+      std::printf("  keyframe %zu: map %llu Gaussians, ~%.0f rendered per step\n", frames,
+                  (unsigned long long)m.total_gaussians(), recent);
+  }
+  if (o.map.empty() && recent < 0.8 * double(o.visible))
+    std::printf("note: the map stopped at ~%.0f Gaussians per step (raise --density)\n", recent);
+  std::printf("map: %zu keyframes, %llu Gaussians, %zu chunks\n", m.keyframes().size(),
+              (unsigned long long)m.total_gaussians(), m.chunk_count());
+  time_steps(m, std::min(o.steps, 100), false);  // warm-up: buffers at their size, caches filled
+  const nlohmann::json plain = report(time_steps(m, o.steps, false), o.steps);
+  const nlohmann::json profiled = report(time_steps(m, o.steps, true), o.steps);
+  print("plain", plain);
+  print("profiled", profiled);
+  if (!o.json.empty()) {
+    nlohmann::json out = {{"device", m.device()},
+                          {"width", o.width},
+                          {"height", o.height},
+                          {"target_visible", o.visible},
+                          {"keyframes", m.keyframes().size()},
+                          {"map_gaussians", m.total_gaussians()},
+                          {"plain", plain},
+                          {"profiled", profiled}};
+    std::ofstream(o.json) << out.dump(1) << "\n";
+  }
+  m.checkpoint({});  // a folder the mapper can close cleanly (it rolls back to the last checkpoint)
+  fs::remove_all(folder);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(parse(argc, argv));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_step_loop: %s\n", e.what());
+    return 1;
+  }
+}
