@@ -1,5 +1,6 @@
 // BagWriter: images, camera_info and tf into a bag, through the rosbag C++ API.
 #include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/exceptions.h>
 #include <tf2_msgs/TFMessage.h>
@@ -55,6 +56,23 @@ void BagWriter::transform(double stamp, const std::string& parent, const std::st
   tf2_msgs::TFMessage msg;
   msg.transforms.push_back(t);
   impl_->bag.write(is_static ? "/tf_static" : "/tf", t.header.stamp, msg);
+}
+
+void BagWriter::odometry(const std::string& topic, double stamp, const std::string& parent,
+                         const std::string& child, const Pose& pose) {
+  nav_msgs::Odometry msg;
+  msg.header.stamp = ros::Time(stamp);
+  msg.header.frame_id = parent;
+  msg.child_frame_id = child;
+  auto& p = msg.pose.pose;
+  p.position.x = pose.t[0];
+  p.position.y = pose.t[1];
+  p.position.z = pose.t[2];
+  p.orientation.x = pose.q[0];
+  p.orientation.y = pose.q[1];
+  p.orientation.z = pose.q[2];
+  p.orientation.w = pose.q[3];
+  impl_->bag.write(topic, msg.header.stamp, msg);
 }
 
 void BagWriter::close() { impl_->bag.close(); }

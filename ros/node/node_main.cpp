@@ -49,9 +49,10 @@ bool rectified(const sensor_msgs::CameraInfo& info) {
 class Node {
  public:
   Node() : pnh_("~"), side_("~"), listener_(tf_) {
-    // Services and timers (renders, exports, clouds: slow) run on their own queue and thread; the
-    // image callbacks stay on the global queue, one at a time and in order.
+    // Services, timers (renders, exports, clouds: slow) and pose topics run on their own queue and
+    // thread; the image callbacks stay on the global queue, one at a time and in order.
     side_.setCallbackQueue(&side_queue_);
+    side_public_.setCallbackQueue(&side_queue_);
     std::string out;
     if (!pnh_.getParam("out", out) || out.empty()) fail("~out (the map folder) is required");
     pnh_.param<std::string>("mode", mode_, "stereo");
@@ -67,7 +68,7 @@ class Node {
     s.config_yaml = settings_yaml(pnh_);
     s.source = "ros:" + ros::this_node::getName();
     mapper_ = std::make_unique<live::LiveMapper>(s);
-    poses_ = std::make_unique<PoseSource>(nh_, pnh_, tf_);
+    poses_ = std::make_unique<PoseSource>(side_public_, pnh_, tf_);
 
     pnh_.param<std::string>("export_path", export_path_, out + ".ply");
     pnh_.param("cloud_radius", cloud_radius_, 30.0);
@@ -300,7 +301,7 @@ class Node {
   }
 
   ros::CallbackQueue side_queue_;
-  ros::NodeHandle nh_, pnh_, side_;
+  ros::NodeHandle nh_, pnh_, side_, side_public_;
   tf2_ros::Buffer tf_;
   tf2_ros::TransformListener listener_;
   std::string mode_, export_path_;

@@ -4,6 +4,8 @@
 #include <tf2/LinearMath/Transform.h>
 #include <tf2/exceptions.h>
 
+#include <chrono>
+
 #include "chungs/common/error.hpp"
 
 namespace chungs::ros_node {
@@ -57,11 +59,14 @@ void PoseSource::add(const std_msgs::Header& header, const geometry_msgs::Pose& 
                       world_.c_str());
     return;
   }
-  std::lock_guard lock(mutex_);
-  const double t = header.stamp.toSec();
-  if (!poses_.empty() && t <= poses_.back().first) return;
-  poses_.emplace_back(t, from_msg(pose));
-  while (poses_.size() > 10000) poses_.pop_front();
+  {
+    std::lock_guard lock(mutex_);
+    const double t = header.stamp.toSec();
+    if (!poses_.empty() && t <= poses_.back().first) return;
+    poses_.emplace_back(t, from_msg(pose));
+    while (poses_.size() > 10000) poses_.pop_front();
+  }
+  arrived_.notify_all();
 }
 
 std::optional<rosbag_io::Pose> PoseSource::at(const ros::Time& stamp, const std::string& image_frame) {
@@ -76,27 +81,33 @@ std::optional<rosbag_io::Pose> PoseSource::at(const ros::Time& stamp, const std:
     std::string body;
     rosbag_io::Pose world_body;
     {
-      std::lock_guard lock(mutex_);
-      body = body_frame_;
+      std::unique_lock lock(mutex_);
       const double t = stamp.toSec();
+      // The image may come before the pose of its stamp (another topic): wait for it a little.
+      arrived_.wait_for(lock, std::chrono::duration<double>(tf_timeout_),
+                        [&] { return !poses_.empty() && poses_.back().first >= t; });
+      body = body_frame_;
       auto after = std::lower_bound(poses_.begin(), poses_.end(), t,
                                     [](const auto& p, double v) { return p.first < v; });
-      if (after == poses_.end() || after == poses_.begin()) {
+      if (after != poses_.end() && after->first == t) {
+        world_body = after->second;
+      } else if (after == poses_.end() || after == poses_.begin()) {
         ROS_WARN_THROTTLE(5, "no %s message around image stamp %.3f", mode_.c_str(), t);
         return std::nullopt;
+      } else {
+        const auto& b = *after;
+        const auto& a = *std::prev(after);
+        if (t - a.first > max_dt_ || b.first - t > max_dt_) {
+          ROS_WARN_THROTTLE(5, "%s messages around image stamp %.3f are more than ~pose_max_dt apart",
+                            mode_.c_str(), t);
+          return std::nullopt;
+        }
+        // Between two robot poses: position linearly, rotation by slerp.
+        const double w = (t - a.first) / (b.first - a.first);
+        const tf2::Transform ta = to_tf(a.second), tb = to_tf(b.second);
+        world_body = from_tf(tf2::Transform(ta.getRotation().slerp(tb.getRotation(), w),
+                                            ta.getOrigin().lerp(tb.getOrigin(), w)));
       }
-      const auto& b = *after;
-      const auto& a = *std::prev(after);
-      if (t - a.first > max_dt_ || b.first - t > max_dt_) {
-        ROS_WARN_THROTTLE(5, "%s messages around image stamp %.3f are more than ~pose_max_dt apart",
-                          mode_.c_str(), t);
-        return std::nullopt;
-      }
-      // Between two robot poses: position linearly, rotation by slerp.
-      const double w = b.first > a.first ? (t - a.first) / (b.first - a.first) : 0;
-      const tf2::Transform ta = to_tf(a.second), tb = to_tf(b.second);
-      tf2::Transform ti(ta.getRotation().slerp(tb.getRotation(), w), ta.getOrigin().lerp(tb.getOrigin(), w));
-      world_body = from_tf(ti);
     }
     // The camera's mount on the robot is static: the latest transform serves.
     auto mount = tf_.lookupTransform(body, camera, ros::Time(0), ros::Duration(tf_timeout_));

@@ -7,6 +7,7 @@
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 
+#include <condition_variable>
 #include <deque>
 #include <mutex>
 #include <optional>
@@ -18,8 +19,9 @@ namespace chungs::ros_node {
 
 class PoseSource {
  public:
-  // Reads ~pose_source (tf | pose | odometry), ~world_frame, ~camera_frame, ~pose_topic, ~pose_max_dt,
-  // ~tf_timeout.
+  // Reads ~pose_source (tf | pose | odometry), ~world_frame, ~camera_frame, ~body_frame, ~pose_max_dt,
+  // ~tf_timeout. `nh` subscribes the pose topic: give it a callback queue other than the images', so
+  // that an image may wait for the pose message of its own stamp.
   PoseSource(ros::NodeHandle& nh, ros::NodeHandle& pnh, tf2_ros::Buffer& tf);
   // Camera-to-world of `camera_frame` (the image's frame_id unless ~camera_frame is set) at `stamp`;
   // none (with a throttled warning saying why) when it is not known.
@@ -34,6 +36,7 @@ class PoseSource {
   double max_dt_ = 0.1, tf_timeout_ = 0.2;
   ros::Subscriber sub_;
   std::mutex mutex_;
+  std::condition_variable arrived_;
   std::string body_frame_;
   std::deque<std::pair<double, rosbag_io::Pose>> poses_;  // body-to-world, by stamp
 };

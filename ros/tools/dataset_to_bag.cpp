@@ -3,7 +3,8 @@
 // against the same frames read directly: stereo pairs (or colour + registered depth) with
 // camera_info, and the ground truth as tf: world -> base_link per frame, with the cameras' optical
 // frames on a static, deliberately non-trivial mount (x forward body, z forward optical), so a
-// reader has to chain transforms to get the camera's pose right.
+// reader has to chain transforms to get the camera's pose right. The body's pose is also written as a
+// nav_msgs/Odometry topic (/odometry) for the node's odometry pose source.
 #include <cstdlib>
 #include <iostream>
 #include <string>
@@ -88,7 +89,12 @@ int convert(int argc, char** argv) {
   for (size_t i = 0; i < n; ++i) {
     Frame f = dataset->frame(i);
     const double t = offset + f.timestamp;
-    if (f.gt_pose) bag.transform(t, "world", "base_link", to_pose(*f.gt_pose * mount.inverse()), false);
+    if (f.gt_pose) {
+      // The body's pose twice, as robots publish it: tf, and an Odometry topic.
+      const rb::Pose body = to_pose(*f.gt_pose * mount.inverse());
+      bag.transform(t, "world", "base_link", body, false);
+      bag.odometry("/odometry", t, "world", "base_link", body);
+    }
     bag.camera_info(left_info, t, camera_info(f.camera, 0, left_frame));
     bag.image(left_topic, t, left_frame, picture(f.left));
     if (f.right) {

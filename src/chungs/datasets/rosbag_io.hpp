@@ -84,6 +84,9 @@ class BagWriter {
   // One transform parent <- child (child-to-parent); static ones go to /tf_static.
   void transform(double stamp, const std::string& parent, const std::string& child, const Pose& pose,
                  bool is_static);
+  // nav_msgs/Odometry: `child`'s pose in `parent` (no twist), as a robot's localisation publishes it.
+  void odometry(const std::string& topic, double stamp, const std::string& parent, const std::string& child,
+                const Pose& pose);
   void close();
 
  private:
