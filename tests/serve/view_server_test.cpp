@@ -60,7 +60,7 @@ class Running {
   std::thread t_;
 };
 
-Reply get(int port, const std::string& target) {
+Reply get(int port, const std::string& target, const std::string& headers = "") {
   Reply r;
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in a{};
@@ -71,7 +71,7 @@ Reply get(int port, const std::string& target) {
     close(fd);
     return r;
   }
-  const std::string req = "GET " + target + " HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n";
+  const std::string req = "GET " + target + " HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n" + headers + "\r\n";
   (void)!write(fd, req.data(), req.size());
   std::string all;
   char buf[65536];
@@ -129,6 +129,8 @@ class ViewServerTest : public ::testing::Test {
     make_map(map_);
     fs::create_directories(web_ / "page");
     std::ofstream(web_ / "page" / "index.html") << "<html>viewer</html>";
+    std::ofstream js(web_ / "page" / "viewer.js");
+    for (int i = 0; i < 2000; ++i) js << "export const a" << i << " = " << i << ";\n";
     std::ofstream(web_ / "secret.txt") << "not for clients";
     before_ = folder_bytes(map_);
     snapshot_ = std::make_shared<MapSnapshot>(map_);
@@ -357,4 +359,21 @@ TEST(ViewServer, SkyIsTheTextureCommittedWithTheCheckpointTexelsMarkedTrainedOrN
     EXPECT_EQ(t[4 * i + 3], i % 3 == 0 ? 255 : 0) << i;
   }
   EXPECT_EQ(t[4 * 1 + 2], 1);
+}
+
+// Compression by the library costs the machine the mapper runs on (Brotli at its slowest quality:
+// seconds for the page's bundle, tens of ms per /api/map), so the bundle and the API do not come
+// compressed even when the browser asks for it. (index.html and the stylesheet, 1-2 KB, still do:
+// the library compresses every text/ type, and they cost it a millisecond.)
+TEST_F(ViewServerTest, BundleAndApiAreNotCompressedEvenWhenTheClientAcceptsIt) {
+  const std::string accept = "Accept-Encoding: gzip, deflate, br, zstd\r\n";
+  const std::string chunk = "/api/chunk/" + std::to_string(cid(1));
+  for (const std::string t : {"/viewer.js", "/api/map", "/api/timeline", chunk.c_str(), "/api/nothing"}) {
+    const Reply plain = get(port(), t), asked = get(port(), t, accept);
+    EXPECT_EQ(asked.headers.find("Content-Encoding"), std::string::npos) << t << "\n" << asked.headers;
+    EXPECT_EQ(asked.body, plain.body) << t;
+    EXPECT_EQ(asked.status, plain.status) << t;
+  }
+  const Reply js = get(port(), "/viewer.js", accept);
+  EXPECT_NE(js.headers.find("Content-Type: application/javascript"), std::string::npos) << js.headers;
 }

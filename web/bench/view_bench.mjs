@@ -5,9 +5,11 @@
 //    latency as the page sees it, peak splats against the budget, fetches, disposals, failures.
 //   node view_bench.mjs --cli DISKCHUNGS --map MAP --modules NODE_MODULES [--budget N] [--stride K]
 //        [--chromium PATH] [--size 640x360] [--screenshot FILE.png] [--shot-kf N] [--shot-query Q]
+//        [--shot-keys KEYS]
 // --screenshot: after the fly-through, the page at keyframe N (default the middle one), saved once
-// every chosen chunk is in; --shot-query adds page parameters (e.g. "overlays=0"; default: the chunk
-// grid shown). --stride 0 skips the fly-through (screenshots only).
+// every chosen chunk is in; --shot-query adds page parameters (e.g. "overlays=0"), --shot-keys presses
+// keys before it is taken (default without a query: g, the chunk grid). --stride 0 skips the
+// fly-through (screenshots only).
 // Every request the page makes is watched: an HTTP error or a failed request counts as failed; one
 // the page itself cancelled (a chunk that left the chosen set while in flight) is counted apart.
 // The peak splat count is the page's own high-water mark, kept as chunks are requested, so a
@@ -91,19 +93,21 @@ try {
   const pageError = await page.evaluate(() => window.viewer.error);
   if (pageError) throw new Error(`the page failed: ${pageError}`);
   const flySeconds = (Date.now() - tFly) / 1000;
+  const s = await page.evaluate(() => window.viewer.streamer.stats);
+  // The fly-through's page leaves the cores to the screenshot's (software WebGL on a loaded machine).
+  await page.close();
   const shot = opt("--screenshot");
   if (shot) {
     const kf = Number(opt("--shot-kf", String(Math.floor(info.keyframes.length / 2))));
     const p = await browser.newPage({ viewport: { width: w, height: h } });
     const query = opt("--shot-query");
     await p.goto(`${url}?kf=${kf}&budget=${b}${query ? `&${query}` : ""}`);
-    await p.waitForFunction(() => window.viewer?.ready || window.viewer?.error, null, { timeout: 120000 });
-    if (!query) await p.keyboard.press("g");
+    await p.waitForFunction(() => window.viewer?.ready || window.viewer?.error, null, { timeout: 300000 });
+    for (const key of opt("--shot-keys", query ? "" : "g")) await p.keyboard.press(key);
     await p.waitForTimeout(500);
     await p.screenshot({ path: shot });
     await p.close();
   }
-  const s = await page.evaluate(() => window.viewer.streamer.stats);
   const fig = {
     chunks: info.chunks.length,
     gaussians: info.total_gaussians,
