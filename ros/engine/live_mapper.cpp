@@ -89,7 +89,7 @@ struct LiveMapper::Impl {
   std::thread worker;
   std::string error;
 
-  uint64_t next_frame = 0, dropped = 0;
+  uint64_t next_frame = 0, dropped = 0, corrected = 0;
   std::optional<SE3> last_keyframe;
   size_t since_keyframe = 0;
   double scene_depth = 0;
@@ -309,6 +309,37 @@ std::vector<rosbag_io::Pose> LiveMapper::keyframe_poses() {
   return out;
 }
 
+size_t LiveMapper::correct(const std::vector<std::pair<double, rosbag_io::Pose>>& poses) {
+  Impl& m = *impl_;
+  const MapperConfig& mc = m.config.mapper;
+  std::lock_guard lock(m.map_mutex);
+  const auto& kfs = m.mapper->keyframes();
+  std::vector<std::pair<uint32_t, SE3>> moves;
+  for (const auto& [stamp, pose] : poses) {
+    // Keyframes are in stamp order; a correction names the stamp of the image it was made for.
+    auto it = std::lower_bound(kfs.begin(), kfs.end(), stamp,
+                               [](const KeyframeRecord& k, double t) { return k.stamp < t; });
+    for (auto c : {it, it == kfs.begin() ? kfs.end() : std::prev(it)}) {
+      if (c == kfs.end() || std::abs(c->stamp - stamp) > 1e-4) continue;
+      const SE3 target = to_se3(pose);
+      const SE3 change = c->pose.inverse() * target;
+      if (change.t.norm() >= mc.pose_update_min_translation ||
+          change.angle() * 180.0 / M_PI >= mc.pose_update_min_rotation_deg)
+        moves.emplace_back(c->id, target);
+      break;
+    }
+  }
+  if (moves.empty()) return 0;
+  // As bundle adjustment's updates in `diskchungs run`: no junction to refine, since an external
+  // system does not say where its loop closed; training goes on as usual afterwards.
+  const PoseCorrectionStats st = m.mapper->correct_poses(moves, {}, 0);
+  m.mapper->checkpoint(m.state(false), false);
+  m.corrected += moves.size();
+  log::info("external correction: ", moves.size(), " keyframes moved, ", st.gaussians_moved, " Gaussians, ",
+            st.chunks_touched, " chunks");
+  return moves.size();
+}
+
 Status LiveMapper::status() {
   Impl& m = *impl_;
   Status s;
@@ -320,6 +351,7 @@ Status LiveMapper::status() {
     s.frames = m.next_frame;
   }
   std::lock_guard lock(m.map_mutex);
+  s.corrected = m.corrected;
   const Mapper& mp = *m.mapper;
   s.keyframes = mp.keyframes().size();
   s.iterations = mp.iterations();

@@ -33,7 +33,7 @@ struct LiveFrame {
 
 struct Status {
   uint64_t frames = 0, keyframes = 0, iterations = 0, gaussians = 0, resident = 0, budget = 0, chunks = 0;
-  uint64_t queued = 0, dropped = 0;
+  uint64_t queued = 0, dropped = 0, corrected = 0;  // corrected: keyframes moved by correct()
   double io_wait_ms = 0, steps_per_s = 0, seconds = 0;
   std::string error;  // the mapping thread's failure, if it stopped on one
 };
@@ -52,6 +52,11 @@ class LiveMapper {
   // latest keyframe: the chunks the mapper keeps resident around the camera.
   std::vector<float> centres(double radius);
   std::vector<rosbag_io::Pose> keyframe_poses();
+  // An external localisation's corrected camera poses (camera-to-world) by stamp, e.g. after its loop
+  // closure: the keyframes at those stamps take them, their Gaussians move along between chunks
+  // (Mapper::correct_poses), and the map commits. Changes below mapper.pose_update_min_* are ignored.
+  // Returns how many keyframes moved.
+  size_t correct(const std::vector<std::pair<double, rosbag_io::Pose>>& poses);
   Status status();
   void checkpoint();
   // Commits, then writes the map (or the Gaussians inside box = {x0 y0 z0 x1 y1 z1}) as a 3DGS PLY.

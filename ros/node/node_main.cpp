@@ -79,6 +79,9 @@ class Node {
     int queue;
     pnh_.param("sync_queue", queue, 30);
 
+    // Corrected poses (a loop closure of the robot's localisation) as a nav_msgs/Path by image stamp.
+    corrections_sub_ = side_public_.subscribe<nav_msgs::Path>(
+        "corrections", 5, [this](const nav_msgs::PathConstPtr& m) { correct(*m); });
     render_pub_ = pnh_.advertise<Image>("render", 1);
     cloud_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("cloud", 1);
     path_pub_ = pnh_.advertise<nav_msgs::Path>("path", 1, true);
@@ -201,6 +204,23 @@ class Node {
     }
   }
 
+  void correct(const nav_msgs::Path& path) {
+    std::vector<std::pair<double, rb::Pose>> poses;
+    for (const auto& p : path.poses) {
+      const auto& o = p.pose.orientation;
+      const auto& t = p.pose.position;
+      if (auto cam = poses_->camera_pose(rb::Pose{{t.x, t.y, t.z}, {o.x, o.y, o.z, o.w}}))
+        poses.emplace_back(p.header.stamp.toSec(), *cam);
+    }
+    try {
+      const size_t moved = mapper_->correct(poses);
+      ROS_INFO("corrections: %zu of %zu poses moved keyframes", moved, poses.size());
+      publish_path();
+    } catch (const std::exception& e) {
+      ROS_ERROR("corrections: %s", e.what());
+    }
+  }
+
   template <typename F>
   bool call(std_srvs::Trigger::Response& res, F&& f) {
     try {
@@ -291,9 +311,14 @@ class Node {
     os << "{\"frames\": " << s.frames << ", \"keyframes\": " << s.keyframes
        << ", \"iterations\": " << s.iterations << ", \"gaussians\": " << s.gaussians
        << ", \"resident\": " << s.resident << ", \"budget\": " << s.budget << ", \"chunks\": " << s.chunks
-       << ", \"queued\": " << s.queued << ", \"dropped\": " << s.dropped
+       << ", \"queued\": " << s.queued << ", \"dropped\": " << s.dropped << ", \"corrected\": " << s.corrected
        << ", \"io_wait_ms\": " << s.io_wait_ms << ", \"steps_per_s\": " << s.steps_per_s
-       << ", \"seconds\": " << s.seconds << ", \"error\": \"" << s.error << "\"}";
+       << ", \"seconds\": " << s.seconds << ", \"error\": \"";
+    for (char c : s.error) {
+      if (c == '"' || c == '\\') os << '\\';
+      os << (c == '\n' ? ' ' : c);
+    }
+    os << "\"}";
     std_msgs::String msg;
     msg.data = os.str();
     status_pub_.publish(msg);
@@ -310,7 +335,7 @@ class Node {
   std::unique_ptr<PoseSource> poses_;
   std::mutex info_mutex_;
   sensor_msgs::CameraInfoConstPtr info_, right_info_;
-  ros::Subscriber info_sub_, right_info_sub_;
+  ros::Subscriber info_sub_, right_info_sub_, corrections_sub_;
   message_filters::Subscriber<Image> first_, second_;
   std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
   ros::Publisher render_pub_, cloud_pub_, path_pub_, status_pub_;

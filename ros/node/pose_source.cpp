@@ -71,6 +71,10 @@ void PoseSource::add(const std_msgs::Header& header, const geometry_msgs::Pose& 
 
 std::optional<rosbag_io::Pose> PoseSource::at(const ros::Time& stamp, const std::string& image_frame) {
   const std::string camera = camera_override_.empty() ? image_frame : camera_override_;
+  {
+    std::lock_guard lock(mutex_);
+    last_camera_ = camera;
+  }
   try {
     if (mode_ == "tf") {
       auto t = tf_.lookupTransform(world_, camera, stamp, ros::Duration(tf_timeout_));
@@ -118,6 +122,27 @@ std::optional<rosbag_io::Pose> PoseSource::at(const ros::Time& stamp, const std:
     return from_tf(to_tf(world_body) * body_camera);
   } catch (const tf2::TransformException& e) {
     ROS_WARN_THROTTLE(5, "no pose for camera frame '%s' at %.3f: %s", camera.c_str(), stamp.toSec(),
+                      e.what());
+    return std::nullopt;
+  }
+}
+
+std::optional<rosbag_io::Pose> PoseSource::camera_pose(const rosbag_io::Pose& reported) {
+  if (mode_ == "tf") return reported;
+  std::string body, camera;
+  {
+    std::lock_guard lock(mutex_);
+    body = body_frame_;
+    camera = last_camera_;
+  }
+  if (body.empty() || camera.empty()) return std::nullopt;
+  try {
+    const auto mt = tf_.lookupTransform(body, camera, ros::Time(0), ros::Duration(tf_timeout_)).transform;
+    const tf2::Transform mount(tf2::Quaternion(mt.rotation.x, mt.rotation.y, mt.rotation.z, mt.rotation.w),
+                               tf2::Vector3(mt.translation.x, mt.translation.y, mt.translation.z));
+    return from_tf(to_tf(reported) * mount);
+  } catch (const tf2::TransformException& e) {
+    ROS_WARN_THROTTLE(5, "no camera mount %s <- %s for a correction: %s", body.c_str(), camera.c_str(),
                       e.what());
     return std::nullopt;
   }

@@ -27,6 +27,9 @@ class PoseSource {
   // none (with a throttled warning saying why) when it is not known.
   std::optional<rosbag_io::Pose> at(const ros::Time& stamp, const std::string& camera_frame);
   const std::string& world_frame() const { return world_; }
+  // A pose the robot's localisation reports (tf: the camera's; pose / odometry: the body's) as the
+  // camera's, for corrections published in the same terms. None while the mount is unknown.
+  std::optional<rosbag_io::Pose> camera_pose(const rosbag_io::Pose& reported);
 
  private:
   void add(const std_msgs::Header& header, const geometry_msgs::Pose& pose);
@@ -37,7 +40,7 @@ class PoseSource {
   ros::Subscriber sub_;
   std::mutex mutex_;
   std::condition_variable arrived_;
-  std::string body_frame_;
+  std::string body_frame_, last_camera_;  // last_camera_: the camera frame of the latest image
   std::deque<std::pair<double, rosbag_io::Pose>> poses_;  // body-to-world, by stamp
 };
 

@@ -24,11 +24,13 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 
-# Same settings for the node and the CLI: small, CPU, fixed pacing, single-threaded so both are
-# deterministic (see rosbag_dataset_test.py).
-SETTINGS = {"device": "cpu", "mapper": {"resolution": 0.25, "iterations_per_keyframe": 5, "final_iterations": 20,
-                                        "pacing": "fixed", "checkpoint_every": 4}}
-CLI_ARGS = ["--resolution", "0.25", "--iterations", "5", "--final-iterations", "20", "--device", "cpu"]
+# One settings file for the node (ROS parameters) and the CLI (--config): small, fixed pacing, and
+# single-threaded so both are deterministic (see rosbag_dataset_test.py). No read-ahead: `run` decides
+# the keyframes of the frames it reads ahead of the first keyframe's depth on motion alone (the
+# keyframe_parallax rule has no scale yet), the node frame by frame as they come.
+MAPPER = {"mapper": {"resolution": 0.25, "iterations_per_keyframe": 5, "final_iterations": 20, "pacing": "fixed",
+                     "checkpoint_every": 4, "frame_lookahead": 0}}
+CLI_ARGS = ["--device", "cpu"]
 
 
 def free_port():
@@ -71,9 +73,9 @@ class Ros:
                 os.killpg(self.core.pid, signal.SIGKILL)
 
 
-def cli_run(cli, dataset, out, frames, preset):
+def cli_run(cli, dataset, out, frames, preset, config):
     r = subprocess.run([cli, "run", "--dataset", dataset, "--out", out, "--max-frames", str(frames), "--preset", preset,
-                        "--no-eval"] + CLI_ARGS, capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="1"))
+                        "--no-eval", "--config", config] + CLI_ARGS, capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="1"))
     if r.returncode != 0:
         fail(f"diskchungs run {dataset}: {r.stderr.strip()[-1500:]}")
 
@@ -126,7 +128,10 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
 
     settings = os.path.join(tmp, name + "_settings.yaml")
     with open(settings, "w") as f:
-        json.dump(SETTINGS, f)  # JSON is YAML
+        json.dump(dict(MAPPER, device="cpu"), f)  # JSON is YAML; device is the node's --device
+    cli_config = os.path.join(tmp, "cli_config.yaml")
+    with open(cli_config, "w") as f:
+        json.dump(MAPPER, f)
     out = os.path.join(tmp, name + "_node_map")
     t0 = time.time()
     node, log = launch(ros, launch_file, out, settings, extra=extra)
@@ -173,13 +178,9 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
         fail(f"{name}: run_state.json is {state}")
     node_seconds = time.time() - t0
 
-    # The committed folder reopens: the node resumes on it and stops again cleanly.
-    if resume:
-        check_resume(ros, launch_file, out, settings, extra, name)
-
     ref = os.path.join(tmp, direct.split(":")[0] + "_cli_map")
     if not os.path.isdir(ref):
-        cli_run(a.cli, direct, ref, frames, preset)
+        cli_run(a.cli, direct, ref, frames, preset, cli_config)
     p_node = score(a.cli, out, bag_spec, os.path.join(tmp, name + "_r_node"))
     p_cli = score(a.cli, ref, bag_spec, os.path.join(tmp, name + "_r_cli"))
     print(f"{name}: node map {p_node:.4f} dB, `run --dataset {direct.split(':')[0]}:` map {p_cli:.4f} dB "
@@ -187,13 +188,66 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
           f"cloud of {got['cloud_points']} points; node run {node_seconds:.1f} s")
     if abs(p_node - p_cli) > a.tolerance:
         fail(f"{name}: the node's map is {p_node - p_cli:+.4f} dB from the CLI's (tolerance {a.tolerance})")
+    # The committed folder reopens: the node resumes on it, takes a correction and stops cleanly.
+    if resume:
+        check_resume(ros, launch_file, out, settings, extra, name, a.cli, tmp)
 
 
-def check_resume(ros, launch_file, out, settings, extra, name):
+def keyframe_poses(map_dir):
+    rows = []
+    with open(os.path.join(map_dir, "keyframes.txt")) as f:
+        for line in f:
+            if line.startswith("#") or not line.strip():
+                continue
+            v = line.split()
+            rows.append((float(v[2]), [float(x) for x in v[9:16]]))  # stamp, tx ty tz qx qy qz qw
+    return rows
+
+
+def ply_mean_x(cli, map_dir, file):
+    subprocess.run([cli, "export", "--map", map_dir, "--out", file], check=True, capture_output=True)
+    with open(file, "rb") as f:
+        data = f.read()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode().splitlines()
+    count = int(next(l for l in header if l.startswith("element vertex")).split()[2])
+    props = [l.split()[2] for l in header if l.startswith("property float")]
+    import struct
+    stride = 4 * len(props)
+    xs = [struct.unpack_from("<f", data, end + i * stride)[0] for i in range(count)]
+    return sum(xs) / len(xs)
+
+
+def check_resume(ros, launch_file, out, settings, extra, name, cli, tmp):
+    """Reopens the committed map (resume:=true), sends it a loop closure of the robot's localisation
+    (every keyframe 1 m further along world x, as a nav_msgs/Path on /corrections) and stops it: the
+    keyframes and the Gaussians they made must have moved by that metre."""
     import rospy
+    from geometry_msgs.msg import PoseStamped
+    from nav_msgs.msg import Path
+    from std_msgs.msg import String
     from std_srvs.srv import Trigger
+    before = keyframe_poses(out)
+    x_before = ply_mean_x(cli, out, os.path.join(tmp, name + "_before.ply"))
     again, log2 = launch(ros, launch_file, out, settings, resume=True, extra=extra)
     wait_service("/diskchungs/stop", again, log2)
+    status = {}
+    sub = rospy.Subscriber("/diskchungs/status", String, lambda m: status.update(json.loads(m.data)))
+    pub = rospy.Publisher("/corrections", Path, queue_size=1, latch=True)
+    wait_for(lambda: pub.get_num_connections() > 0, 30, "the node to subscribe /corrections")
+    path = Path()
+    path.header.frame_id = "world"
+    for stamp, v in before:
+        p = PoseStamped()
+        p.header.stamp = rospy.Time.from_sec(stamp)
+        p.pose.position.x, p.pose.position.y, p.pose.position.z = v[0] + 1.0, v[1], v[2]
+        p.pose.orientation.x, p.pose.orientation.y, p.pose.orientation.z, p.pose.orientation.w = v[3:7]
+        path.poses.append(p)
+    pub.publish(path)
+    wait_for(lambda: status.get("corrected", 0) >= len(before), 60,
+             f"{name}: the correction of {len(before)} keyframes (status {status})")
+    sub.unregister()
+    pub.unregister()
     rospy.ServiceProxy("/diskchungs/stop", Trigger)()
     try:
         again.wait(timeout=120)
@@ -201,6 +255,14 @@ def check_resume(ros, launch_file, out, settings, extra, name):
         fail(f"{name}: the resumed node did not stop")
     if "map committed" not in open(log2.name).read():
         fail(f"{name}: the resumed node did not commit; log {log2.name}")
+    after = keyframe_poses(out)
+    moved = [a[1][0] - b[1][0] for a, b in zip(after, before)]
+    if len(after) != len(before) or any(abs(m - 1.0) > 1e-6 for m in moved):
+        fail(f"{name}: keyframes moved by {moved}, expected 1 m each")
+    shift = ply_mean_x(cli, out, os.path.join(tmp, name + "_after.ply")) - x_before
+    print(f"{name}: resumed; a correction of +1 m moved {len(after)} keyframes and the Gaussians' mean by {shift:+.4f} m")
+    if abs(shift - 1.0) > 0.1:
+        fail(f"{name}: the Gaussians moved by {shift:+.4f} m, expected about 1 m")
 
 
 def main():
