@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -167,7 +168,8 @@ int run(const Options& o) {
     if (!fs::is_directory(o.map)) fail("--map: no map folder at ", o.map);
     fs::copy(o.map, folder, fs::copy_options::recursive);  // the user's folder is never written
   }
-  Mapper m(folder, outdoor(o), !o.map.empty());
+  auto owned = std::make_unique<Mapper>(folder, outdoor(o), !o.map.empty());
+  Mapper& m = *owned;
   if (o.map.empty())
     std::printf("device %s, %dx%d, growing the map to ~%zu Gaussians per step\n", m.device().c_str(), o.width,
                 o.height, o.visible);
@@ -207,6 +209,7 @@ int run(const Options& o) {
     std::ofstream(o.json) << out.dump(1) << "\n";
   }
   m.checkpoint({});  // a folder the mapper can close cleanly (it rolls back to the last checkpoint)
+  owned.reset();
   fs::remove_all(folder);
   return 0;
 }

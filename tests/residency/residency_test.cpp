@@ -195,6 +195,36 @@ TEST(Residency, PruningToEmptyRemovesTheChunkFromTheMap) {
   EXPECT_EQ(r.pool->used(), 0u);
 }
 
+TEST(Residency, MarkedSlotsLeaveTheirChunkAsRemoveSlotsWouldHaveIt) {
+  // Two rigs with the same chunks: one removes a list, the other the same slots by marks.
+  Rig a({50, 60, 40}, 300), b({50, 60, 40}, 300);
+  std::vector<uint8_t> marks;
+  for (Rig* r : {&a, &b})
+    for (int c = 0; c < 3; ++c) r->pin1(cid(c));
+  std::vector<uint32_t> listed;
+  const auto s0 = a.res->slots(cid(0)), s1 = a.res->slots(cid(1));
+  for (size_t i = 0; i < s0.size(); i += 3) listed.push_back(s0[i]);
+  marks.assign(b.pool->capacity(), 0);
+  for (uint32_t s : listed) marks.at(s) = 1;
+  marks.at(s1[5]) = 1;  // another chunk's slot: left alone by cid(0), taken by cid(1)
+  a.res->remove_slots(cid(0), listed);
+  EXPECT_EQ(b.res->remove_marked_slots(cid(0), marks), listed.size());
+  EXPECT_EQ(b.res->remove_marked_slots(cid(2), marks), 0u);
+  EXPECT_EQ(a.res->slots(cid(0)), b.res->slots(cid(0)));
+  EXPECT_EQ(b.res->count(cid(0)), 50u - listed.size());
+  EXPECT_TRUE(b.res->is_dirty(cid(0)));
+  EXPECT_FALSE(b.res->is_dirty(cid(2)));
+  EXPECT_EQ(b.res->remove_marked_slots(cid(1), marks), 1u);
+  EXPECT_EQ(b.res->count(cid(1)), 59u);
+  EXPECT_EQ(b.res->pinned_gaussians(), 150u - listed.size() - 1);
+  EXPECT_EQ(b.pool->used(), 150u - listed.size() - 1);
+  // Freed slots are reused in the same order on both.
+  a.res->remove_slots(cid(1), std::vector<uint32_t>{s1[5]});
+  EXPECT_TRUE(a.res->add(cid(7), test::random_block(30, 3)).ok);
+  EXPECT_TRUE(b.res->add(cid(7), test::random_block(30, 3)).ok);
+  EXPECT_EQ(a.res->slots(cid(7)), b.res->slots(cid(7)));
+}
+
 TEST(Residency, PrefetchedChunksLoadWithoutWaiting) {
   Rig r({200, 200, 200, 200}, 1000, true);
   const std::vector<ChunkId> ids{cid(0), cid(1), cid(2), cid(3)};

@@ -320,6 +320,28 @@ void Residency::remove_slots(ChunkId id, std::span<const uint32_t> slots) {
     if (!std::binary_search(gone.begin(), gone.end(), s)) kept.push_back(s);
   if (e.slots.size() - kept.size() != gone.size())
     fail("residency: remove_slots lists slots that do not belong to ", chunk_name(id));
+  drop_slots(id, gone, std::move(kept));
+}
+
+size_t Residency::remove_marked_slots(ChunkId id, std::span<const uint8_t> marks) {
+  Resident& e = resident_entry(id, "remove_marked_slots");
+  const auto marked = [&](uint32_t s) { return s < marks.size() && marks[s] != 0; };
+  std::vector<uint32_t> gone;
+  for (uint32_t s : e.slots)
+    if (marked(s)) gone.push_back(s);
+  if (gone.empty()) return 0;
+  copy_out(id);
+  std::vector<uint32_t> kept;
+  kept.reserve(e.slots.size() - gone.size());
+  for (uint32_t s : e.slots)
+    if (!marked(s)) kept.push_back(s);
+  std::sort(gone.begin(), gone.end());  // freed in the order remove_slots frees them: same reuse of slots
+  drop_slots(id, gone, std::move(kept));
+  return gone.size();
+}
+
+void Residency::drop_slots(ChunkId id, std::vector<uint32_t>& gone, std::vector<uint32_t>&& kept) {
+  Resident& e = resident_.at(id);
   pool_.release(gone);
   e.slots = std::move(kept);
   e.dirty = true;

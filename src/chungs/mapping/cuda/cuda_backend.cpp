@@ -20,7 +20,8 @@ CudaOptimBackend::CudaOptimBackend(size_t capacity, int sh_degree, const RasterC
     : pool_(capacity, sh_degree), raster_(raster), targets_(target_cache_bytes) {}
 
 void CudaOptimBackend::upload_slots(std::span<const uint32_t> slots) {
-  ids_.upload(slots.data(), slots.size());
+  ids_.resize(slots.size());
+  staging_.upload(ids_.data(), slots.data(), slots.size_bytes(), "slot list");
   pool_.wait_uploads();  // chunks scattered by Residency since the last render
 }
 

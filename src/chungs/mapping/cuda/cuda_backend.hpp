@@ -50,6 +50,7 @@ class CudaOptimBackend final : public OptimBackend {
   double sky_lr_ = 0;
   DeviceTargetCache targets_;
   DeviceArray<uint32_t> ids_;
+  StagedUpload staging_;  // the slot list goes up without holding the host
   DeviceArray<float> target_rgb_, target_inv_, probability_;
   DeviceArray<uint8_t> mask_, pixel_mask_;
   CudaPruneSelector pruner_;

@@ -1,5 +1,7 @@
 #include <cuda_runtime.h>
 
+#include <cstring>
+
 #include <utility>
 
 #include "chungs/common/error.hpp"
@@ -85,6 +87,35 @@ double EventTimer::stop_ms() {
   float ms = 0;
   check(cudaEventElapsedTime(&ms, static_cast<cudaEvent_t>(begin_), e), "event elapsed", "timer", 0);
   return ms;
+}
+
+StagedUpload::StagedUpload() {
+  cudaEvent_t e;
+  check(cudaEventCreateWithFlags(&e, cudaEventDisableTiming), "cudaEventCreate", "staged upload", 0);
+  done_ = e;
+}
+
+StagedUpload::~StagedUpload() {
+  if (done_) {
+    cudaEventSynchronize(static_cast<cudaEvent_t>(done_));
+    cudaEventDestroy(static_cast<cudaEvent_t>(done_));
+  }
+  if (host_) cudaFreeHost(host_);
+}
+
+void StagedUpload::upload(void* dst, const void* src, size_t bytes, const char* what) {
+  if (bytes == 0) return;
+  check(cudaEventSynchronize(static_cast<cudaEvent_t>(done_)), "staging wait", what, bytes);
+  if (bytes > capacity_) {
+    if (host_) check(cudaFreeHost(host_), "cudaFreeHost", what, capacity_);
+    host_ = nullptr, capacity_ = 0;
+    const size_t want = bytes + bytes / 4;  // room for a list that grows a little
+    check(cudaMallocHost(&host_, want), "cudaMallocHost", what, want);
+    capacity_ = want;
+  }
+  std::memcpy(host_, src, bytes);
+  check(cudaMemcpyAsync(dst, host_, bytes, cudaMemcpyHostToDevice, 0), "copy to device", what, bytes);
+  check(cudaEventRecord(static_cast<cudaEvent_t>(done_), 0), "event record", what, 0);
 }
 
 BoundaryEvents::BoundaryEvents(int count) {

@@ -53,6 +53,24 @@ class EventTimer {
   void* end_ = nullptr;
 };
 
+// Host-to-device copies that do not hold the host: the data is copied into a pinned staging buffer and
+// from there on the default stream, in order with the kernels. A plain copy from pageable memory
+// waits for all work queued before it (a 1 M slot list: 0.35 ms of every step). The staging buffer is
+// refilled only once its last copy has finished.
+class StagedUpload {
+ public:
+  StagedUpload();
+  ~StagedUpload();
+  StagedUpload(const StagedUpload&) = delete;
+  StagedUpload& operator=(const StagedUpload&) = delete;
+  void upload(void* dst, const void* src, size_t bytes, const char* what);
+
+ private:
+  void* host_ = nullptr;  // pinned
+  size_t capacity_ = 0;
+  void* done_ = nullptr;  // event after the last copy
+};
+
 // CUDA events at numbered boundaries on the default stream (a step's phases): record(i) marks
 // boundary i after the work launched so far; elapsed_ms(a, b) waits for boundary b.
 class BoundaryEvents {
