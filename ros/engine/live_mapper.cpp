@@ -17,11 +17,14 @@
 #include "chungs/depth/depth_source.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "chungs/mapping/optim_backend.hpp"
+#include "chungs/pipeline/frame_feed.hpp"
 #include "chungs/pipeline/frame_source.hpp"
 #include "chungs/pipeline/ply_export.hpp"
+#include "chungs/pipeline/pose_updates.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/store/chunk_id.hpp"
 #include "chungs/store/chunk_store.hpp"
+#include "chungs/tracking/visual_tracker.hpp"
 #include "presets.hpp"
 
 namespace chungs::live {
@@ -73,12 +76,31 @@ class OneFrame : public Dataset {
   DatasetInfo info_;
 };
 
+// A tracker's map operation as the run pipeline's pose update (what `run --poses track` applies).
+PoseUpdate to_update(const tracking::MapOperation& op) {
+  PoseUpdate u;
+  if (op.kind == tracking::MapOperation::Kind::LoopClosure) {
+    u.loop = true;
+    u.query = op.loop.query;
+    u.match = op.loop.match;
+    u.poses = op.loop.new_poses;
+    u.junction = op.loop.junction;
+  } else {
+    u.poses = op.poses;
+  }
+  return u;
+}
+
 }  // namespace
 
 struct LiveMapper::Impl {
   Settings settings;
   Config config;
   std::unique_ptr<Mapper> mapper;
+  // Settings::track: the tracker runs on the mapping thread over every frame, held-out ones too; its
+  // bundle adjustment and loop closures reach the map as in `run --poses track`.
+  std::unique_ptr<tracking::VisualTracker> tracker;
+  std::unique_ptr<PoseUpdateApplier> updates;
   std::mutex
       map_mutex;  // the mapper is single-threaded: the mapping thread and the node's queries take turns
 
@@ -131,10 +153,6 @@ struct LiveMapper::Impl {
 
   void map_frame(const LiveFrame& in) {
     const uint64_t i = next_frame++;
-    // Held out as in `diskchungs run`, so a recording's map can be scored on frames it never saw.
-    if (is_held_out(i, config.mapper.holdout_every)) return;
-    const SE3 pose = to_se3(in.pose);
-    if (!is_keyframe(pose)) return;
     Frame f;
     f.index = i;
     f.timestamp = in.stamp;
@@ -144,6 +162,47 @@ struct LiveMapper::Impl {
     f.camera = Camera(in.left.width, in.left.height, in.fx, in.fy, in.cx, in.cy);
     f.baseline = in.baseline;
     f.source = cat(settings.source, " frame ", i);
+    // Held out as in `diskchungs run`, so a recording's map can be scored on frames it never saw.
+    const bool held_out = is_held_out(i, config.mapper.holdout_every);
+    SE3 pose;
+    bool key = false;
+    long source_id = long(i);
+    std::vector<PoseUpdate> pending;
+    if (tracker) {
+      const tracking::TrackResult r = tracker->track(f);
+      pose = r.pose;
+      // A doubtful pose makes no keyframe of the map (the tracker keeps it for its own), as in `run`.
+      key = r.keyframe && !r.doubtful() && !held_out;
+      source_id = r.keyframe_id;
+      for (const tracking::MapOperation& op : tracker->take_map_operations())
+        if (op.kind != tracking::MapOperation::Kind::NewKeyframe) pending.push_back(to_update(op));
+    } else {
+      if (held_out) return;
+      if (!in.pose) fail(settings.source, " frame ", i, ": no pose");
+      pose = to_se3(*in.pose);
+      key = is_keyframe(pose);
+    }
+    if (key) add_keyframe(std::move(f), i, in.stamp, pose, source_id);
+    if (!pending.empty()) {
+      PoseUpdateApplier::Applied applied;
+      {
+        std::lock_guard lock(map_mutex);
+        applied = updates->apply(pending);
+      }
+      if (applied.loop) commit(false, true);
+    }
+    if (!key) return;
+    const MapperConfig& mc = config.mapper;
+    if (mc.pacing == "fixed")
+      for (int k = 0; k < mc.iterations_per_keyframe; ++k) step();
+    const double since_checkpoint = std::chrono::duration<double>(Clock::now() - last_checkpoint).count();
+    if ((mc.checkpoint_seconds > 0 && since_checkpoint >= mc.checkpoint_seconds) ||
+        (mc.checkpoint_every > 0 && keyframes_since_checkpoint >= size_t(mc.checkpoint_every)))
+      commit(false, true);
+  }
+
+  // Loads the keyframe at the mapping resolution with `run`'s depth source and adds it to the map.
+  void add_keyframe(Frame f, uint64_t i, double stamp, const SE3& pose, long source_id) {
     OneFrame one(std::move(f));
     const MapperConfig& mc = config.mapper;
     const DepthMode mode =
@@ -154,15 +213,10 @@ struct LiveMapper::Impl {
     if (m.median_depth > 0 && std::isfinite(m.median_depth)) scene_depth = m.median_depth;
     {
       std::lock_guard lock(map_mutex);
-      mapper->add_keyframe(i, in.stamp, m.frame.left, m.depth, m.frame.camera, pose);
+      mapper->add_keyframe(i, stamp, m.frame.left, m.depth, m.frame.camera, pose);
+      if (updates) updates->added(source_id, mapper->keyframes().back().id);
     }
     ++keyframes_since_checkpoint;
-    if (mc.pacing == "fixed")
-      for (int k = 0; k < mc.iterations_per_keyframe; ++k) step();
-    const double since_checkpoint = std::chrono::duration<double>(Clock::now() - last_checkpoint).count();
-    if ((mc.checkpoint_seconds > 0 && since_checkpoint >= mc.checkpoint_seconds) ||
-        (mc.checkpoint_every > 0 && keyframes_since_checkpoint >= size_t(mc.checkpoint_every)))
-      commit(false, true);
   }
 
   void step() {
@@ -233,6 +287,12 @@ LiveMapper::LiveMapper(const Settings& s) : impl_(std::make_unique<Impl>()) {
   m.config.mapper.validate();
   resolve_device(m.config.mapper.device);
   m.mapper = std::make_unique<Mapper>(s.out, m.config, s.resume);
+  if (s.track) {
+    // The tracker's own map is not kept in the folder: a resumed run could not continue its poses.
+    if (s.resume) fail(s.out, ": resume continues maps made on the robot's poses only, not on the tracker's");
+    m.tracker = std::make_unique<tracking::VisualTracker>();
+    m.updates = std::make_unique<PoseUpdateApplier>(*m.mapper, m.config.mapper);
+  }
   if (s.resume && m.mapper->resumed_state().is_object()) {
     m.next_frame = m.mapper->resumed_state().value("next_frame", uint64_t(0));
     m.carried_seconds = m.mapper->resumed_state().value("seconds", 0.0);

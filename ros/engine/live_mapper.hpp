@@ -19,6 +19,7 @@ struct Settings {
   std::string device = "auto";    // auto | cuda | cpu, as `diskchungs run --device`
   std::string source = "ros";     // names the input in the map's run state
   size_t max_queue = 0;           // frames waiting to be mapped at most (0: no limit); the oldest go first
+  bool track = false;             // poses from the project's visual tracker (as `run --poses track`)
 };
 
 struct LiveFrame {
@@ -28,7 +29,7 @@ struct LiveFrame {
   std::optional<rosbag_io::Picture> depth;  // RGB-D: metres, registered to `left`
   double fx = 0, fy = 0, cx = 0, cy = 0;    // rectified camera of `left`
   double baseline = 0;                      // stereo, metres
-  rosbag_io::Pose pose;                     // camera-to-world (optical frame)
+  std::optional<rosbag_io::Pose> pose;      // camera-to-world (optical frame); none with Settings::track
 };
 
 struct Status {

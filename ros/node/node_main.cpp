@@ -66,7 +66,11 @@ class Node {
     pnh_.param("max_queue", max_queue, 0);
     s.max_queue = size_t(std::max(0, max_queue));
     s.config_yaml = settings_yaml(pnh_);
+    std::string pose_source;
+    pnh_.param<std::string>("pose_source", pose_source, "tf");
+    s.track = pose_source == "track";
     s.source = "ros:" + ros::this_node::getName();
+    tracked_ = s.track;
     mapper_ = std::make_unique<live::LiveMapper>(s);
     poses_ = std::make_unique<PoseSource>(side_public_, pnh_, tf_);
 
@@ -177,8 +181,11 @@ class Node {
                          "(image_proc / stereo_image_proc) with their camera_info");
       return;
     }
-    const auto pose = poses_->at(a->header.stamp, a->header.frame_id);
-    if (!pose) return;
+    std::optional<rb::Pose> pose;
+    if (!tracked_) {
+      pose = poses_->at(a->header.stamp, a->header.frame_id);
+      if (!pose) return;
+    }
     try {
       const std::string where = "topic " + first_.getTopic();
       live::LiveFrame f;
@@ -197,7 +204,7 @@ class Node {
       f.fy = info->P[5];
       f.cx = info->P[2];
       f.cy = info->P[6];
-      f.pose = *pose;
+      f.pose = pose;
       mapper_->push(std::move(f));
     } catch (const std::exception& e) {
       ROS_ERROR_THROTTLE(5, "frame at %.3f skipped: %s", a->header.stamp.toSec(), e.what());
@@ -331,6 +338,7 @@ class Node {
   tf2_ros::TransformListener listener_;
   std::string mode_, export_path_;
   double cloud_radius_ = 30;
+  bool tracked_ = false;  // ~pose_source track: the project's tracker makes the poses
   std::unique_ptr<live::LiveMapper> mapper_;
   std::unique_ptr<PoseSource> poses_;
   std::mutex info_mutex_;

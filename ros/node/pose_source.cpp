@@ -47,8 +47,8 @@ PoseSource::PoseSource(ros::NodeHandle& nh, ros::NodeHandle& pnh, tf2_ros::Buffe
       }
       add(m->header, m->pose.pose);
     });
-  } else if (mode_ != "tf") {
-    fail("~pose_source must be tf, pose or odometry, got '", mode_, "'");
+  } else if (mode_ != "tf" && mode_ != "track") {
+    fail("~pose_source must be tf, pose, odometry or track, got '", mode_, "'");
   }
   if (mode_ == "pose") pnh.param<std::string>("body_frame", body_frame_, "base_link");
 }
@@ -128,7 +128,7 @@ std::optional<rosbag_io::Pose> PoseSource::at(const ros::Time& stamp, const std:
 }
 
 std::optional<rosbag_io::Pose> PoseSource::camera_pose(const rosbag_io::Pose& reported) {
-  if (mode_ == "tf") return reported;
+  if (mode_ == "tf" || mode_ == "track") return reported;
   std::string body, camera;
   {
     std::lock_guard lock(mutex_);

@@ -73,9 +73,9 @@ class Ros:
                 os.killpg(self.core.pid, signal.SIGKILL)
 
 
-def cli_run(cli, dataset, out, frames, preset, config):
+def cli_run(cli, dataset, out, frames, preset, config, poses):
     r = subprocess.run([cli, "run", "--dataset", dataset, "--out", out, "--max-frames", str(frames), "--preset", preset,
-                        "--no-eval", "--config", config] + CLI_ARGS, capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="1"))
+                        "--no-eval", "--config", config, "--poses", poses] + CLI_ARGS, capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="1"))
     if r.returncode != 0:
         fail(f"diskchungs run {dataset}: {r.stderr.strip()[-1500:]}")
 
@@ -120,7 +120,8 @@ def wait_for(predicate, seconds, what):
     fail(f"timed out after {seconds} s waiting for {what}")
 
 
-def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, preset, extra=(), resume=True):
+def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, preset, extra=(), resume=True,
+              poses="gt"):
     import rospy
     from sensor_msgs.msg import Image, PointCloud2
     from std_msgs.msg import String
@@ -178,12 +179,12 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
         fail(f"{name}: run_state.json is {state}")
     node_seconds = time.time() - t0
 
-    ref = os.path.join(tmp, direct.split(":")[0] + "_cli_map")
+    ref = os.path.join(tmp, direct.split(":")[0] + "_" + poses + "_cli_map")
     if not os.path.isdir(ref):
-        cli_run(a.cli, direct, ref, frames, preset, cli_config)
+        cli_run(a.cli, direct, ref, frames, preset, cli_config, poses)
     p_node = score(a.cli, out, bag_spec, os.path.join(tmp, name + "_r_node"))
     p_cli = score(a.cli, ref, bag_spec, os.path.join(tmp, name + "_r_cli"))
-    print(f"{name}: node map {p_node:.4f} dB, `run --dataset {direct.split(':')[0]}:` map {p_cli:.4f} dB "
+    print(f"{name}: node map {p_node:.4f} dB, `run --dataset {direct.split(':')[0]}: --poses {poses}` map {p_cli:.4f} dB "
           f"(difference {p_node - p_cli:+.4f} dB over the bag's {frames} frames); {got['render']} renders, "
           f"cloud of {got['cloud_points']} points; node run {node_seconds:.1f} s")
     if abs(p_node - p_cli) > a.tolerance:
@@ -305,6 +306,10 @@ def main():
         node_case(a, ros, tmp, "kitti_odometry", os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag,
                   f"rosbag:{bag}?left=/stereo/left/image_rect&right=/stereo/right/image_rect", "kitti:" + kitti,
                   a.frames, "outdoor", extra=["pose_source:=odometry", "pose_topic:=/odometry"], resume=False)
+        # The project's own tracker makes the poses (tf and odometry are not read), as `run --poses track`.
+        node_case(a, ros, tmp, "kitti_track", os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag,
+                  f"rosbag:{bag}?left=/stereo/left/image_rect&right=/stereo/right/image_rect", "kitti:" + kitti,
+                  a.frames, "outdoor", extra=["pose_source:=track"], resume=False, poses="track")
         print("PASS")
         return 0
     finally:
