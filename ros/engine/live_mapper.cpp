@@ -4,10 +4,12 @@
 // so a recording played into the node makes the map `run --dataset` makes of it.
 #include "ros/engine/live_mapper.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <deque>
+#include <filesystem>
 #include <mutex>
 #include <thread>
 
@@ -441,6 +443,14 @@ uint64_t LiveMapper::export_ply(const std::string& file, const std::vector<doubl
   Impl& m = *impl_;
   if (!box.empty() && box.size() != 6)
     fail("export box needs 6 numbers (x0 y0 z0 x1 y1 z1), got ", box.size());
+  {
+    // Readers never write into a map folder (the mapper owns it): the PLY goes elsewhere.
+    namespace fs = std::filesystem;
+    const fs::path map = fs::weakly_canonical(fs::absolute(m.settings.out));
+    const fs::path target = fs::weakly_canonical(fs::absolute(file));
+    if (std::mismatch(map.begin(), map.end(), target.begin(), target.end()).first == map.end())
+      fail(file, ": the export must be written outside the map folder ", m.settings.out);
+  }
   {
     std::lock_guard lock(m.queue_mutex);
     if (!m.finished) {

@@ -74,7 +74,9 @@ class Node {
     mapper_ = std::make_unique<live::LiveMapper>(s);
     poses_ = std::make_unique<PoseSource>(side_public_, pnh_, tf_);
 
-    pnh_.param<std::string>("export_path", export_path_, out + ".ply");
+    std::string base = out;  // "maps/drive1/" exports to maps/drive1.ply, beside the folder
+    while (base.size() > 1 && base.back() == '/') base.pop_back();
+    pnh_.param<std::string>("export_path", export_path_, base + ".ply");
     pnh_.param("cloud_radius", cloud_radius_, 30.0);
     double render_period, cloud_period, status_period;
     pnh_.param("render_period", render_period, 1.0);
