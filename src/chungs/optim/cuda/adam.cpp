@@ -3,6 +3,7 @@
 #include "chungs/optim/cuda/adam.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "chungs/common/error.hpp"
 #include "chungs/optim/cuda/adam_launch.hpp"
@@ -35,7 +36,9 @@ void sparse_adam_step(const AdamConfig& cfg, const GaussianArraysMut<float>& par
                        {cfg.lr_position, cfg.lr_scale, cfg.lr_rotation, cfg.lr_opacity, cfg.lr_sh_rest},
                        cfg.lr_sh_dc,
                        cfg.position_decay,
-                       cfg.position_lr_floor};
+                       cfg.position_lr_floor,
+                       std::log(double(cfg.beta1)),
+                       std::log(double(cfg.beta2))};
   const uint32_t bad = detail::launch_sparse_adam(a, !ids_checked);
   if (bad != 0xFFFFFFFFu)
     fail("CUDA sparse Adam: index ", bad, " is at or above the ", a.capacity,

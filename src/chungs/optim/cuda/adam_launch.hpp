@@ -21,6 +21,7 @@ struct AdamLaunch {
   float beta1, beta2, eps;
   float lr[5];  // per kind; lr[0] before the slot's factor, lr[4] for the SH rest
   float lr_sh_dc, decay, floor;
+  double log_beta1, log_beta2;  // ln beta1, ln beta2 (the bias corrections)
 };
 
 // Runs the step; with check, waits for it and returns the smallest j whose slot is out of range (those

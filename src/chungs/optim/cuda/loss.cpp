@@ -18,7 +18,7 @@ LossTerms CudaMappingLoss::evaluate(const LossConfig& config, const DeviceRender
   const bool use_depth = target_inv_depth && ld > 0;
   if (use_depth && !render.inv_depth) fail("CUDA mapping loss: depth term without a rendered inverse depth");
   const size_t plane = size_t(W) * H;
-  sums_.resize(4);
+  sums_.resize(4 + 4 * detail::kLossSpread);
   if (want_grads) {
     grad_rgb_.resize(3 * plane);
     if (ls > 0) planes_.resize(9 * plane);
@@ -39,7 +39,8 @@ LossTerms CudaMappingLoss::evaluate(const LossConfig& config, const DeviceRender
                        want_grads ? grad_rgb_.data() : nullptr,
                        want_grads && use_depth ? grad_inv_depth_.data() : nullptr,
                        want_grads && ls > 0 ? planes_.data() : nullptr,
-                       sums_.data()};
+                       sums_.data(),
+                       sums_.data() + 4};
   double s[4];
   detail::launch_mapping_loss(a, s);
   grads_ = DeviceRenderGrads{};

@@ -19,7 +19,10 @@ struct LossLaunch {
   float* grad_inv_depth;  // overwritten where the depth term is on
   float* ssim_planes;     // scratch, 9 planes of width x height
   double* sums;           // scratch, 4 doubles: sum |d|, sum SSIM, sum |d inv|, valid depth pixels
+  double* partials;       // scratch, 4 x kLossSpread doubles the blocks add into (then into sums)
 };
+
+constexpr int kLossSpread = 64;
 
 // Runs the kernels and waits; host_sums gets the 4 sums. Throws Error on a CUDA failure.
 void launch_mapping_loss(const LossLaunch& a, double* host_sums);
