@@ -287,6 +287,22 @@ def main():
         import rospy
         rospy.init_node("diskchungs_test", anonymous=True, disable_signals=True)
 
+        # A mapper setting the YAML does not have is refused at start, naming the parameter.
+        bad = os.path.join(tmp, "bad_settings.yaml")
+        with open(bad, "w") as f:
+            json.dump({"mapper": {"no_such_setting": 1}}, f)
+        p, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), os.path.join(tmp, "bad_map"), bad)
+        try:
+            p.wait(timeout=120)
+        except subprocess.TimeoutExpired:
+            fail("the node kept running on an unknown setting")
+        text = open(log.name).read()
+        if "unknown key 'mapper.no_such_setting'" not in text:
+            fail(f"an unknown setting was not refused by name; log {log.name}: {text[-1500:]}")
+        print("unknown setting: refused (" + next(l for l in text.splitlines() if "error:" in l).strip() + ")")
+        # Parameters outlive a launch on the master: the next node must not inherit the bad one.
+        subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
+
         bag = os.path.join(tmp, "kitti.bag")
         subprocess.run([a.to_bag, "kitti:" + kitti, bag, "--max-frames", str(a.frames)], check=True,
                        capture_output=True)
