@@ -120,7 +120,7 @@ def wait_for(predicate, seconds, what):
     fail(f"timed out after {seconds} s waiting for {what}")
 
 
-def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, preset, extra=(), resume=True,
+def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, preset, topics, extra=(), resume=True,
               poses="gt"):
     import rospy
     from sensor_msgs.msg import Image, PointCloud2
@@ -142,10 +142,10 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
                              lambda m: got.__setitem__("cloud_points", max(got["cloud_points"], m.width))),
             rospy.Subscriber("/diskchungs/status", String, lambda m: got.__setitem__("status", json.loads(m.data)))]
     wait_service("/diskchungs/export", node, log)
-    # -d: a pause after advertising, so the node is connected before the first message (not
-    # --wait-for-subscribers: the bag has topics this pose source does not read).
-    play = subprocess.run(["rosbag", "play", "--quiet", "-d", "2", bag], env=ros.env, capture_output=True, text=True,
-                          timeout=120)
+    # Only the topics this case's node reads, each waited for until the node subscribes it: a frame lost
+    # to a slow connection would shift the frame numbers (and so the held-out frames).
+    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", bag, "--topics"] + list(topics),
+                          env=ros.env, capture_output=True, text=True, timeout=300)
     if play.returncode != 0:
         fail(f"rosbag play: {play.stderr[-1000:]}")
     wait_for(lambda: got["status"] and got["status"]["frames"] >= frames and got["status"]["queued"] == 0, 120,
@@ -306,9 +306,12 @@ def main():
         bag = os.path.join(tmp, "kitti.bag")
         subprocess.run([a.to_bag, "kitti:" + kitti, bag, "--max-frames", str(a.frames)], check=True,
                        capture_output=True)
+        stereo = ["/stereo/left/image_rect", "/stereo/left/camera_info", "/stereo/right/image_rect",
+                  "/stereo/right/camera_info"]
+        tf = ["/tf", "/tf_static"]
         node_case(a, ros, tmp, "kitti_stereo", os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag,
                   f"rosbag:{bag}?left=/stereo/left/image_rect&right=/stereo/right/image_rect", "kitti:" + kitti,
-                  a.frames, "outdoor")
+                  a.frames, "outdoor", stereo + tf)
 
         room = os.path.join(tmp, "room")
         subprocess.run([a.cli, "synth", "room", "--out", room, "--frames", "30", "--width", "320", "--height", "240"],
@@ -317,15 +320,17 @@ def main():
         subprocess.run([a.to_bag, "tum:" + room, room_bag], check=True, capture_output=True)
         node_case(a, ros, tmp, "room_rgbd", os.path.join(ROOT, "ros/launch/rgbd.launch"), room_bag,
                   f"rosbag:{room_bag}?color=/camera/color/image_raw&depth=/camera/depth/image_raw", "tum:" + room, 30,
-                  "indoor", extra=["depth:=/camera/depth/image_raw"])
+                  "indoor", ["/camera/color/image_raw", "/camera/color/camera_info", "/camera/depth/image_raw"] + tf,
+                  extra=["depth:=/camera/depth/image_raw"])
         # The robot's localisation as a nav_msgs/Odometry topic of base_link, the camera's mount from tf.
         node_case(a, ros, tmp, "kitti_odometry", os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag,
                   f"rosbag:{bag}?left=/stereo/left/image_rect&right=/stereo/right/image_rect", "kitti:" + kitti,
-                  a.frames, "outdoor", extra=["pose_source:=odometry", "pose_topic:=/odometry"], resume=False)
+                  a.frames, "outdoor", stereo + tf + ["/odometry"], extra=["pose_source:=odometry", "pose_topic:=/odometry"],
+                  resume=False)
         # The project's own tracker makes the poses (tf and odometry are not read), as `run --poses track`.
         node_case(a, ros, tmp, "kitti_track", os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag,
                   f"rosbag:{bag}?left=/stereo/left/image_rect&right=/stereo/right/image_rect", "kitti:" + kitti,
-                  a.frames, "outdoor", extra=["pose_source:=track"], resume=False, poses="track")
+                  a.frames, "outdoor", stereo, extra=["pose_source:=track"], resume=False, poses="track")
         print("PASS")
         return 0
     finally:
