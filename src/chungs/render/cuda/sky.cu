@@ -53,35 +53,52 @@ __device__ void add_texel(uint32_t* keys, float (*acc)[3], uint32_t texel, const
   for (int c = 0; c < 3; ++c) atomicAdd(&grad_tex[3 * size_t(texel) + c], v[c]);
 }
 
-__global__ void backward_kernel(SkyArgs s, RenderCamera<float> cam, const float* __restrict__ sky_px,
-                                const float* __restrict__ alpha, const float* __restrict__ g,
-                                float* __restrict__ grad_alpha, float* __restrict__ grad_tex) {
+__global__ void __launch_bounds__(256) backward_kernel(SkyArgs s, RenderCamera<float> cam,
+                                                       const float* __restrict__ sky_px,
+                                                       const float* __restrict__ alpha, const float* __restrict__ g,
+                                                       float* __restrict__ grad_alpha, float* __restrict__ grad_tex) {
   __shared__ uint32_t keys[kTableSlots];
   __shared__ float acc[kTableSlots][3];
+  __shared__ float lanes[8][32][3];  // a warp's values of one tap, summed by the lane that leads each texel
   for (int i = threadIdx.x; i < kTableSlots; i += blockDim.x) {
     keys[i] = kFree;
     acc[i][0] = acc[i][1] = acc[i][2] = 0.f;
   }
   __syncthreads();
   const int p = blockIdx.x * blockDim.x + threadIdx.x;
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
+  bool teaches = false;
+  float clear = 0.f;
+  const float* gp = nullptr;
   if (p < cam.width * cam.height) {
-    const float* gp = g + 3 * size_t(p);
-    const float clear = 1.f - alpha[p];
+    gp = g + 3 * size_t(p);
+    clear = 1.f - alpha[p];
     if (!sky_pixel_usable(gp, clear)) {
       grad_alpha[p] = 0.f;
     } else {
       float ga = 0;
       for (int c = 0; c < 3; ++c) ga -= gp[c] * sky_px[3 * size_t(p) + c];
       grad_alpha[p] = ga;
-      if (clear > 0.f && (gp[0] != 0.f || gp[1] != 0.f || gp[2] != 0.f)) {
-        const SkyTap t = sky_pixel_tap(s.axes, s.width, s.height, cam, p % cam.width, p / cam.width);
-        for (int k = 0; k < 4; ++k) {
-          const float w = t.weight[k] * clear;
-          const float v[3] = {w * gp[0], w * gp[1], w * gp[2]};
-          add_texel(keys, acc, t.index[k], v, grad_tex);
-        }
-      }
+      teaches = clear > 0.f && (gp[0] != 0.f || gp[1] != 0.f || gp[2] != 0.f);
     }
+  }
+  SkyTap t{};
+  if (teaches) t = sky_pixel_tap(s.axes, s.width, s.height, cam, p % cam.width, p / cam.width);
+  // Neighbouring pixels share texels: the lanes of a warp with the same texel are summed first, and only
+  // their leader goes to the block's table.
+  for (int k = 0; k < 4; ++k) {
+    const uint32_t key = teaches ? t.index[k] : kFree;
+    const float w = teaches ? t.weight[k] * clear : 0.f;
+    for (int c = 0; c < 3; ++c) lanes[warp][lane][c] = teaches ? w * gp[c] : 0.f;
+    const unsigned peers = __match_any_sync(0xffffffffu, key);
+    __syncwarp();
+    if (key != kFree && lane == __ffs(peers) - 1) {
+      float v[3] = {0.f, 0.f, 0.f};
+      for (unsigned m = peers; m; m &= m - 1)
+        for (int c = 0; c < 3; ++c) v[c] += lanes[warp][__ffs(m) - 1][c];
+      add_texel(keys, acc, key, v, grad_tex);
+    }
+    __syncwarp();
   }
   __syncthreads();
   for (int i = threadIdx.x; i < kTableSlots; i += blockDim.x)
