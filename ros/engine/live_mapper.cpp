@@ -113,7 +113,7 @@ struct LiveMapper::Impl {
   std::thread worker;
   std::string error;
 
-  uint64_t next_frame = 0, dropped = 0, corrected = 0;
+  uint64_t next_frame = 0, dropped = 0, corrected = 0, without_pose = 0;
   std::optional<SE3> last_keyframe;
   size_t since_keyframe = 0;
   double scene_depth = 0;
@@ -155,6 +155,7 @@ struct LiveMapper::Impl {
 
   void map_frame(const LiveFrame& in) {
     const uint64_t i = next_frame++;
+    if (in.left.width == 0) return;  // skip(): a frame without a pose, counted in order
     Frame f;
     f.index = i;
     f.timestamp = in.stamp;
@@ -326,6 +327,14 @@ void LiveMapper::push(LiveFrame frame) {
   m.queue_cv.notify_one();
 }
 
+void LiveMapper::skip() {
+  {
+    std::lock_guard lock(impl_->queue_mutex);
+    ++impl_->without_pose;
+  }
+  push(LiveFrame{});
+}
+
 std::optional<rosbag_io::Picture> LiveMapper::render_latest() {
   Impl& m = *impl_;
   std::lock_guard lock(m.map_mutex);
@@ -409,6 +418,7 @@ Status LiveMapper::status() {
     std::lock_guard lock(m.queue_mutex);
     s.queued = m.queue.size();
     s.dropped = m.dropped;
+    s.without_pose = m.without_pose;
     s.error = m.error;
     s.frames = m.next_frame;
   }

@@ -35,6 +35,7 @@ struct LiveFrame {
 struct Status {
   uint64_t frames = 0, keyframes = 0, iterations = 0, gaussians = 0, resident = 0, budget = 0, chunks = 0;
   uint64_t queued = 0, dropped = 0, corrected = 0;  // corrected: keyframes moved by correct()
+  uint64_t without_pose = 0;                        // frames skip() counted
   double io_wait_ms = 0, steps_per_s = 0, seconds = 0;
   std::string error;  // the mapping thread's failure, if it stopped on one
 };
@@ -47,6 +48,9 @@ class LiveMapper {
   LiveMapper& operator=(const LiveMapper&) = delete;
 
   void push(LiveFrame frame);
+  // A frame that arrived without a pose: it keeps its number (held-out frames stay where `run` has
+  // them) and is counted, but not mapped.
+  void skip();
   // The map rendered from the latest keyframe's pose at the mapping resolution (RGB), if any.
   std::optional<rosbag_io::Picture> render_latest();
   // Centres (x y z ...) of the Gaussians of the committed map in chunks within `radius` metres of the

@@ -186,7 +186,10 @@ class Node {
     std::optional<rb::Pose> pose;
     if (!tracked_) {
       pose = poses_->at(a->header.stamp, a->header.frame_id);
-      if (!pose) return;
+      if (!pose) {
+        mapper_->skip();
+        return;
+      }
     }
     try {
       const std::string where = "topic " + first_.getTopic();
@@ -321,8 +324,8 @@ class Node {
        << ", \"iterations\": " << s.iterations << ", \"gaussians\": " << s.gaussians
        << ", \"resident\": " << s.resident << ", \"budget\": " << s.budget << ", \"chunks\": " << s.chunks
        << ", \"queued\": " << s.queued << ", \"dropped\": " << s.dropped << ", \"corrected\": " << s.corrected
-       << ", \"io_wait_ms\": " << s.io_wait_ms << ", \"steps_per_s\": " << s.steps_per_s
-       << ", \"seconds\": " << s.seconds << ", \"error\": \"";
+       << ", \"without_pose\": " << s.without_pose << ", \"io_wait_ms\": " << s.io_wait_ms
+       << ", \"steps_per_s\": " << s.steps_per_s << ", \"seconds\": " << s.seconds << ", \"error\": \"";
     for (char c : s.error) {
       if (c == '"' || c == '\\') os << '\\';
       os << (c == '\n' ? ' ' : c);

@@ -35,7 +35,7 @@ PoseSource::PoseSource(ros::NodeHandle& nh, ros::NodeHandle& pnh, tf2_ros::Buffe
   pnh.param<std::string>("world_frame", world_, "world");
   pnh.param<std::string>("camera_frame", camera_override_, "");
   pnh.param("pose_max_dt", max_dt_, 0.1);
-  pnh.param("tf_timeout", tf_timeout_, 0.2);
+  pnh.param("tf_timeout", tf_timeout_, 0.5);
   if (mode_ == "pose") {
     sub_ = nh.subscribe<geometry_msgs::PoseStamped>(
         "pose", 200, [this](const geometry_msgs::PoseStampedConstPtr& m) { add(m->header, m->pose); });

@@ -20,4 +20,4 @@ add_test(NAME ros_node
          COMMAND ${ROS_PYTHON3} ${CMAKE_CURRENT_LIST_DIR}/node_test.py
                  --cli $<TARGET_FILE:diskchungs> --to-bag $<TARGET_FILE:chungs_dataset_to_bag>
                  --package-dir $<TARGET_FILE_DIR:diskchungs_node> --data ${PROJECT_SOURCE_DIR}/../shared/data)
-set_tests_properties(ros_node PROPERTIES TIMEOUT 900 LABELS ros SKIP_RETURN_CODE 77)
+set_tests_properties(ros_node PROPERTIES TIMEOUT 1800 LABELS ros SKIP_RETURN_CODE 77)
