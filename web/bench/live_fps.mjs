@@ -12,7 +12,8 @@
 // root: ahead of other people's builds on a shared machine; Chromium raises its own priority). The order of the modes turns round each round, so a
 // drift of the machine's load spreads over all of them. Checkpoints every --checkpoint-seconds (the
 // page hears of each one and fetches what changed). Prints FPS per run, the median per mode and the
-// ratios of the medians to running alone, and one JSON line.
+// ratios of the medians to running alone, the same for frames per CPU second of the run process
+// (/usr/bin/time), and one JSON line.
 import { spawn } from "node:child_process";
 import { chmodSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
 import { createRequire } from "node:module";
@@ -55,6 +56,10 @@ async function once(mode) {
   const args = ["-q", "run", "--dataset", dataset, "--out", out, "--config", cfg, ...runArgs, ...extra];
   let [cmd, cmdArgs] = mapperCpu !== undefined ? ["taskset", ["-c", mapperCpu, cli, ...args]] : [cli, args];
   if (mapperNice !== undefined) [cmd, cmdArgs] = ["nice", ["-n", mapperNice, cmd, ...cmdArgs]];
+  // The run's CPU seconds, all its threads (the server's among them): frames per CPU second do not
+  // move with what other people's jobs take of the core, only with what the process itself spends.
+  const cpuFile = join(work, "cpu.txt");
+  [cmd, cmdArgs] = ["/usr/bin/time", ["-f", "%U %S", "-o", cpuFile, cmd, ...cmdArgs]];
   const env = { ...process.env, ...(mapperCpu !== undefined ? { OMP_NUM_THREADS: "1" } : {}) };
   const p = spawn(cmd, cmdArgs, { stdio: ["ignore", "pipe", "inherit"], env });
   let page;
@@ -77,19 +82,23 @@ async function once(mode) {
     await page.close();
   }
   const r = JSON.parse(readFileSync(join(out, "report.json"), "utf8"));
-  return { fps: r.time.processing_fps, ...seen };
+  const [user, sys] = readFileSync(cpuFile, "utf8").trim().split("\n").pop().split(" ").map(Number);
+  const frames = r.time.processing_fps * r.time.mapping_s;
+  return { fps: r.time.processing_fps, perCpu: frames / (user + sys), ...seen };
 }
 
 const modes = ["alone", "view", "page"];
 const fps = { alone: [], view: [], page: [] };
+const perCpu = { alone: [], view: [], page: [] }; // frames per CPU second of the run process
 const pageWork = [];
 for (let i = 0; i < rounds; ++i)
   for (let j = 0; j < modes.length; ++j) {
     const m = modes[(i + j) % modes.length];
     const r = await once(m);
     fps[m].push(r.fps);
+    perCpu[m].push(r.perCpu);
     if (m === "page") pageWork.push({ events: r.events, fetches: r.fetches });
-    console.log(`round ${i + 1} ${m.padEnd(5)} ${r.fps.toFixed(3)} FPS` +
+    console.log(`round ${i + 1} ${m.padEnd(5)} ${r.fps.toFixed(3)} FPS, ${r.perCpu.toFixed(3)} frames per CPU s` +
       (m === "page" ? `, the page heard ${r.events} checkpoints and fetched ${r.fetches} chunks` : ""));
   }
 await browser.close();
@@ -99,10 +108,14 @@ const median = (xs) => {
   return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2;
 };
 for (const m of modes)
-  console.log(`${m.padEnd(5)} median ${median(fps[m]).toFixed(3)} FPS, ratio to alone ${(median(fps[m]) / median(fps.alone)).toFixed(3)}`);
+  console.log(`${m.padEnd(5)} median ${median(fps[m]).toFixed(3)} FPS, ratio to alone ${(median(fps[m]) / median(fps.alone)).toFixed(3)}; ` +
+    `${median(perCpu[m]).toFixed(3)} frames per CPU s, ratio ${(median(perCpu[m]) / median(perCpu.alone)).toFixed(3)}`);
 console.log("json " + JSON.stringify({
   fps,
+  frames_per_cpu_s: perCpu,
   page: pageWork,
   ratio_view: median(fps.view) / median(fps.alone),
   ratio_page: median(fps.page) / median(fps.alone),
+  cpu_ratio_view: median(perCpu.view) / median(perCpu.alone),
+  cpu_ratio_page: median(perCpu.page) / median(perCpu.alone),
 }));
