@@ -8,7 +8,7 @@
 namespace chungs::app {
 
 void add_map_flags(CLI::App& app, MapFlags& f) {
-  app.add_option("--dataset", f.o.dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch)")
+  app.add_option("--dataset", f.o.dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch, synth-street, rosbag:FILE.bag?left=...)")
       ->required();
   app.add_option("--poses", f.o.poses, "gt (ground truth), a TUM/KITTI trajectory file, or track (the visual tracker)")
       ->capture_default_str();
