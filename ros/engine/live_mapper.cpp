@@ -16,6 +16,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/config/config.hpp"
+#include "chungs/datasets/rosbag_images.hpp"
 #include "chungs/depth/depth_source.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "chungs/mapping/optim_backend.hpp"
@@ -24,6 +25,7 @@
 #include "chungs/pipeline/ply_export.hpp"
 #include "chungs/pipeline/pose_updates.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
+#include "chungs/pipeline/tracker_feed.hpp"
 #include "chungs/store/chunk_id.hpp"
 #include "chungs/store/chunk_store.hpp"
 #include "chungs/tracking/visual_tracker.hpp"
@@ -34,18 +36,6 @@ namespace chungs::live {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-Image8 to_image(const rosbag_io::Picture& p) {
-  Image8 img(p.width, p.height, p.channels);
-  std::copy(p.pixels.begin(), p.pixels.end(), img.data());
-  return img;
-}
-
-ImageF to_depth(const rosbag_io::Picture& p) {
-  ImageF img(p.width, p.height, 1);
-  std::copy(p.metres.begin(), p.metres.end(), img.data());
-  return img;
-}
 
 SE3 to_se3(const rosbag_io::Pose& p) {
   return SE3(Eigen::Quaterniond(p.q[3], p.q[0], p.q[1], p.q[2]).normalized(),
@@ -77,21 +67,6 @@ class OneFrame : public Dataset {
   Frame frame_;
   DatasetInfo info_;
 };
-
-// A tracker's map operation as the run pipeline's pose update (what `run --poses track` applies).
-PoseUpdate to_update(const tracking::MapOperation& op) {
-  PoseUpdate u;
-  if (op.kind == tracking::MapOperation::Kind::LoopClosure) {
-    u.loop = true;
-    u.query = op.loop.query;
-    u.match = op.loop.match;
-    u.poses = op.loop.new_poses;
-    u.junction = op.loop.junction;
-  } else {
-    u.poses = op.poses;
-  }
-  return u;
-}
 
 }  // namespace
 
@@ -159,9 +134,9 @@ struct LiveMapper::Impl {
     Frame f;
     f.index = i;
     f.timestamp = in.stamp;
-    f.left = to_image(in.left);
-    if (in.right) f.right = to_image(*in.right);
-    if (in.depth) f.depth = to_depth(*in.depth);
+    f.left = rosbag_io::image_of(in.left);
+    if (in.right) f.right = rosbag_io::image_of(*in.right);
+    if (in.depth) f.depth = rosbag_io::depth_of(*in.depth);
     f.camera = Camera(in.left.width, in.left.height, in.fx, in.fy, in.cx, in.cy);
     f.baseline = in.baseline;
     f.source = cat(settings.source, " frame ", i);
@@ -178,7 +153,7 @@ struct LiveMapper::Impl {
       key = r.keyframe && !r.doubtful() && !held_out;
       source_id = r.keyframe_id;
       for (const tracking::MapOperation& op : tracker->take_map_operations())
-        if (op.kind != tracking::MapOperation::Kind::NewKeyframe) pending.push_back(to_update(op));
+        if (op.kind != tracking::MapOperation::Kind::NewKeyframe) pending.push_back(pose_update_of(op));
     } else {
       if (held_out) return;
       if (!in.pose) fail(settings.source, " frame ", i, ": no pose");

@@ -11,10 +11,12 @@
 #include "chungs/datasets/rosbag_reader.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <map>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/datasets/rosbag_images.hpp"
 #include "chungs/datasets/rosbag_io.hpp"
 
 #ifdef CHUNGS_WITH_ROS
@@ -51,6 +53,9 @@ BagSpec parse_spec(const std::string& spec) {
   const auto q = spec.find('?');
   out.file = spec.substr(0, q);
   if (out.file.empty()) fail("rosbag:", spec, ": the bag file before '?' is empty");
+  // The file first: a mistyped path is the likelier mistake than missing topics.
+  if (std::error_code ec; !std::filesystem::exists(out.file, ec))
+    fail("rosbag:", spec, ": bag file ", out.file, " does not exist");
   if (q == std::string::npos)
     fail("rosbag:", spec,
          ": no topics given; add ?left=TOPIC&right=TOPIC (stereo) or ?color=TOPIC&depth=TOPIC (RGB-D)");
@@ -139,17 +144,6 @@ Remap rectification(const rosbag_io::CameraInfo& info, const std::string& file) 
   return Remap(m1, m2);
 }
 
-Image8 to_image8(const rosbag_io::Picture& p) {
-  Image8 img(p.width, p.height, p.channels);
-  std::copy(p.pixels.begin(), p.pixels.end(), img.data());
-  return img;
-}
-
-ImageF to_depth(const rosbag_io::Picture& p) {
-  ImageF img(p.width, p.height, 1);
-  std::copy(p.metres.begin(), p.metres.end(), img.data());
-  return img;
-}
 
 class RosbagDataset : public SequenceDataset {
  public:
@@ -174,7 +168,7 @@ class RosbagDataset : public SequenceDataset {
       info_.has_right = true;
     }
     info_.has_depth = rgbd_;
-    Image8 first = to_image8(bag_.image(0, 0));
+    Image8 first = rosbag_io::image_of(bag_.image(0, 0));
     info_.color = first.channels() == 3;
     channels_ = first.channels();
     std::vector<double> stamps(bag_.frames());
@@ -202,7 +196,7 @@ class RosbagDataset : public SequenceDataset {
     f.left = load(0, i, left_);
     if (info_.has_right) f.right = load(1, i, right_);
     if (rgbd_) {
-      ImageF d = to_depth(bag_.image(i, 2));
+      ImageF d = rosbag_io::depth_of(bag_.image(i, 2));
       f.depth = left_.empty() ? std::move(d) : left_.apply_nearest(d);
     }
     return f;
@@ -210,7 +204,7 @@ class RosbagDataset : public SequenceDataset {
 
  private:
   Image8 load(int which, size_t i, const Remap& remap) const {
-    Image8 img = to_image8(bag_.image(i, which));
+    Image8 img = rosbag_io::image_of(bag_.image(i, which));
     if (img.channels() != channels_)
       fail(info_.path.string(), " at ", timestamp(i), " s: image has ", img.channels(),
            " channels, the first had ", channels_);

@@ -16,20 +16,6 @@ namespace {
 
 using tracking::MapOperation;
 
-PoseUpdate to_update(const MapOperation& op) {
-  PoseUpdate u;
-  if (op.kind == MapOperation::Kind::LoopClosure) {
-    u.loop = true;
-    u.query = op.loop.query;
-    u.match = op.loop.match;
-    u.poses = op.loop.new_poses;
-    u.junction = op.loop.junction;
-  } else {
-    u.poses = op.poses;
-  }
-  return u;
-}
-
 class TrackerFeed : public FrameFeed {
  public:
   TrackerFeed(const Dataset& dataset, size_t n, const MapperConfig& config, const tracking::TrackerOptions& options)
@@ -116,7 +102,7 @@ class TrackerFeed : public FrameFeed {
         for (const MapOperation& op : tracker_.take_map_operations()) {
           if (op.kind == MapOperation::Kind::NewKeyframe) continue;  // the frame's own result says it
           loops_ += op.kind == MapOperation::Kind::LoopClosure;
-          item.updates.push_back(to_update(op));
+          item.updates.push_back(pose_update_of(op));
         }
         queue_.push(std::move(item));
       }
@@ -147,6 +133,20 @@ class TrackerFeed : public FrameFeed {
 };
 
 }  // namespace
+
+PoseUpdate pose_update_of(const tracking::MapOperation& op) {
+  PoseUpdate u;
+  if (op.kind == tracking::MapOperation::Kind::LoopClosure) {
+    u.loop = true;
+    u.query = op.loop.query;
+    u.match = op.loop.match;
+    u.poses = op.loop.new_poses;
+    u.junction = op.loop.junction;
+  } else {
+    u.poses = op.poses;
+  }
+  return u;
+}
 
 nlohmann::json tracker_time_report(const tracking::TrackerTimings& t) {
   // The tracker thread's own time: features extracted ahead on the reader thread are not in it.

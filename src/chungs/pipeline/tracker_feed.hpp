@@ -12,6 +12,7 @@
 
 namespace chungs::tracking {
 struct TrackerTimings;
+struct MapOperation;
 }
 
 namespace chungs {
@@ -20,6 +21,8 @@ namespace chungs {
 // tracker thread's own work) and tracking_ms (features, those extracted ahead on the reader thread,
 // pose, keyframes with their BA and loop parts).
 nlohmann::json tracker_time_report(const tracking::TrackerTimings& t);
+// A tracker's map operation (bundle adjustment or loop closure) as the pose update the mapper applies.
+PoseUpdate pose_update_of(const tracking::MapOperation& op);
 
 // Tracks frames [0, n) of the dataset, which must outlive the feed.
 std::unique_ptr<FrameFeed> make_tracker_feed(const Dataset& dataset, size_t n, const MapperConfig& config,
