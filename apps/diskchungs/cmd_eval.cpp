@@ -1,4 +1,5 @@
-// `diskchungs eval ate|images`: trajectory accuracy (ATE, RPE) and image quality (PSNR, SSIM, LPIPS).
+// `diskchungs eval ate|images|depth`: trajectory accuracy (ATE, RPE), image quality (PSNR, SSIM, LPIPS)
+// and depth quality (AbsRel, delta < 1.25).
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -7,6 +8,7 @@
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/eval/depth_metrics.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/image/image_io.hpp"
@@ -114,6 +116,7 @@ struct EvalArgs {
   double max_dt = 0.02;
   int rpe_delta = 1;
   std::string ref, test, mask, lpips_weights;
+  double gt_scale = 5000, est_scale = 5000;
   bool json = false;
 };
 
@@ -179,7 +182,33 @@ int run_images(const EvalArgs& a) {
   return 0;
 }
 
-const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality (PSNR, SSIM, LPIPS)",
+nlohmann::json depth_json(const DepthMetrics& m) {
+  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  return {{"abs_rel", num(m.abs_rel)}, {"delta1", num(m.delta1)}, {"rmse_m", num(m.rmse)}, {"pixels", m.pixels},
+          {"gt_valid", m.gt_valid}};
+}
+
+int run_depth(const EvalArgs& a) {
+  const DepthSetResult r = evaluate_depth_pairs(match_image_pairs(a.gt, a.est), a.gt_scale, a.est_scale);
+  if (a.json) {
+    nlohmann::json j = {{"gt", a.gt}, {"est", a.est}, {"gt_scale", a.gt_scale}, {"est_scale", a.est_scale},
+                        {"pooled", depth_json(r.pooled)}};
+    for (const auto& im : r.images) j["images"].push_back({{"name", im.pair.name}, {"metrics", depth_json(im.metrics)}});
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  for (const auto& im : r.images)
+    std::printf("%-32s AbsRel %s  d<1.25 %s  RMSE %s m  (%zu of %zu ground-truth pixels)\n", im.pair.name.c_str(),
+                fmt(im.metrics.abs_rel, "%.4f").c_str(), fmt(im.metrics.delta1, "%.4f").c_str(),
+                fmt(im.metrics.rmse, "%.3f").c_str(), im.metrics.pixels, im.metrics.gt_valid);
+  std::printf("all %zu image(s), over pixels valid in both: AbsRel %s  d<1.25 %s  RMSE %s m  (%zu of %zu "
+              "ground-truth pixels)\n",
+              r.images.size(), fmt(r.pooled.abs_rel, "%.4f").c_str(), fmt(r.pooled.delta1, "%.4f").c_str(),
+              fmt(r.pooled.rmse, "%.3f").c_str(), r.pooled.pixels, r.pooled.gt_valid);
+  return 0;
+}
+
+const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE), image quality (PSNR, SSIM, LPIPS), depth quality",
                        [](CLI::App& app) -> Action {
   auto args = std::make_shared<EvalArgs>();
   app.require_subcommand(1);
@@ -203,7 +232,15 @@ const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality
                      "LPIPS (alex, v0.1) weights converted by scripts/lpips_convert.py; without them no LPIPS");
   images->add_flag("--json", args->json, "print the results as JSON (infinite PSNR as null)");
 
-  return [args, ate, images]() -> int {
+  CLI::App* depth = app.add_subcommand("depth", "AbsRel and delta < 1.25 of depth maps against ground truth (16-bit PNGs)");
+  depth->add_option("--gt", args->gt, "ground-truth depth PNG or folder")->required();
+  depth->add_option("--est", args->est, "estimated depth PNG or folder (files paired with --gt by name)")->required();
+  depth->add_option("--gt-scale", args->gt_scale, "ground-truth units per metre (TUM 5000, millimetres 1000)")
+      ->capture_default_str();
+  depth->add_option("--est-scale", args->est_scale, "estimate units per metre")->capture_default_str();
+  depth->add_flag("--json", args->json, "print the results as JSON (no valid pixel: null)");
+
+  return [args, ate, images, depth]() -> int {
     if (ate->parsed()) {
       // Checked here, with the flag named: the metrics' own checks named neither flag nor file.
       require_flag(std::isfinite(args->max_dt) && args->max_dt >= 0, "--max-dt", "0 or more seconds",
@@ -215,6 +252,13 @@ const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE) and image quality
       require_flag(!given(*images, "--lpips-weights") || !args->lpips_weights.empty(), "--lpips-weights",
                    "a weights file", "an empty path");
       return run_images(*args);
+    }
+    if (depth->parsed()) {
+      require_flag(std::isfinite(args->gt_scale) && args->gt_scale > 0, "--gt-scale", "a positive number",
+                   args->gt_scale);
+      require_flag(std::isfinite(args->est_scale) && args->est_scale > 0, "--est-scale", "a positive number",
+                   args->est_scale);
+      return run_depth(*args);
     }
     return 2;
   };
