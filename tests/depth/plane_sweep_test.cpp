@@ -215,9 +215,13 @@ TEST(SweepNeighbours, PrefersUsefulBaselinesThatSeeTheSameScene) {
   EXPECT_TRUE((got[0] == 2 && got[1] == 7) || (got[0] == 7 && got[1] == 2)) << got[0] << " " << got[1];
   EXPECT_EQ(got[2], 3u);
   EXPECT_EQ(got[3], 4u);
+  // Straight ahead by 1 m: no parallax at the centre, a useful mean angle over the view.
+  poses.push_back(translated(0, 0, 1.0));  // 8
+  const std::vector<size_t> ahead = select_sweep_neighbours(cam, poses, 0, {.count = 10, .min_angle_deg = 1.0});
+  EXPECT_NE(std::find(ahead.begin(), ahead.end(), size_t(8)), ahead.end());
   const std::vector<size_t> all = select_sweep_neighbours(cam, poses, 0, {.count = 10});
   for (size_t j : all) EXPECT_TRUE(j != 0 && j != 1 && j != 5 && j != 6) << j;
-  EXPECT_THROW(select_sweep_neighbours(cam, poses, 8), Error);
+  EXPECT_THROW(select_sweep_neighbours(cam, poses, poses.size()), Error);
 }
 
 }  // namespace

@@ -69,7 +69,8 @@ std::vector<SweepSample> plane_sweep_at(const PlaneSweepInput& input, const std:
                                         const PlaneSweepConfig& config = {});
 
 // Neighbour keyframes for a plane sweep: those that see much of what the reference sees (overlap of
-// a grid of reference pixels placed at scene_depth) with a useful triangulation angle at that depth.
+// a grid of reference pixels placed at scene_depth) with a useful triangulation angle there (the mean
+// over the grid points both see, so forward motion counts by its parallax towards the borders).
 struct NeighbourChoice {
   size_t count = 6;           // the paper's 6 neighbours
   double scene_depth = 10.0;  // metres: a typical depth of the reference's view

@@ -38,17 +38,20 @@ std::vector<size_t> select_sweep_neighbours(const Camera& camera, const std::vec
     const double axis = std::acos(std::clamp(axis_r.dot(Tj.rotation().col(2)), -1.0, 1.0));
     if (axis > c.max_axis_angle_deg * deg) continue;
     const SE3 Tjw = Tj.inverse();
+    // Overlap, and the mean angle the baseline subtends at the points both see: forward motion has
+    // none at the image centre but plenty towards the borders.
     int seen = 0;
+    double angle_sum = 0;
     for (const auto& X : points) {
       const Eigen::Vector3d pc = Tjw * X;
-      seen += pc.z() > 1e-6 && camera.in_image(camera.project(pc));
+      if (!(pc.z() > 1e-6 && camera.in_image(camera.project(pc)))) continue;
+      ++seen;
+      const Eigen::Vector3d a = (Tr.t - X).normalized(), b = (Tj.t - X).normalized();
+      angle_sum += std::acos(std::clamp(a.dot(b), -1.0, 1.0));
     }
     const double overlap = double(seen) / double(points.size());
     if (overlap < c.min_overlap || seen == 0) continue;
-    // The angle the baseline subtends at the scene depth, at the view's centre point.
-    const Eigen::Vector3d centre = Tr * Eigen::Vector3d(0, 0, c.scene_depth);
-    const Eigen::Vector3d a = (Tr.t - centre).normalized(), b = (Tj.t - centre).normalized();
-    const double angle = std::acos(std::clamp(a.dot(b), -1.0, 1.0));
+    const double angle = angle_sum / seen;
     if (!(angle >= c.min_angle_deg * deg)) continue;
     const double target = c.target_angle_deg * deg;
     const double fit = angle <= target ? angle / target : target / angle;
