@@ -139,7 +139,7 @@ const Command cmd{
         // Everything that can be refused is, before the first point maps: an unusable device, the
         // dataset, the LPIPS weights, and earlier points made with other settings.
         resolve_device(base.config.mapper.device);
-        const auto dataset = open_dataset_spec(base.dataset);
+        const auto dataset = open_map_dataset(a->map);
         lpips_setting(base.config.mapper.lpips_weights, "--lpips-weights or mapper.lpips_weights");
         std::vector<nlohmann::json> earlier;
         for (const Point& p : points) {

@@ -59,7 +59,7 @@ const Command cmd{
           std::printf("viewer at %s (the map appears with the run's first checkpoint)\n", view->url().c_str());
           std::fflush(stdout);
         }
-        const nlohmann::json r = run_mapping(o, *open_dataset_spec(o.dataset));
+        const nlohmann::json r = run_mapping(o, *open_map_dataset(a->map));
         view.reset();  // the run is over: `diskchungs view MAP` shows the finished map
         if (a->json) {
           std::printf("%s\n", r.dump(2).c_str());
@@ -67,8 +67,9 @@ const Command cmd{
         }
         if (r.contains("tracking") && r["tracking"].contains("ate"))
           std::printf(
-              "tracking: ATE rmse %.4f m over a %.1f m path, %zu loop closures, %zu lost frames\n",
-              r["tracking"]["ate"]["rmse"].get<double>(), r["tracking"]["gt_path_length_m"].get<double>(),
+              "tracking: ATE (%s alignment) rmse %.4f m over a %.1f m path, %zu loop closures, %zu lost frames\n",
+              r["tracking"]["ate"]["alignment"].get<std::string>().c_str(), r["tracking"]["ate"]["rmse"].get<double>(),
+              r["tracking"]["gt_path_length_m"].get<double>(),
               r["tracking"]["loop_closures"].get<size_t>(), r["tracking"]["lost_frames"].get<size_t>());
         if (r.contains("held_out")) {
           const auto& h = r["held_out"];

@@ -12,6 +12,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/datasets/dataset.hpp"
+#include "chungs/datasets/mono_view.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/pipeline/tracker_feed.hpp"
@@ -25,7 +26,7 @@ namespace chungs::app {
 namespace {
 
 struct TrackArgs {
-  std::string dataset, out, format = "tum";
+  std::string dataset, out, format = "tum", input = "auto";
   long long max_frames = 0;  // signed: a typed -1 is refused, not wrapped to "all frames"
   bool no_ba = false, no_loop = false, json = false;
   int kf_min_interval = -1, kf_max_interval = -1;
@@ -34,6 +35,10 @@ struct TrackArgs {
 
 // Range checks with the flag named; the intervals' -1 means "the tracker's default" only when not typed.
 void check_flags(const CLI::App& app, const TrackArgs& a) {
+  if (given(app, "--input")) {
+    const bool known = a.input == "auto" || a.input == "mono";
+    require_flag(known, "--input", "auto or mono", a.input);
+  }
   if (given(app, "--max-frames"))
     require_flag(a.max_frames >= 0, "--max-frames", "0 (all) or more", a.max_frames);
   if (given(app, "--kf-min-interval"))
@@ -47,7 +52,9 @@ void check_flags(const CLI::App& app, const TrackArgs& a) {
 }
 
 int run_track(const TrackArgs& a) {
-  auto ds = open_dataset_spec(a.dataset);
+  auto ds = with_input_mode(open_dataset_spec(a.dataset), parse_input_mode(a.input));
+  // One camera measures no scale: the map's unit is set at initialisation and ATE aligns with a similarity.
+  const bool mono = !ds->info().has_right && !ds->info().has_depth;
   const TrajectoryFormat format = parse_trajectory_format(a.format);
   tracking::TrackerOptions opt;
   opt.local_ba = !a.no_ba;
@@ -101,12 +108,18 @@ int run_track(const TrackArgs& a) {
   nlohmann::json j = {{"dataset", a.dataset},  {"out", a.out},          {"frames", n},
                       {"lost_frames", lost},   {"keyframes", keyframes}, {"loop_closures", loops},
                       {"seconds", secs},       {"doubtful_frames", doubtful},
-                      {"doubtful_frame_list", doubtful_frames}, {"quality_file", quality_file}};
+                      {"doubtful_frame_list", doubtful_frames}, {"quality_file", quality_file},
+                      {"input", mono ? "mono" : "auto"}};
+  if (mono) {
+    j["scale_convention"] = "median scene depth of the first keyframe = 1";
+    j["map_segments"] = tm.map_segments;
+    j["reinitialisations"] = tm.reinitialisations;
+  }
   j.update(chungs::tracker_time_report(tm));
   const double per_frame = j["tracking_ms_per_frame"].get<double>();
   std::optional<AteResult> ate;
   if (gt.size() >= 3) {
-    ate = compute_ate(gt, est, {Alignment::SE3, 0.02});
+    ate = compute_ate(gt, est, {mono ? Alignment::Sim3 : Alignment::SE3, 0.02});
     j["ate"] = to_json(*ate);
     j["gt_path_length"] = gt.path_length();
     // Beside the trajectory: both paths from above and the error along the path (as `eval ate --plot`).
@@ -126,21 +139,29 @@ int run_track(const TrackArgs& a) {
                 tm.features_ms / double(tm.frames), tm.tracking_ms / double(tm.frames), tm.keyframe_ms / double(tm.frames));
   std::printf("doubtful estimates: %zu of %zu frames (few inliers, estimates disagreeing, implausible motion, coasting\n"
               "  behind a moving object or an ambiguous motion; per frame in %s)\n", doubtful, n, quality_file.c_str());
+  if (mono)
+    std::printf("monocular: scale set at initialisation (median scene depth of the first keyframe = 1 map unit); "
+                "%zu map segment(s), %zu re-initialisation(s) after a loss\n",
+                tm.map_segments, tm.reinitialisations);
   std::printf("trajectory written to %s (%s)\n", a.out.c_str(), a.format.c_str());
   if (ate)
-    std::printf("ATE (se3 alignment, %zu poses): rmse %.4f m, max %.4f m over a %.1f m path; plot %s.ate.png\n",
-                ate->matched(), ate->stats.rmse, ate->stats.max, gt.path_length(), a.out.c_str());
+    std::printf("ATE (%s alignment, %zu poses%s): rmse %.4f m (%.2f %% of the path), max %.4f m over a %.1f m path; plot %s.ate.png\n",
+                alignment_name(ate->align), ate->matched(), mono ? cat(", scale ", ate->alignment.s).c_str() : "",
+                ate->stats.rmse, 100 * ate->stats.rmse / std::max(gt.path_length(), 1e-9), ate->stats.max,
+                gt.path_length(), a.out.c_str());
   else
     std::printf("no ground truth: ATE not computed\n");
   return 0;
 }
 
-const Command track_cmd("track", "visual SLAM tracking of a stereo or RGB-D dataset; writes the trajectory",
+const Command track_cmd("track", "visual SLAM tracking of a stereo, RGB-D or monocular dataset; writes the trajectory",
                         [](CLI::App& app) -> Action {
   auto args = std::make_shared<TrackArgs>();
   app.add_option("--dataset", args->dataset, "dataset as kind:path (kitti, tum, replica, euroc, 3dmatch) or synth-street:key=value,...")->required();
   app.add_option("--out", args->out, "trajectory file to write")->required();
   app.add_option("--format", args->format, "trajectory format: tum or kitti")->capture_default_str();
+  app.add_option("--input", args->input, "auto (all the dataset has) or mono (left camera only: no right image, no depth)")
+      ->capture_default_str();
   app.add_option("--max-frames", args->max_frames, "track only the first N frames (0: all)");
   app.add_flag("--no-ba", args->no_ba, "skip local bundle adjustment");
   app.add_flag("--no-loop", args->no_loop, "skip loop closure");

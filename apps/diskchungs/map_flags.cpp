@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "chungs/datasets/mono_view.hpp"
+#include "dataset_spec.hpp"
 #include "flag_checks.hpp"
 #include "presets.hpp"
 
@@ -27,6 +29,13 @@ void add_map_flags(CLI::App& app, MapFlags& f) {
   app.add_option("--max-frames", f.max_frames, "use only the first n frames");
   app.add_option("--lpips-weights", f.lpips_weights,
                  "LPIPS weights (scripts/lpips_convert.py) to score the evaluation with; else no LPIPS");
+  app.add_option("--input", f.input, "auto (all the dataset has) or mono (left camera only: no right image, no depth)")
+      ->capture_default_str();
+}
+
+std::unique_ptr<Dataset> open_map_dataset(const MapFlags& f) {
+  require_flag(f.input == "auto" || f.input == "mono", "--input", "auto or mono", f.input);
+  return with_input_mode(open_dataset_spec(f.o.dataset), parse_input_mode(f.input));
 }
 
 RunOptions map_flags_options(const CLI::App& app, const MapFlags& f) {

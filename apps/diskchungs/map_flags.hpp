@@ -16,13 +16,17 @@ struct MapFlags {
   double chunk_size = 0, resolution = 0, fill_depth = 0;
   int final_iterations = 0;
   std::string depth, device, lpips_weights;
+  std::string input = "auto";  // auto | mono (the dataset's left camera only)
   bool no_ba = false, no_loop = false;
 };
 
 // Adds --dataset (required), --poses, --config, --preset, --budget, --chunk-size, --resolution,
-// --final-iterations, --depth, --fill-depth, --device, --no-ba, --no-loop, --max-frames and
-// --lpips-weights to `app`, read into `f`.
+// --final-iterations, --depth, --fill-depth, --device, --no-ba, --no-loop, --max-frames,
+// --lpips-weights and --input to `app`, read into `f`.
 void add_map_flags(CLI::App& app, MapFlags& f);
+
+// The dataset named by f.o.dataset, read as --input says (checked here: the flag is named when wrong).
+std::unique_ptr<Dataset> open_map_dataset(const MapFlags& f);
 
 // f.o with its configuration made (the preset, then the file's keys, then the flags given) and the
 // frame limit and tracker switches set; not yet validated, so a caller may change more first.

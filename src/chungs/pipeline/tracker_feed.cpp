@@ -49,11 +49,17 @@ class TrackerFeed : public FrameFeed {
                         {"keyframes", t.keyframes},       {"lost_frames", lost_},
                         {"loop_closures", loops_},        {"doubtful_frames", doubtful_count_},
                         {"doubtful_keyframes_not_mapped", doubtful_keyframes_}};
+    if (t.map_segments) {
+      j["map_segments"] = t.map_segments;
+      j["reinitialisations"] = t.reinitialisations;
+    }
     // The first ones by frame index (all of them on any excerpt a user would read through).
     j["doubtful_frame_list"] = doubtful_;
     j.update(tracker_time_report(t));
     if (gt_.size() >= 3) {
-      const AteResult ate = compute_ate(gt_, tracker_.trajectory(), {Alignment::SE3, 0.02});
+      // A single camera measures no scale (issue 25): its trajectory is compared after a similarity alignment.
+      const bool mono = !dataset_.info().has_right && !dataset_.info().has_depth;
+      const AteResult ate = compute_ate(gt_, tracker_.trajectory(), {mono ? Alignment::Sim3 : Alignment::SE3, 0.02});
       j["ate"] = to_json(ate);
       j["gt_path_length_m"] = gt_.path_length();
     }

@@ -11,6 +11,7 @@
 namespace chungs::tracking {
 
 bool VisualTracker::need_keyframe(const Current& c, int inliers) const {
+  if (mono_) return need_keyframe_mono(c, inliers);
   // The reference keyframe's points that other keyframes confirmed: fresh single-view points (most of
   // a new keyframe's) would make every following frame look like it lost track of the reference.
   const int min_obs = map_.keyframes() <= 2 ? 2 : 3;
@@ -55,7 +56,8 @@ long VisualTracker::create_keyframe(Current& c) {
   std::sort(cand.begin(), cand.end());
   const SE3 T_wc = map_.kf(id).T_wc;
   const double close = close_depth();
-  int created = 0;
+  // A single camera has no depth: new points come from this keyframe's matches with its neighbours.
+  int created = mono_ ? triangulate_new_points(id) : 0;
   for (auto& [z, i] : cand) {
     if (z > close && created >= 100) break;
     const auto& kp = c.f.kps[i];
@@ -141,7 +143,8 @@ void VisualTracker::cull_points(long kf) {
       map_.erase_point(pid);
       continue;
     }
-    if (age >= 2 && p->obs.size() < 2) {
+    // A monocular point is born seen twice: it must be confirmed by a third keyframe.
+    if (age >= 2 && p->obs.size() < (mono_ ? 3u : 2u)) {
       map_.erase_point(pid);
       continue;
     }
@@ -159,7 +162,7 @@ void VisualTracker::cull_keyframes(long kf) {
     int total = 0, redundant = 0;
     for (size_t i = 0; i < K.points.size(); ++i) {
       const MapPoint* p = K.points[i] >= 0 ? map_.point(K.points[i]) : nullptr;
-      if (!p || !K.feat.has_depth(i) || K.feat.depth[i] > close) continue;
+      if (!p || (!mono_ && (!K.feat.has_depth(i) || K.feat.depth[i] > close))) continue;
       ++total;
       redundant += p->obs.size() >= 4;
     }
@@ -196,7 +199,9 @@ std::vector<MapOperation> VisualTracker::take_map_operations() {
 
 Trajectory VisualTracker::trajectory() const {
   Trajectory t;
-  for (const auto& f : frames_) t.push_back(f.stamp, map_.pose(f.ref_kf) * f.T_ref_c);
+  // A monocular frame before the first map segment has no pose (ref_kf -1).
+  for (const auto& f : frames_)
+    if (f.ref_kf >= 0) t.push_back(f.stamp, map_.pose(f.ref_kf) * f.T_ref_c);
   return t;
 }
 

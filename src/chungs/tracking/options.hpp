@@ -3,6 +3,7 @@
 #include "chungs/tracking/features.hpp"
 #include "chungs/tracking/loop_closer.hpp"
 #include "chungs/tracking/matcher.hpp"
+#include "chungs/tracking/mono_init.hpp"
 #include "chungs/tracking/stereo_matcher.hpp"
 
 namespace chungs::tracking {
@@ -38,6 +39,16 @@ struct TrackerOptions {
   double max_turn_rate = 180;           // degrees/s; likewise
   double max_sideways_speed = 3;        // m/s; moving sideways faster than this and than forwards is implausible
   LoopOptions loop;
+  // Monocular input (issue 25).
+  TwoViewOptions mono_init;              // two-view initialisation; its target_median_depth sets the map's unit
+  int mono_init_max_frames = 20;         // an initialisation reference older than this many frames is replaced
+  int mono_min_inliers = 15;             // tracked map points needed (fewer: lost)
+  float mono_keyframe_ratio = 0.75f;     // new keyframe when tracked < ratio * the reference's confirmed points
+  int mono_max_keyframe_interval = 8;    // ... or this many frames after the last (0: no limit)
+  int mono_neighbours = 10;              // keyframes new points are triangulated against
+  double mono_point_parallax_deg = 1.0;  // least parallax of a new point's two rays
+  bool mono_relocalise = true;           // after a loss, try the existing map before starting a new segment
+  int mono_max_extrapolated_frames = 30; // lost frames' poses follow constant velocity this long, then stay
 };
 
 }  // namespace chungs::tracking

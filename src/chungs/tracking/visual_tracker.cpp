@@ -38,8 +38,12 @@ VisualTracker::VisualTracker(TrackerOptions opt) : opt_(std::move(opt)) {}
 VisualTracker::~VisualTracker() = default;
 
 std::string VisualTracker::describe() const {
-  return cat("visual tracker (", stereo_ ? "stereo" : "rgb-d", "): ", map_.keyframes(), " keyframes, ", map_.points(),
-             " points, ", timings_.loops, " loop(s), ", timings_.lost_frames, " lost frame(s)");
+  std::string out = cat("visual tracker (", mono_ ? "monocular" : stereo_ ? "stereo" : "rgb-d", "): ", map_.keyframes(),
+                        " keyframes, ", map_.points(), " points, ", timings_.loops, " loop(s), ", timings_.lost_frames,
+                        " lost frame(s)");
+  if (mono_)
+    out += cat(", ", timings_.map_segments, " map segment(s), ", timings_.reinitialisations, " re-initialisation(s)");
+  return out;
 }
 
 double VisualTracker::close_depth() const {
@@ -48,7 +52,8 @@ double VisualTracker::close_depth() const {
 
 namespace {
 
-// The baseline a frame's features are matched with: the stereo rig's, or for RGB-D a virtual one.
+// The baseline a frame's features are matched with: the stereo rig's, for RGB-D a virtual one, none (0) for a
+// single camera.
 double frame_baseline(const Frame& frame, const TrackerOptions& opt) {
   const Camera& cam = frame.camera;
   if (frame.right) {
@@ -61,7 +66,7 @@ double frame_baseline(const Frame& frame, const TrackerOptions& opt) {
       fail("tracking: RGB-D depth noise ", opt.rgbd_depth_noise, " with fx ", cam.fx, " gives no usable virtual baseline");
     return b;
   }
-  fail("tracking: frame ", frame.index, " (", frame.source, ") has neither a right image nor depth (monocular tracking is not supported)");
+  return 0;
 }
 
 }  // namespace
@@ -107,6 +112,8 @@ std::shared_ptr<PreparedFrame> VisualTracker::prepare(const Frame& frame, const 
         }
       }
     match_stereo(out->gray, rg, out->f, rf, bf, opt.stereo);
+  } else if (!frame.depth) {
+    out->f = extract_orb(out->gray, opt.orb);
   } else {
     if (!frame.depth->same_size(frame.left)) fail("tracking: frame ", frame.index, " depth and image sizes differ");
     out->f = extract_orb(out->gray, opt.orb);
@@ -118,6 +125,11 @@ std::shared_ptr<PreparedFrame> VisualTracker::prepare(const Frame& frame, const 
 
 void VisualTracker::extract(const Frame& frame, Current& c, std::shared_ptr<PreparedFrame> prepared) {
   const Camera& cam = frame.camera;
+  const bool mono = !frame.right && !frame.depth;
+  if (timings_.frames > 1 && mono != mono_)
+    fail("tracking: frame ", frame.index, " (", frame.source, ") is ", mono ? "monocular" : "stereo or RGB-D",
+         " but earlier frames were not: one sequence, one kind of input");
+  mono_ = mono;
   stereo_ = bool(frame.right);
   baseline_ = frame_baseline(frame, opt_);
   if (width_ && (cam.width != width_ || cam.height != height_))
@@ -151,6 +163,7 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
   TrackResult res;
   res.frame_index = frame.index;
   res.stamp = frame.timestamp;
+  if (mono_) return track_mono(c, res);
   if (map_.keyframes() == 0) {
     if (!initialize(c)) {
       res.state = TrackState::Lost;

@@ -1,6 +1,9 @@
-// Feature-based visual SLAM tracker for rectified stereo and RGB-D frames: ORB features with depth,
-// constant-velocity tracking against the local map with a PnP-RANSAC fallback, keyframes with local bundle
-// adjustment and culling, relocalisation after loss, and loop closure with an SE3 pose graph.
+// Feature-based visual SLAM tracker for rectified stereo, RGB-D and monocular frames: ORB features (with
+// depth where the input gives it), constant-velocity tracking against the local map with a PnP-RANSAC
+// fallback, keyframes with local bundle adjustment and culling, relocalisation after loss, and loop closure
+// with an SE3 pose graph. Monocular input (issue 25, mono_tracking.cpp) starts each map segment from two
+// views, triangulates new points between keyframes, and after a loss it cannot relocalise from starts a
+// new segment.
 #pragma once
 #include <memory>
 #include <optional>
@@ -19,6 +22,7 @@ struct TrackerTimings {
   double ahead_ms = 0;  // features prepared on another thread (not part of the tracker thread's time)
   size_t frames = 0, keyframes = 0, loops = 0, lost_frames = 0;
   size_t doubtful_frames = 0, coasted_frames = 0;
+  size_t map_segments = 0, reinitialisations = 0;  // monocular: segments started, and those after a loss
 };
 
 // A frame's features (ORB on both images and their stereo matches, or depth attached), computed
@@ -74,6 +78,13 @@ class VisualTracker : public Tracker {
   void cull_keyframes(long kf);
   KeyframeRecord record(long kf) const;
   double close_depth() const;
+  // Monocular (mono_tracking.cpp, mono_mapping.cpp).
+  TrackResult track_mono(Current& c, TrackResult res);
+  bool start_segment(Current& c, TrackResult& res);  // two-view initialisation against init_ref_
+  bool need_keyframe_mono(const Current& c, int inliers) const;
+  int triangulate_new_points(long kf);   // also fuses the keyframe's points with its neighbours'
+  void fuse_with_neighbours(long kf);
+  void loop_check_keyframe(long kf, Current& c);
 
   TrackerOptions opt_;
   Map map_;
@@ -103,6 +114,19 @@ class VisualTracker : public Tracker {
   bool prev_valid_ = false;
   double prev_stamp_ = 0;
   int coast_frames_ = 0;  // frames in a row whose pose is the prediction
+  // Monocular state.
+  bool mono_ = false;
+  struct InitReference {
+    size_t index = 0;
+    double stamp = 0;
+    Features f;
+    size_t frame_record = 0;  // its entry in frames_
+    SE3 T_wc_guess;           // where the last segment's motion puts it
+  };
+  std::optional<InitReference> init_ref_;
+  SE3 lost_T_cw_;           // while lost: the pose constant velocity extrapolates to
+  int lost_frames_in_row_ = 0;
+  double next_segment_depth_ = 0;  // median scene depth (world units) the next segment is scaled to
 };
 
 }  // namespace chungs::tracking
