@@ -20,15 +20,14 @@ CudaOptimBackend::CudaOptimBackend(size_t capacity, int sh_degree, const RasterC
     : pool_(capacity, sh_degree), raster_(raster), targets_(target_cache_bytes) {}
 
 void CudaOptimBackend::upload_slots(std::span<const uint32_t> slots) {
-  ids_.resize(slots.size());
-  staging_.upload(ids_.data(), slots.data(), slots.size_bytes(), "slot list");
+  ids_ = static_cast<const uint32_t*>(staging_.upload(slots.data(), slots.size_bytes(), "slot list"));
   pool_.wait_uploads();  // chunks scattered by Residency since the last render
 }
 
 const DeviceRenderOutput& CudaOptimBackend::forward(std::span<const uint32_t> slots,
                                                     const RenderCamera<float>& camera) {
   upload_slots(slots);
-  return raster_.forward(params_of(pool_.device_arrays(), 0), ids_.data(), slots.size(), camera);
+  return raster_.forward(params_of(pool_.device_arrays(), 0), ids_, slots.size(), camera);
 }
 
 void CudaOptimBackend::set_profiling(bool on) {
@@ -108,16 +107,18 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
   const bool depth = t.depth;
   mark(P::targets);
   upload_slots(slots);
+  const uint8_t* pixel_mask = nullptr;
   if (targets.pixel_mask) {
     if (targets.pixel_mask->width() != t.width || targets.pixel_mask->height() != t.height ||
         targets.pixel_mask->channels() != 1)
       fail("cuda mapping step: pixel mask ", targets.pixel_mask->width(), "x", targets.pixel_mask->height(),
            " does not match the ", t.width, "x", t.height, " target");
-    pixel_mask_.upload(targets.pixel_mask->data(), targets.pixel_mask->pixels());
+    pixel_mask = static_cast<const uint8_t*>(
+        mask_staging_.upload(targets.pixel_mask->data(), targets.pixel_mask->pixels(), "pixel mask"));
   }
   mark(P::upload);
   const DeviceRenderOutput& out =
-      raster_.forward(params_of(pool_.device_arrays(), 0), ids_.data(), slots.size(), camera);
+      raster_.forward(params_of(pool_.device_arrays(), 0), ids_, slots.size(), camera);
   mark(P::forward);
   if (out.width != t.width || out.height != t.height)
     fail("cuda mapping step: target ", t.width, "x", t.height, " does not match the ", out.width, "x", out.height,
@@ -125,9 +126,10 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
   const bool sky = !sky_.empty();
   DeviceRenderOutput scored = out;
   if (sky) scored.rgb = sky_.compose(out, camera);
-  const LossTerms terms = loss_.evaluate(loss, scored, target_rgb_.data(), depth ? target_inv_.data() : nullptr,
-                                         depth ? mask_.data() : nullptr, sky || !slots.empty(),
-                                         targets.pixel_mask ? pixel_mask_.data() : nullptr);
+  // The loss sums are read only after the backward and Adam are queued: the host's wait for them
+  // then overlaps the device's work instead of leaving the device idle until the next launch.
+  loss_.launch(loss, scored, target_rgb_.data(), depth ? target_inv_.data() : nullptr,
+               depth ? mask_.data() : nullptr, sky || !slots.empty(), pixel_mask);
   DeviceRenderGrads grads = loss_.grads();
   mark(P::loss);
   if (sky) {
@@ -137,6 +139,7 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
     mark(P::sky);
   }
   if (slots.empty()) {
+    const LossTerms terms = loss_.finish();
     end_phases();
     return terms;
   }
@@ -145,14 +148,15 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
   const PoolDeviceArrays& d = pool_.device_arrays();
   const AdamState state{params_of(d, 1), params_of(d, 2), d.adam_steps, d.lr_position_factor, d.capacity};
   // The forward above refused out-of-range slots of this same list: Adam need not wait to check.
-  sparse_adam_step(adam, params_of(d, 0), state, ids_.data(), out.visible, slots.size(), g, /*ids_checked=*/true);
+  sparse_adam_step(adam, params_of(d, 0), state, ids_, out.visible, slots.size(), g, /*ids_checked=*/true);
   mark(P::adam);
   if (prune) {
     // On the device: only the selected slots come back (cuda/prune.hpp).
-    pruner_.select(*prune, d.opacity[0], d.capacity, ids_.data(), slots.size(), out.radius, camera.width,
+    pruner_.select(*prune, d.opacity[0], d.capacity, ids_, slots.size(), out.radius, camera.width,
                    prune->min_visits > 0 ? d.adam_steps : nullptr, to_prune);
     mark(P::prune);
   }
+  const LossTerms terms = loss_.finish();
   end_phases();
   return terms;
 }

@@ -49,10 +49,11 @@ class CudaOptimBackend final : public OptimBackend {
   CudaSky sky_;
   double sky_lr_ = 0;
   DeviceTargetCache targets_;
-  DeviceArray<uint32_t> ids_;
-  StagedUpload staging_;  // the slot list goes up without holding the host
+  StagedUpload staging_;  // the slot list goes up without holding the host or the default stream
+  const uint32_t* ids_ = nullptr;  // the device copy of the last slot list
   DeviceArray<float> target_rgb_, target_inv_, probability_;
-  DeviceArray<uint8_t> mask_, pixel_mask_;
+  DeviceArray<uint8_t> mask_;
+  StagedUpload mask_staging_;  // a trimmed step's pixel mask, as the slot list
   CudaPruneSelector pruner_;
   StepPhaseClock clock_;
   std::unique_ptr<BoundaryEvents> events_;  // while profiling

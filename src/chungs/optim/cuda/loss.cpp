@@ -7,9 +7,20 @@
 
 namespace chungs::cuda {
 
+CudaMappingLoss::CudaMappingLoss() : readback_(detail::loss_readback_create()) {}
+
+CudaMappingLoss::~CudaMappingLoss() { detail::loss_readback_destroy(readback_); }
+
 LossTerms CudaMappingLoss::evaluate(const LossConfig& config, const DeviceRenderOutput& render,
                                     const float* target_rgb, const float* target_inv_depth,
                                     const uint8_t* depth_mask, bool want_grads, const uint8_t* pixel_mask) {
+  launch(config, render, target_rgb, target_inv_depth, depth_mask, want_grads, pixel_mask);
+  return finish();
+}
+
+void CudaMappingLoss::launch(const LossConfig& config, const DeviceRenderOutput& render, const float* target_rgb,
+                             const float* target_inv_depth, const uint8_t* depth_mask, bool want_grads,
+                             const uint8_t* pixel_mask) {
   config.validate();
   const int W = render.width, H = render.height;
   if (W <= 0 || H <= 0 || !render.rgb) fail("CUDA mapping loss: no rendered image (", W, "x", H, ")");
@@ -41,13 +52,24 @@ LossTerms CudaMappingLoss::evaluate(const LossConfig& config, const DeviceRender
                        want_grads && ls > 0 ? planes_.data() : nullptr,
                        sums_.data(),
                        sums_.data() + 4};
-  double s[4];
-  detail::launch_mapping_loss(a, s);
+  pending_ = false;
+  detail::launch_mapping_loss(a, readback_);
+  plane_ = plane, ls_ = ls, ld_ = ld, use_depth_ = use_depth, pending_ = true;
   grads_ = DeviceRenderGrads{};
   if (want_grads) {
     grads_.rgb = grad_rgb_.data();
     if (use_depth) grads_.inv_depth = grad_inv_depth_.data();
   }
+}
+
+LossTerms CudaMappingLoss::finish() {
+  if (!pending_) fail("CUDA mapping loss: no launched loss to finish");
+  pending_ = false;
+  double s[4];
+  detail::loss_readback_wait(readback_, s);
+  const size_t plane = plane_;
+  const double ls = ls_, ld = ld_;
+  const bool use_depth = use_depth_;
   LossTerms t;
   t.l1 = s[0] / double(3 * plane);
   t.ssim = ls > 0 ? s[1] / double(3 * plane) : 1.0;

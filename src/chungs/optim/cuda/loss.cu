@@ -205,7 +205,38 @@ void ssim_window(float* w11) {
   for (int i = 0; i <= 2 * kR; ++i) w11[i] = float(v[i] / sum);
 }
 
-void launch_mapping_loss(const LossLaunch& a, double* host_sums) {
+struct LossReadback {
+  double* host = nullptr;  // pinned, 4 doubles
+  cudaEvent_t copied = nullptr;
+};
+
+LossReadback* loss_readback_create() {
+  auto* rb = new LossReadback;
+  cudaError_t e = cudaMallocHost(&rb->host, 4 * sizeof(double));
+  if (e == cudaSuccess) e = cudaEventCreateWithFlags(&rb->copied, cudaEventDisableTiming);
+  if (e != cudaSuccess) {
+    loss_readback_destroy(rb);
+    check(e, "pinned loss sums");
+  }
+  return rb;
+}
+
+void loss_readback_destroy(LossReadback* rb) {
+  if (!rb) return;
+  if (rb->copied) {
+    cudaEventSynchronize(rb->copied);
+    cudaEventDestroy(rb->copied);
+  }
+  if (rb->host) cudaFreeHost(rb->host);
+  delete rb;
+}
+
+void loss_readback_wait(LossReadback* rb, double* sums) {
+  check(cudaEventSynchronize(rb->copied), "loss");
+  for (int i = 0; i < 4; ++i) sums[i] = rb->host[i];
+}
+
+void launch_mapping_loss(const LossLaunch& a, LossReadback* rb) {
   Window win;
   ssim_window(win.w);
   check(cudaMemsetAsync(a.partials, 0, 4 * kLossSpread * sizeof(double)), "memset");
@@ -232,7 +263,8 @@ void launch_mapping_loss(const LossLaunch& a, double* host_sums) {
     mask_grads_kernel<<<blocks, 256>>>(a);
     check(cudaGetLastError(), "gradient mask launch");
   }
-  check(cudaMemcpy(host_sums, a.sums, 4 * sizeof(double), cudaMemcpyDeviceToHost), "loss");
+  check(cudaMemcpyAsync(rb->host, a.sums, 4 * sizeof(double), cudaMemcpyDeviceToHost, 0), "loss sums copy");
+  check(cudaEventRecord(rb->copied, 0), "loss sums event");
 }
 
 }  // namespace chungs::cuda::detail

@@ -24,8 +24,16 @@ struct LossLaunch {
 
 constexpr int kLossSpread = 64;
 
-// Runs the kernels and waits; host_sums gets the 4 sums. Throws Error on a CUDA failure.
-void launch_mapping_loss(const LossLaunch& a, double* host_sums);
+// Pinned host memory for the 4 sums and an event after their copy: the sums are read once the
+// kernels queued after the loss (the rasterizer's backward, Adam) are launched, so the device never
+// waits for the host to read them.
+struct LossReadback;
+LossReadback* loss_readback_create();
+void loss_readback_destroy(LossReadback* rb);
+// Queues the kernels and the copy of the 4 sums into rb; returns at once. Throws Error on a CUDA failure.
+void launch_mapping_loss(const LossLaunch& a, LossReadback* rb);
+// Waits for the sums of the last launch into rb and copies them to sums[4].
+void loss_readback_wait(LossReadback* rb, double* sums);
 
 // The 11-tap Gaussian window (sigma 1.5) of the SSIM, computed as the CPU twin does.
 void ssim_window(float* w11);

@@ -90,32 +90,48 @@ double EventTimer::stop_ms() {
 }
 
 StagedUpload::StagedUpload() {
-  cudaEvent_t e;
-  check(cudaEventCreateWithFlags(&e, cudaEventDisableTiming), "cudaEventCreate", "staged upload", 0);
-  done_ = e;
+  cudaStream_t st;
+  check(cudaStreamCreateWithFlags(&st, cudaStreamNonBlocking), "cudaStreamCreate", "staged upload", 0);
+  stream_ = st;
+  for (void** e : {&copied_[0], &copied_[1], &released_[0], &released_[1]}) {
+    cudaEvent_t ev;
+    check(cudaEventCreateWithFlags(&ev, cudaEventDisableTiming), "cudaEventCreate", "staged upload", 0);
+    *e = ev;
+  }
 }
 
 StagedUpload::~StagedUpload() {
-  if (done_) {
-    cudaEventSynchronize(static_cast<cudaEvent_t>(done_));
-    cudaEventDestroy(static_cast<cudaEvent_t>(done_));
-  }
-  if (host_) cudaFreeHost(host_);
+  cudaStreamSynchronize(static_cast<cudaStream_t>(stream_));
+  for (void* e : {copied_[0], copied_[1], released_[0], released_[1]}) cudaEventDestroy(static_cast<cudaEvent_t>(e));
+  for (void* h : host_)
+    if (h) cudaFreeHost(h);
+  cudaStreamDestroy(static_cast<cudaStream_t>(stream_));
 }
 
-void StagedUpload::upload(void* dst, const void* src, size_t bytes, const char* what) {
-  if (bytes == 0) return;
-  check(cudaEventSynchronize(static_cast<cudaEvent_t>(done_)), "staging wait", what, bytes);
-  if (bytes > capacity_) {
-    if (host_) check(cudaFreeHost(host_), "cudaFreeHost", what, capacity_);
-    host_ = nullptr, capacity_ = 0;
+const void* StagedUpload::upload(const void* src, size_t bytes, const char* what) {
+  const int b = current_ ^ 1;
+  auto* st = static_cast<cudaStream_t>(stream_);
+  auto copied = static_cast<cudaEvent_t>(copied_[b]);
+  // Every use of the current buffer is queued on the default stream by now.
+  check(cudaEventRecord(static_cast<cudaEvent_t>(released_[current_]), 0), "event record", what, 0);
+  current_ = b;
+  if (bytes == 0) return nullptr;
+  check(cudaEventSynchronize(copied), "staging wait", what, bytes);  // its last copy has left staging b
+  if (bytes > host_capacity_[b]) {
+    if (host_[b]) check(cudaFreeHost(host_[b]), "cudaFreeHost", what, host_capacity_[b]);
+    host_[b] = nullptr, host_capacity_[b] = 0;
     const size_t want = bytes + bytes / 4;  // room for a list that grows a little
-    check(cudaMallocHost(&host_, want), "cudaMallocHost", what, want);
-    capacity_ = want;
+    check(cudaMallocHost(&host_[b], want), "cudaMallocHost", what, want);
+    host_capacity_[b] = want;
   }
-  std::memcpy(host_, src, bytes);
-  check(cudaMemcpyAsync(dst, host_, bytes, cudaMemcpyHostToDevice, 0), "copy to device", what, bytes);
-  check(cudaEventRecord(static_cast<cudaEvent_t>(done_), 0), "event record", what, 0);
+  device_[b].reserve(bytes);  // a reallocation frees the old memory only once the device is idle
+  std::memcpy(host_[b], src, bytes);
+  check(cudaStreamWaitEvent(st, static_cast<cudaEvent_t>(released_[b]), 0), "stream wait", what, 0);
+  check(cudaMemcpyAsync(device_[b].data(), host_[b], bytes, cudaMemcpyHostToDevice, st), "copy to device", what,
+        bytes);
+  check(cudaEventRecord(copied, st), "event record", what, 0);
+  check(cudaStreamWaitEvent(0, copied, 0), "stream wait", what, 0);
+  return device_[b].data();
 }
 
 BoundaryEvents::BoundaryEvents(int count) {

@@ -53,22 +53,30 @@ class EventTimer {
   void* end_ = nullptr;
 };
 
-// Host-to-device copies that do not hold the host: the data is copied into a pinned staging buffer and
-// from there on the default stream, in order with the kernels. A plain copy from pageable memory
-// waits for all work queued before it (a 1 M slot list: 0.35 ms of every step). The staging buffer is
-// refilled only once its last copy has finished.
+// Host-to-device copies that neither hold the host nor take the default stream's time: the data is
+// copied into one of two pinned staging buffers and from there, on a copy stream of its own, into one
+// of two device buffers, which the default stream waits for. So the copy of the next step's list runs
+// while the default stream still works on the current one (which reads the other buffer). A buffer is
+// written again only after the default stream has passed every use queued before the upload that
+// switched away from it. A plain copy from pageable memory waits for all work queued before it (a
+// 1 M slot list: 0.35 ms of every step); one on the default stream adds its transfer to the step.
 class StagedUpload {
  public:
   StagedUpload();
   ~StagedUpload();
   StagedUpload(const StagedUpload&) = delete;
   StagedUpload& operator=(const StagedUpload&) = delete;
-  void upload(void* dst, const void* src, size_t bytes, const char* what);
+  // Device copy of src, valid for the work queued on the default stream until the next upload but one.
+  const void* upload(const void* src, size_t bytes, const char* what);
 
  private:
-  void* host_ = nullptr;  // pinned
-  size_t capacity_ = 0;
-  void* done_ = nullptr;  // event after the last copy
+  void* stream_ = nullptr;
+  void* host_[2] = {nullptr, nullptr};  // pinned
+  size_t host_capacity_[2] = {0, 0};
+  DeviceBytes device_[2];
+  void* copied_[2] = {nullptr, nullptr};    // on the copy stream, after the buffer's copy
+  void* released_[2] = {nullptr, nullptr};  // on the default stream, after the buffer's last use
+  int current_ = 0;
 };
 
 // CUDA events at numbered boundaries on the default stream (a step's phases): record(i) marks
