@@ -31,6 +31,7 @@ void PlaneSweepConfig::validate() const {
   if (!(max_cost > 0 && max_cost < 1)) fail("plane sweep: max_cost ", max_cost, " (between 0 and 1)");
   if (!(uniqueness_margin >= 0 && uniqueness_margin < 2)) fail("plane sweep: uniqueness_margin ", uniqueness_margin);
   if (!(exclusion_px >= 0) || !std::isfinite(exclusion_px)) fail("plane sweep: exclusion_px ", exclusion_px);
+  if (!positive(max_rel_per_px)) fail("plane sweep: max_rel_per_px ", max_rel_per_px);
 }
 
 namespace {
@@ -99,6 +100,7 @@ PreparedSweep prepare_sweep(const PlaneSweepInput& in, const PlaneSweepConfig& c
   p.max_cost = float(cfg.max_cost);
   p.uniqueness_margin = float(cfg.uniqueness_margin);
   p.exclusion_px = float(cfg.exclusion_px);
+  p.max_rel_per_px = float(cfg.max_rel_per_px);
   return s;
 }
 

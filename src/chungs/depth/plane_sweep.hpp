@@ -32,6 +32,9 @@ struct PlaneSweepConfig {
   // than the winner, in 1 - ZNCC units: a correlation of 0.9 against 0.8 is a choice, against 0.85 not.
   double uniqueness_margin = 0.1;
   double exclusion_px = 2.0;
+  // Parallax test: the depth may change by at most this fraction per pixel of motion in the neighbour
+  // where the range is longest (near the epipole of forward motion a perfect match is still no depth).
+  double max_rel_per_px = 0.1;
   bool cuda = false;  // run on the GPU (CUDA builds only)
   void validate() const;
 };

@@ -87,6 +87,7 @@ struct Problem {
   float max_cost = 0.4f;
   float uniqueness_margin = 0.1f;
   float exclusion_px = 2.0f;  // minima closer than this to the winner belong to its basin
+  float max_rel_per_px = 0.1f;  // relative depth change per pixel of image motion at the winner
 };
 
 struct PixelResult {
@@ -157,6 +158,21 @@ CHUNGS_PS_HD inline float hypothesis_cost(const Problem& p, int x, int y, float 
   return div(sum, float(k));
 }
 
+// The guide neighbour's epipolar segment: position start + t/last * delta along one image axis,
+// and the homogeneous terms that turn a position back into inverse depth.
+struct Guide {
+  float span, start, delta, last;
+  float h, hz, e, ez;
+  bool along_x;
+};
+
+// Inverse depth whose image in the guide lies at hypothesis position t (0 .. last, fractional for the
+// sub-step): the position's axis coordinate c solves c (hz + rho ez) = h + rho e.
+CHUNGS_PS_HD inline float guide_rho(const Guide& g, float t) {
+  const float c = add(g.start, mul(div(t, g.last), g.delta));
+  return div(sub(mul(c, g.hz), g.h), sub(g.e, mul(c, g.ez)));
+}
+
 // The sweep at one reference pixel. prior_inv: the prior's inverse depth (0: none); `costs` is
 // scratch for kMaxHypotheses values.
 CHUNGS_PS_HD inline PixelResult sweep_pixel(const Problem& p, int x, int y, float prior_inv, float prior_conf,
@@ -185,25 +201,47 @@ CHUNGS_PS_HD inline PixelResult sweep_pixel(const Problem& p, int x, int y, floa
   const bool narrow = prior_inv > 0.0f && prior_conf >= p.min_prior_confidence;
   const float lo = narrow ? mul(prior_inv, sub(1.0f, p.prior_range)) : p.inv_far;
   const float hi = narrow ? mul(prior_inv, add(1.0f, p.prior_range)) : p.inv_near;
-  // Spacing: the range's length in pixels in the neighbour where it is longest.
-  float span = 0;
+  // Spacing: hypotheses evenly spaced along the range's image in the neighbour where it is longest
+  // (the guide), not evenly in inverse depth: with motion along the optical axis the image moves
+  // many times faster per unit of inverse depth at one end of the range than at the other.
+  Guide g;
+  g.span = 0;
   for (int j = 0; j < p.neighbours; ++j) {
+    // A neighbour ahead of the reference cannot see what lies between them: its segment ends where
+    // the point would come within half its depth of the neighbour's image plane.
+    const Neighbour& nj = p.nb[j];
+    float top = hi;
+    if (nj.e[2] < 0.0f) {
+      const float hz0 = add(add(mul(nj.H[6], float(x)), mul(nj.H[7], float(y))), nj.H[8]);
+      const float lim = mul(0.5f, div(hz0, -nj.e[2]));
+      if (lim < top) top = lim;
+    }
+    if (!(top > lo)) continue;
     float u0, v0, u1, v1;
-    if (!project(p.nb[j], float(x), float(y), lo, u0, v0) || !project(p.nb[j], float(x), float(y), hi, u1, v1))
-      continue;
+    if (!project(nj, float(x), float(y), lo, u0, v0) || !project(nj, float(x), float(y), top, u1, v1)) continue;
     const float du = sub(u1, u0), dv = sub(v1, v0);
     const float len = root(add(mul(du, du), mul(dv, dv)));
-    if (len > span) span = len;
+    if (len > g.span) {
+      const Neighbour& n = p.nb[j];
+      g.span = len;
+      g.along_x = (du < 0.0f ? -du : du) >= (dv < 0.0f ? -dv : dv);
+      g.start = g.along_x ? u0 : v0, g.delta = g.along_x ? du : dv;
+      const int r0 = g.along_x ? 0 : 3;
+      g.h = add(add(mul(n.H[r0], float(x)), mul(n.H[r0 + 1], float(y))), n.H[r0 + 2]);
+      g.hz = add(add(mul(n.H[6], float(x)), mul(n.H[7], float(y))), n.H[8]);
+      g.e = n.e[g.along_x ? 0 : 1], g.ez = n.e[2];
+    }
   }
-  if (!(span > 0.0f)) return out;
-  const float want = ceilf(div(span, p.step_px));
+  if (!(g.span > 0.0f)) return out;
+  const float want = ceilf(div(g.span, p.step_px));
   int count = want > float(p.max_hypotheses - 1) ? p.max_hypotheses : int(want) + 1;
   if (count < p.min_hypotheses) count = p.min_hypotheses;
-  const float step = div(sub(hi, lo), float(count - 1));
+  g.last = float(count - 1);
 
   int best = 0;
   for (i = 0; i < count; ++i) {
-    costs[i] = hypothesis_cost(p, x, y, add(lo, mul(float(i), step)), rc, rnorm, mean);
+    const float rho_i = guide_rho(g, float(i));
+    costs[i] = rho_i > 0.0f ? hypothesis_cost(p, x, y, rho_i, rc, rnorm, mean) : kNoCost;
     if (costs[i] < costs[best]) best = i;
   }
   const float cbest = costs[best];
@@ -212,7 +250,7 @@ CHUNGS_PS_HD inline PixelResult sweep_pixel(const Problem& p, int x, int y, floa
 
   // Uniqueness: any other local minimum, beyond the winner's basin, must cost clearly more. Without
   // one, the curve's highest cost stands in (the paper's max-versus-min contrast).
-  const float px_per_step = div(span, float(count - 1));
+  const float px_per_step = div(g.span, g.last);
   const float band = ceilf(div(p.exclusion_px, px_per_step));
   const int excl = band < 1.0f ? 1 : band > float(count) ? count : int(band);
   float other = -1.0f, highest = cbest;
@@ -232,8 +270,13 @@ CHUNGS_PS_HD inline PixelResult sweep_pixel(const Problem& p, int x, int y, floa
   const float den = sub(add(a, c), mul(2.0f, cbest));
   float off = den > 0.0f ? div(sub(a, c), mul(2.0f, den)) : 0.0f;
   off = off > 0.5f ? 0.5f : off < -0.5f ? -0.5f : off;
-  const float rho = add(lo, mul(add(float(best), off), step));
+  const float rho = guide_rho(g, add(float(best), off));
   if (!(rho > 0.0f)) return out;
+  // Parallax: where a pixel of image motion spans much depth (near the epipole, short baselines) a
+  // good match still says little.
+  const float rho_a = guide_rho(g, sub(float(best), 0.5f)), rho_b = guide_rho(g, add(float(best), 0.5f));
+  const float per_px = div(sub(rho_b, rho_a), px_per_step);
+  if (!((per_px < 0.0f ? -per_px : per_px) <= mul(p.max_rel_per_px, rho))) return out;
   out.depth = div(1.0f, rho);
   const float distinct = div(gap, mul(3.0f, p.uniqueness_margin));
   out.confidence = mul(sub(1.0f, cbest), distinct > 1.0f ? 1.0f : distinct);
