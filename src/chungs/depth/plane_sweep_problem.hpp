@@ -9,6 +9,10 @@
 namespace chungs {
 
 struct PreparedSweep {
+  PreparedSweep() = default;
+  PreparedSweep(PreparedSweep&&) = default;  // a move keeps the vectors' buffers, so the pointers hold
+  PreparedSweep(const PreparedSweep&) = delete;  // a copy would point into the original
+  PreparedSweep& operator=(const PreparedSweep&) = delete;
   plane_sweep::Problem problem;  // image pointers point into the vectors below
   std::vector<float> ref;
   std::vector<std::vector<float>> neighbours;
