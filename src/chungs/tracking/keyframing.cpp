@@ -79,7 +79,8 @@ long VisualTracker::create_keyframe(Current& c) {
     for (long k = 0; k < long(map_.keyframes()); ++k)
       if (map_.kf(k).bad) culled.emplace_back(k, map_.pose(k));
     const auto tb = std::chrono::steady_clock::now();
-    LocalBAResult ba = local_bundle_adjust(map_, id, k_, opt_.orb.scale_factor, opt_.ba_window, opt_.ba_iterations);
+    LocalBAResult ba = local_bundle_adjust(map_, id, k_, opt_.orb.scale_factor, mono_ ? opt_.mono_ba_window : opt_.ba_window,
+                                           opt_.ba_iterations);
     timings_.ba_ms += ms_since(tb);
     for (long k : ba.keyframes)
       if (k != id) moved.emplace_back(k, map_.pose(k));

@@ -96,6 +96,7 @@ bool VisualTracker::start_segment(Current& c, TrackResult& res) {
   k1.feat = c.f;
   const long id0 = map_.add_keyframe(std::move(k0)).id;
   const long id1 = map_.add_keyframe(std::move(k1)).id;
+  segment_first_kf_ = id0;
   const SE3 T_w0 = map_.kf(id0).T_wc;
   for (size_t j = 0; j < r.used.size(); ++j) {
     auto [a, b] = pairs[size_t(r.used[j])];
@@ -150,13 +151,18 @@ bool VisualTracker::start_segment(Current& c, TrackResult& res) {
 bool VisualTracker::need_keyframe_mono(const Current& c, int inliers) const {
   // The reference keyframe's points that a third keyframe confirmed (two while the map is young): a new point
   // is seen by two keyframes from birth, so counting those would make every frame look like a lost view.
-  const size_t min_obs = map_.keyframes() <= 2 ? 2 : 3;
+  const size_t min_obs = map_.keyframes() - size_t(segment_first_kf_) <= 2 ? 2 : 3;
   int ref_points = 0;
   for (long pid : map_.kf(ref_kf_).points)
     if (const MapPoint* p = pid >= 0 ? map_.point(pid) : nullptr) ref_points += p->obs.size() >= min_obs;
   const size_t since = c.index - last_kf_frame_;
   if (since < 1) return false;
   if (opt_.mono_max_keyframe_interval > 0 && since >= size_t(opt_.mono_max_keyframe_interval)) return true;
+  // Keyframes a frame apart see the same points from nearly the same place: little parallax for new points
+  // and a local BA window that spans only metres. A frame that tracks few points makes one anyway.
+  const bool weak = inliers < 3 * opt_.mono_min_inliers;
+  if (weak) return true;
+  if (since < size_t(opt_.mono_min_keyframe_interval)) return false;
   // Without depth only keyframes make new points, so they come sooner than with stereo: as soon as the frame
   // keeps clearly fewer than the reference's points.
   return inliers < opt_.mono_keyframe_ratio * ref_points;

@@ -127,6 +127,7 @@ class VisualTracker : public Tracker {
   SE3 lost_T_cw_;           // while lost: the pose constant velocity extrapolates to
   int lost_frames_in_row_ = 0;
   double next_segment_depth_ = 0;  // median scene depth (world units) the next segment is scaled to
+  long segment_first_kf_ = 0;      // the current segment's first keyframe
 };
 
 }  // namespace chungs::tracking
