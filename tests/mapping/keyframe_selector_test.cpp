@@ -9,8 +9,10 @@
 namespace chungs {
 namespace {
 
-TEST(KeyframeSelector, PicksOnlyInTheLatestKeyframesCell) {
-  KeyframeSelector s;
+TEST(KeyframeSelector, OnTheGridPicksOnlyInTheLatestKeyframesCell) {
+  KeyframeSelectorConfig c;
+  c.around_latest = false;
+  KeyframeSelector s(c);
   s.add(0, {10, 0, 5});
   s.add(1, {150, 0, 20});
   s.add(2, {250, 0, 30});  // next cell along x
@@ -21,6 +23,21 @@ TEST(KeyframeSelector, PicksOnlyInTheLatestKeyframesCell) {
     EXPECT_TRUE(id == 2 || id == 3) << id;
   }
   EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{2, 3}));
+}
+
+TEST(KeyframeSelector, AroundTheLatestKeyframeTheCandidatesCrossTheGridBorder) {
+  KeyframeSelector s;  // the default
+  s.add(0, {-5, 0, 0});
+  s.add(1, {120, 0, 3});   // 101.0 m from the latest: out
+  s.add(2, {150, 0, 20});  // the grid's other cell, 51 m away
+  s.add(3, {199, 2, 1});
+  s.add(4, {221, 0, 0});  // latest, in the next grid cell
+  EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{2, 3, 4}));
+  std::mt19937_64 rng(2);
+  std::map<uint32_t, int> seen;
+  for (int i = 0; i < 100; ++i) ++seen[s.pick(rng)];
+  EXPECT_EQ(seen.size(), 3u);
+  EXPECT_EQ(seen.count(1), 0u);
 }
 
 TEST(KeyframeSelector, AWindowNarrowsTheCellUntilTheNextKeyframe) {

@@ -147,6 +147,8 @@ void fields(V& v, SamplerConfig& c) {
 template <class V>
 void fields(V& v, KeyframeSelectorConfig& c) {
   v("cell_size", c.cell_size, "metres, keyframe grid cell");
+  v("around_latest", c.around_latest,
+    "candidates within cell_size / 2 of the latest keyframe instead of its grid cell");
   v("new_uses", c.new_uses, "remaining uses of a new keyframe");
   v("top_loss_fraction", c.top_loss_fraction, "share of candidates by loss that get an extra use");
   v("budget_share", c.budget_share, "most of the budget the keyframes trained on together may need");

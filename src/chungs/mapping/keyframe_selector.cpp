@@ -45,9 +45,13 @@ bool KeyframeSelector::in_window(uint32_t id) const {
 std::vector<uint32_t> KeyframeSelector::in_cell(PickScope scope) const {
   std::vector<uint32_t> out;
   if (keyframes_.empty()) return out;
-  const Cell c = cell_of(keyframes_.at(latest_).position);
-  for (const auto& [id, k] : keyframes_)
-    if (cell_of(k.position) == c && (scope == PickScope::cell || in_window(id))) out.push_back(id);
+  const Eigen::Vector3d& here = keyframes_.at(latest_).position;
+  const Cell c = cell_of(here);
+  const double r2 = 0.25 * config_.cell_size * config_.cell_size;
+  for (const auto& [id, k] : keyframes_) {
+    const bool near = config_.around_latest ? (k.position - here).squaredNorm() <= r2 : cell_of(k.position) == c;
+    if (near && (scope == PickScope::cell || in_window(id))) out.push_back(id);
+  }
   std::sort(out.begin(), out.end());
   return out;
 }
