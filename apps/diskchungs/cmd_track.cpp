@@ -135,8 +135,8 @@ int run_track(const TrackArgs& a) {
   std::printf("frames %zu, keyframes %zu, lost %zu, loop closures %zu; %.1f ms/frame tracking (%.1f s with loading)\n",
               n, keyframes, lost, loops, per_frame, secs);
   if (tm.frames)
-    std::printf("per frame: features + stereo %.1f ms, pose tracking %.1f ms, keyframes (BA, culling, loops) %.1f ms\n",
-                tm.features_ms / double(tm.frames), tm.tracking_ms / double(tm.frames), tm.keyframe_ms / double(tm.frames));
+    std::printf("per frame: %s %.1f ms, pose tracking %.1f ms, keyframes (BA, culling, loops) %.1f ms\n",
+                mono ? "features" : "features + stereo", tm.features_ms / double(tm.frames), tm.tracking_ms / double(tm.frames), tm.keyframe_ms / double(tm.frames));
   std::printf("doubtful estimates: %zu of %zu frames (few inliers, estimates disagreeing, implausible motion, coasting\n"
               "  behind a moving object or an ambiguous motion; per frame in %s)\n", doubtful, n, quality_file.c_str());
   if (mono)

@@ -3,9 +3,12 @@
 // and after a loss first relocalisation in the existing map, then a new segment.
 //
 // Scale: the first segment's unit is the median scene depth of its first keyframe (= 1). A later segment
-// cannot be measured against the earlier ones, so it is scaled to the median depth the last keyframe before
-// the loss had, and placed where constant velocity from the last tracked pose puts its first frame: the
-// closest guess to continuity, not a measurement (`track` says how many segments there were).
+// cannot be measured against the earlier ones. It is scaled so that the camera keeps the speed (map units per
+// frame) it had before the loss, since a camera on a vehicle or in a hand does not change speed in a few
+// frames while the scene depth does (a turn from a narrow street into a square); without a speed, to the
+// median depth the last keyframe before the loss had. It is placed where constant velocity from the last
+// tracked pose puts its first frame. Both are the closest guess to continuity, not a measurement (`track`
+// says how many segments there were).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -77,7 +80,13 @@ bool VisualTracker::start_segment(Current& c, TrackResult& res) {
   to.scale_factor = opt_.orb.scale_factor;
   if (timings_.map_segments > 0 && next_segment_depth_ > 0) to.target_median_depth = next_segment_depth_;
   std::vector<std::pair<int, int>> pairs;
-  const TwoViewResult r = initialize_two_view(init_ref_->f, c.f, k_, width_, height_, pairs, to);
+  TwoViewResult r = initialize_two_view(init_ref_->f, c.f, k_, width_, height_, pairs, to);
+  if (r.ok && timings_.map_segments > 0 && next_segment_speed_ > 0) {
+    const double f = next_segment_speed_ * double(c.index - init_ref_->index) / r.T_21.t.norm();
+    for (auto& P : r.points) P *= f;
+    r.T_21.t *= f;
+    to.target_median_depth *= f;
+  }
   if (!r.ok) {
     log::debug("tracking: frame ", c.index, " against frame ", init_ref_->index, ": no initialisation (", r.why, ")");
     // Too few matches left (the view moved on) or too long a wait: start again from this frame.
@@ -234,6 +243,7 @@ TrackResult VisualTracker::track_mono(Current& c, TrackResult res) {
       lost_T_cw_ = last_T_cw_;
       lost_frames_in_row_ = 0;
       next_segment_depth_ = median_depth(map_, ref_kf_);
+      next_segment_speed_ = velocity_ ? velocity_->t.norm() : 0;
       init_ref_.reset();
       last_inliers_ = 0;
     }

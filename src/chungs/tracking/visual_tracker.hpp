@@ -128,6 +128,7 @@ class VisualTracker : public Tracker {
   int lost_frames_in_row_ = 0;
   double next_segment_depth_ = 0;  // median scene depth (world units) the next segment is scaled to
   long segment_first_kf_ = 0;      // the current segment's first keyframe
+  double next_segment_speed_ = 0;  // map units per frame the camera moved before the loss (0: unknown)
 };
 
 }  // namespace chungs::tracking
