@@ -143,6 +143,8 @@ void fields(V& v, SamplerConfig& c) {
     "new Gaussians per keyframe at most this many per 100 k pixels per step keyframes got lately (0: no cap)");
   v("stride", c.stride, "sample every n-th pixel per axis");
   v("fill_depth", c.fill_depth, "metres given to sampled pixels without depth (sky); 0: skip them");
+  v("resample_every", c.resample_every,
+    "steps between samplings of the keyframe just trained on where its render lacks detail (0: only at arrival)");
 }
 template <class V>
 void fields(V& v, KeyframeSelectorConfig& c) {

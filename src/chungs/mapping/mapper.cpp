@@ -211,6 +211,43 @@ RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
   });
 }
 
+// New Gaussians for keyframe `id` where its image has detail the render of the map lacks.
+SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& depth, const Camera& camera,
+                                const SE3& pose, uint64_t cap) {
+  using clock = std::chrono::steady_clock;
+  SampleStats stats;
+  const ImageF target = to_rgb_float(color);
+  std::vector<ChunkId> left_out;
+  const std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out);
+  // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
+  const auto t1 = clock::now();
+  const ImageF prob = with_pinned_slots(*residency_, shown, slots_, [&](const std::vector<uint32_t>& slots) {
+    return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler, target);
+  });
+  keyframe_times_.render_ms += ms_since(t1);
+  const auto t2 = clock::now();
+  // What the render lacks only because chunks stayed on disk is not sampled again; nor is any
+  // other chunk of the map the render did not draw (beyond the far plane).
+  std::unordered_set<ChunkId> exclude;
+  for (const auto& [chunk, count] : residency_->catalogue())
+    if (count > 0) exclude.insert(chunk);
+  for (ChunkId chunk : shown) exclude.erase(chunk);
+  auto batches = sample_gaussians(config_.sampler, target, depth, prob, camera, pose, store_->chunk_size(), id,
+                                  uint32_t(iterations_), rng_, &stats, &exclude, cap);
+  keyframe_times_.sample_ms += ms_since(t2);
+  const auto t3 = clock::now();
+  for (auto& b : batches) {
+    const PinResult res = residency_->add(b.id, b.block);
+    if (!res.ok)
+      stats.kept -= b.block.size();
+    else
+      keyframe_chunks_.add(id, b.id);
+  }
+  sampled_total_ += stats.kept;
+  keyframe_times_.add_ms += ms_since(t3);
+  return stats;
+}
+
 SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& color,
                                  const std::optional<ImageF>& depth, const Camera& camera, const SE3& pose) {
   camera.validate(cat("keyframe of frame ", frame));
@@ -240,37 +277,7 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
                 "without data, or stereo images that do not match); report.json counts such keyframes "
                 "(keyframes_without_depth)");
   }
-  if (depth) {
-    const ImageF target = to_rgb_float(color);
-    std::vector<ChunkId> left_out;
-    const std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out);
-    // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
-    const auto t1 = clock::now();
-    const ImageF prob = with_pinned_slots(*residency_, shown, slots_, [&](const std::vector<uint32_t>& slots) {
-      return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler, target);
-    });
-    keyframe_times_.render_ms += ms_since(t1);
-    const auto t2 = clock::now();
-    // What the render lacks only because chunks stayed on disk is not sampled again; nor is any
-    // other chunk of the map the render did not draw (beyond the far plane).
-    std::unordered_set<ChunkId> exclude;
-    for (const auto& [id, count] : residency_->catalogue())
-      if (count > 0) exclude.insert(id);
-    for (ChunkId id : shown) exclude.erase(id);
-    auto batches = sample_gaussians(config_.sampler, target, *depth, prob, camera, pose, store_->chunk_size(), id,
-                                    uint32_t(iterations_), rng_, &stats, &exclude, new_gaussian_cap(color));
-    keyframe_times_.sample_ms += ms_since(t2);
-    const auto t3 = clock::now();
-    for (auto& b : batches) {
-      const PinResult res = residency_->add(b.id, b.block);
-      if (!res.ok)
-        stats.kept -= b.block.size();
-      else
-        keyframe_chunks_.add(id, b.id);
-    }
-    sampled_total_ += stats.kept;
-    keyframe_times_.add_ms += ms_since(t3);
-  }
+  if (depth) stats = sample_view(id, color, *depth, camera, pose, new_gaussian_cap(color));
   steps_at_last_keyframe_ = iterations_;
   KeyframeRecord rec;
   rec.id = id;
@@ -290,6 +297,18 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   ++keyframe_times_.keyframes;
   keyframe_times_.total_ms += ms_since(t0);
   return stats;
+}
+
+void Mapper::resample(const KeyframeRecord& kf) {
+  const std::shared_ptr<const KeyframeImages> images = keyframe_store_->get(kf.id);
+  if (images->depth.empty()) return;
+  // As many as the keyframe cap allows for this many steps.
+  const double rate = config_.sampler.new_per_step;
+  const uint64_t cap = rate > 0 ? std::max<uint64_t>(config_.sampler.min_per_chunk,
+                                                     uint64_t(rate * (double(images->color.pixels()) / 1e5) *
+                                                              double(config_.sampler.resample_every)))
+                                : 0;
+  sample_view(kf.id, images->color, images->depth, kf.camera, kf.pose, cap);
 }
 
 uint64_t Mapper::new_gaussian_cap(const Image8& image) {
@@ -431,6 +450,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
     throw;
   }
   residency_->unpin(chunks);
+  if (!pixel_mask && config_.sampler.resample_every > 0 && iterations_ % uint64_t(config_.sampler.resample_every) == 0)
+    resample(kf);
   // A partial step's loss counts pixels it could not explain: not a measure of the keyframe.
   if (!pixel_mask) selector_.report_loss(kf.id, st.loss);
   step_times_.bookkeeping_ms += ms_since(t2);

@@ -138,6 +138,9 @@ class Mapper {
   // New Gaussians a keyframe may add: what the optimiser trained per keyframe lately (see
   // SamplerConfig::new_per_step); 0 for no cap.
   uint64_t new_gaussian_cap(const Image8& image);
+  void resample(const KeyframeRecord& kf);
+  SampleStats sample_view(uint32_t id, const Image8& color, const ImageF& depth, const Camera& camera,
+                          const SE3& pose, uint64_t cap);
   // One optimisation step on the given keyframe: on its whole view (loading what it needs) when it is
   // in the training window or `whole_view`, else on the resident part (view_coverage.hpp).
   StepStats step_keyframe(uint32_t keyframe, bool whole_view = false);

@@ -19,6 +19,7 @@ void SamplerConfig::validate() const {
   if (!(new_per_step >= 0) || !std::isfinite(new_per_step)) fail("sampler: new_per_step must be >= 0, got ", new_per_step);
   if (stride < 1) fail("sampler: stride must be >= 1, got ", stride);
   if (!(fill_depth >= 0)) fail("sampler: fill_depth must be >= 0, got ", fill_depth);
+  if (resample_every < 0) fail("sampler: resample_every must be >= 0, got ", resample_every);
 }
 
 namespace {

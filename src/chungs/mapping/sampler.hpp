@@ -34,6 +34,10 @@ struct SamplerConfig {
   // Pixels without depth (sky, beyond the stereo range) get this depth in metres (0: skipped), so
   // the far field is drawn instead of showing the background.
   double fill_depth = 0;
+  // Every this many optimisation steps (0: never) the keyframe just trained on is sampled again where
+  // its render still lacks the image's detail, so a place trained longer gains Gaussians as pruning
+  // removes others, instead of being sampled only once, when its keyframe arrived.
+  int resample_every = 0;
   void validate() const;
 };
 
