@@ -10,7 +10,7 @@
 //   bench_plane_sweep_depth [--dataset kitti:PATH|street:LENGTH_M,W,H[,SEED]] [--reference stereo|dataset] [--keyframes 5] [--first 10]
 //                           [--every 20] [--window 6] [--neighbours 4] [--scale 0.5] [--samples 5000]
 //                           [--near 2] [--far 80] [--scene-depth 15] [--prior-points 0] [--prior-noise 0.1]
-//                           [--max-rel-per-px 0.1] [--best-k 2]
+//                           [--max-rel-per-px 0.1] [--best-k 3]
 //                           [--json FILE] [--save DIR]
 //
 // --save: per keyframe the scaled image and both depths as 8-bit inverse depth (white near, black
@@ -43,7 +43,7 @@ namespace {
 
 struct Options {
   std::string dataset = "kitti:../shared/data/kitti_seq1", reference = "stereo", json, save;
-  size_t best_k = 2, keyframes = 5, first = 10, every = 20, window = 6, neighbours = 4, samples = 5000, prior_points = 0;
+  size_t best_k = 3, keyframes = 5, first = 10, every = 20, window = 6, neighbours = 4, samples = 5000, prior_points = 0;
   double scale = 0.5, near = 2, far = 80, scene_depth = 15, prior_noise = 0.1, max_rel = 0.1;
 };
 

@@ -56,6 +56,7 @@ PlaneSweepConfig swept(double near = 0.5, double far = 80.0) {
   PlaneSweepConfig c;
   c.near = near, c.far = far;
   c.max_rel_per_px = 0.5;
+  c.best_k = 2;  // of 3 neighbours: the one ahead does not see the borders
   return c;
 }
 

@@ -77,7 +77,7 @@ struct Problem {
   Neighbour nb[kMaxNeighbours];
   int neighbours = 0;
   int radius = 3;
-  int best_k = 2;
+  int best_k = 3;
   float inv_near = 2.0f, inv_far = 0.0125f;  // the wide sweep, 1/m
   float prior_range = 0.2f;                   // the narrow sweep: prior * (1 -+ range)
   float min_prior_confidence = 0.5f;
