@@ -75,16 +75,22 @@ TEST(RgbdTracker, FollowsSuddenFastTurn) {
   EXPECT_LT(err_deg, 1.0);
 }
 
-TEST(VisualTracker, RejectsFrameWithoutDepthSource) {
+// A frame without depth source is monocular input (issue 25): accepted, and lost until a map exists; a
+// sequence that changes its kind of input is refused, naming the frame.
+TEST(VisualTracker, RejectsInputKindChangingMidSequence) {
   Frame f;
   f.left = Image8(64, 48, 1, 100);
   f.camera = Camera(64, 48, 50, 50, 32, 24);
   f.source = "mono.png";
   tracking::VisualTracker tracker;
+  EXPECT_EQ(tracker.track(f).state, tracking::TrackState::Lost);
+  f.index = 1;
+  f.source = "rgbd.png";
+  f.depth = ImageF(64, 48, 1, 2.0f);
   try {
     tracker.track(f);
     FAIL() << "expected an Error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("mono.png"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("rgbd.png"), std::string::npos) << e.what();
   }
 }

@@ -98,6 +98,7 @@ long VisualTracker::create_keyframe(Current& c) {
     if (!loops_) {
       LoopOptions lo = opt_.loop;
       lo.scale_factor = opt_.orb.scale_factor;
+      lo.similarity = mono_;
       loops_ = std::make_unique<LoopCloser>(lo, k_, width_, height_);
     }
     const auto tl = std::chrono::steady_clock::now();

@@ -7,6 +7,7 @@
 #include "chungs/common/log.hpp"
 #include "chungs/tracking/matcher.hpp"
 #include "chungs/tracking/pose_optimizer.hpp"
+#include "chungs/tracking/sim3_pose_graph.hpp"
 
 namespace chungs::tracking {
 
@@ -157,6 +158,22 @@ std::optional<LoopCloser::Verified> LoopCloser::verify(Map& map, long query, lon
   v.T_wq = T_cw.inverse();
   for (size_t j = 0; j < used.size(); ++j)
     if (inlier[j]) v.pairs.push_back(used[j]);
+  if (opt_.similarity) {
+    // The query's own points seen again as old points: their distances from the query camera, in the old map
+    // (through the verified pose) and in the query's map, differ by the scale drift since the candidate.
+    const SE3 T_qw_before = map.kf(query).T_wc.inverse();
+    std::vector<double> ratios;
+    for (auto& [kp, old] : v.pairs) {
+      const long own = map.kf(query).points[size_t(kp)];
+      if (own < 0 || own == old || !map.point(own)) continue;
+      const double d_old = (T_cw * map.point(old)->pos).norm(), d_own = (T_qw_before * map.point(own)->pos).norm();
+      if (d_own > 0 && d_old > 0) ratios.push_back(d_old / d_own);
+    }
+    if (ratios.size() >= 10) {
+      std::nth_element(ratios.begin(), ratios.begin() + long(ratios.size() / 2), ratios.end());
+      v.scale = ratios[ratios.size() / 2];
+    }
+  }
   return v;
 }
 
@@ -191,16 +208,39 @@ LoopEvent LoopCloser::close(Map& map, long query, const Verified& v) {
   for (long m : near_match)
     for (long n : near_query) new_loops.push_back({m, n, before.at(m).inverse() * poses.at(n)});
   edges.insert(edges.end(), new_loops.begin(), new_loops.end());
-  optimize_pose_graph(poses, edges, {0, v.candidate});
+  std::unordered_map<long, double> scales;  // similarity only: each keyframe's scale correction
+  if (opt_.similarity) {
+    // The same graph with a scale per keyframe: edges within one side keep scale 1 (measured on one map), the
+    // loop edges carry the scale the verification measured.
+    std::unordered_map<long, Sim3> sim;
+    for (auto& [id, T] : poses) sim[id] = Sim3(T);
+    // The query side starts at its corrected pose with the measured scale.
+    for (long n : near_query) sim[n] = Sim3(v.scale, poses.at(n).q, poses.at(n).t);
+    std::vector<Sim3Edge> sim_edges;
+    for (const auto& e : edges) {
+      const bool loop_edge = std::find_if(new_loops.begin(), new_loops.end(), [&](const PoseGraphEdge& l) {
+                               return l.i == e.i && l.j == e.j;
+                             }) != new_loops.end();
+      Sim3 S(e.T_ij);
+      if (loop_edge) S = sim.at(e.i).inverse() * sim.at(e.j);
+      sim_edges.push_back({e.i, e.j, S, e.weight});
+    }
+    optimize_sim3_pose_graph(sim, sim_edges, {0, v.candidate});
+    for (auto& [id, S] : sim) poses[id] = SE3(S.q, S.t), scales[id] = S.s;
+  } else {
+    optimize_pose_graph(poses, edges, {0, v.candidate});
+  }
   loop_edges_.insert(loop_edges_.end(), new_loops.begin(), new_loops.end());
 
-  // Points move with the keyframe that observes them first; then the query re-observes the old points.
+  // Points move with the keyframe that observes them first (scaled about it with a similarity); then the query
+  // re-observes the old points.
   for (const auto& [pid, p] : map.all_points()) {
     (void)p;
     MapPoint* mp = map.point(pid);
     long ref = mp->obs.begin()->first;
     if (!poses.count(ref)) continue;
-    mp->pos = poses.at(ref) * (before.at(ref).inverse() * mp->pos);
+    const Eigen::Vector3d local = before.at(ref).inverse() * mp->pos;
+    mp->pos = poses.at(ref) * (scales.count(ref) ? Eigen::Vector3d(scales.at(ref) * local) : local);
   }
   LoopEvent ev;
   ev.query = query;

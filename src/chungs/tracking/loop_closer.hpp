@@ -1,6 +1,7 @@
 // Loop closure: place recognition with a bag-of-words keyframe database, geometric verification (PnP-RANSAC
-// against the candidate's points, then pose-only refinement), SE3 pose-graph optimisation over all keyframes,
-// and the map correction (keyframes and points) reported as a LoopEvent for the mapper.
+// against the candidate's points, then pose-only refinement), SE3 pose-graph optimisation over all keyframes
+// (Sim(3) for a monocular map, whose scale drifts: the loop also measures the query side's scale against the
+// candidate's), and the map correction (keyframes and points) reported as a LoopEvent for the mapper.
 #pragma once
 #include <filesystem>
 #include <optional>
@@ -28,6 +29,7 @@ struct LoopOptions {
   double max_drift_ratio = 0.2;      // reject loops moving the query more than this share of the path since
   double min_drift_gate = 0.5;       // the candidate, plus this many metres
   float scale_factor = 1.2f;
+  bool similarity = false;           // monocular: Sim(3) loop correction (set by the tracker)
 };
 
 class LoopCloser {
@@ -43,6 +45,7 @@ class LoopCloser {
     long candidate;
     SE3 T_wq;                                 // corrected pose of the query keyframe
     std::vector<std::pair<int, long>> pairs;  // query keypoint -> old point
+    double scale = 1;                         // old map units per query-side map unit (similarity only)
   };
   std::optional<Verified> verify(Map& map, long query, long candidate) const;
   LoopEvent close(Map& map, long query, const Verified& v);

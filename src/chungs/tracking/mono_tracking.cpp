@@ -45,6 +45,7 @@ void VisualTracker::loop_check_keyframe(long kf, Current& c) {
   if (!loops_) {
     LoopOptions lo = opt_.loop;
     lo.scale_factor = opt_.orb.scale_factor;
+    lo.similarity = true;
     loops_ = std::make_unique<LoopCloser>(lo, k_, width_, height_);
   }
   const auto tl = std::chrono::steady_clock::now();

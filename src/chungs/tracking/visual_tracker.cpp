@@ -126,7 +126,7 @@ std::shared_ptr<PreparedFrame> VisualTracker::prepare(const Frame& frame, const 
 void VisualTracker::extract(const Frame& frame, Current& c, std::shared_ptr<PreparedFrame> prepared) {
   const Camera& cam = frame.camera;
   const bool mono = !frame.right && !frame.depth;
-  if (timings_.frames > 1 && mono != mono_)
+  if (timings_.frames > 0 && mono != mono_)
     fail("tracking: frame ", frame.index, " (", frame.source, ") is ", mono ? "monocular" : "stereo or RGB-D",
          " but earlier frames were not: one sequence, one kind of input");
   mono_ = mono;
