@@ -50,7 +50,7 @@ TEST(Cli, AnUnknownKindOfACommandIsNamedWithTheKindsThereAre) {
   for (const auto& [args, expected] : std::vector<std::pair<std::string, std::string>>{
            {"synth castle --out x",
             "unknown synth command 'castle' (synth commands: room, street, mesh, check-office0)"},
-           {"-q eval speed --gt a --est b", "unknown eval command 'speed' (eval commands: ate, images)"}}) {
+           {"-q eval speed --gt a --est b", "unknown eval command 'speed' (eval commands: ate, images, depth)"}}) {
     auto r = run_cli(args);
     EXPECT_EQ(r.code, 2) << r.out;
     EXPECT_NE(r.out.find(expected), std::string::npos) << r.out;
