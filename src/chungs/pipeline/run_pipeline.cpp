@@ -81,8 +81,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const DepthMode mode = resolve_depth_mode(parse_depth_mode(mc.depth), info.has_depth, info.has_right);
   if (mode == DepthMode::None)
     fail("dataset ", o.dataset,
-         ": depth source 'none' places Gaussians only at a tracker's sparse points, "
-         "and mapping on given poses has none; use an RGB-D or stereo dataset");
+         ": its frames give no depth (no depth images, no right camera, or --input mono) and the mapper "
+         "places Gaussians at depth; mapping from one camera is not available yet (track --input mono "
+         "estimates the trajectory)");
   const int width = std::max(1, int(std::lround(info.camera.width * mc.resolution)));
   const int height = std::max(1, int(std::lround(info.camera.height * mc.resolution)));
   {
