@@ -271,22 +271,7 @@ TrackResult VisualTracker::track_mono(Current& c, TrackResult res) {
     if (m >= 0) last_points_.push_back(m);
   timings_.tracking_ms += ms_since(t1);
 
-  res.state = recovered ? TrackState::Recovered : TrackState::Ok;
-  res.inliers = inliers;
-  res.doubts = doubts;
-  const auto t2 = std::chrono::steady_clock::now();
-  if (need_keyframe(c, inliers)) {
-    res.keyframe = true;
-    const size_t before = ops_.size();
-    create_keyframe(c);
-    for (size_t k = before; k < ops_.size(); ++k)
-      if (ops_[k].kind == MapOperation::Kind::NewKeyframe) ops_[k].keyframe.doubts = doubts;
-  }
-  timings_.keyframe_ms += ms_since(t2);
-  res.keyframe_id = ref_kf_;
-  res.pose = c.T_cw.inverse();
-  frames_.push_back({c.stamp, ref_kf_, map_.pose(ref_kf_).inverse() * res.pose});
-  return res;
+  return finish_tracked(c, res, recovered, inliers, doubts, true);
 }
 
 }  // namespace chungs::tracking

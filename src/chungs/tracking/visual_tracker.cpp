@@ -359,11 +359,16 @@ TrackResult VisualTracker::track(const Frame& frame, std::shared_ptr<PreparedFra
       if (m >= 0) last_points_.push_back(m);
   }
 
+  return finish_tracked(c, res, recovered, inliers, doubts, !coasting);
+}
+
+TrackResult VisualTracker::finish_tracked(Current& c, TrackResult res, bool recovered, int inliers, uint32_t doubts,
+                                          bool may_make_keyframe) {
   res.state = recovered ? TrackState::Recovered : TrackState::Ok;
   res.inliers = inliers;
   res.doubts = doubts;
-  auto t2 = std::chrono::steady_clock::now();
-  if (!coasting && need_keyframe(c, inliers)) {
+  const auto t2 = std::chrono::steady_clock::now();
+  if (may_make_keyframe && need_keyframe(c, inliers)) {
     res.keyframe = true;
     const size_t before = ops_.size();
     create_keyframe(c);

@@ -73,6 +73,10 @@ class VisualTracker : public Tracker {
   std::vector<long> local_keyframes(const Current& c) const;
   std::vector<long> keyframes_seeing(const std::vector<long>& points) const;  // most shared first
   bool need_keyframe(const Current& c, int inliers) const;
+  // The end of a tracked frame, stereo or monocular: the keyframe when allowed and needed, the pose, the
+  // frame's record.
+  TrackResult finish_tracked(Current& c, TrackResult res, bool recovered, int inliers, uint32_t doubts,
+                             bool may_make_keyframe);
   long create_keyframe(Current& c);
   void cull_points(long kf);
   void cull_keyframes(long kf);
