@@ -69,8 +69,14 @@ async function start(): Promise<void> {
   const scene = new THREE.Scene();
   // Drawn as `diskchungs render` draws: a 0.3 px^2 low-pass without opacity compensation, 3 sigma,
   // alpha below 1/255 skipped, depth-sorted, float32 centres through the accumulation.
+  // Spark sorts on a worker and calls onDirty when the new order (or a level-of-detail update) is
+  // ready: the page draws then, instead of drawing every frame in case it had finished.
+  let sparkDirty = false;
   const spark = new SparkRenderer({
     renderer,
+    onDirty: () => {
+      sparkDirty = true;
+    },
     preBlurAmount: 0.3,
     blurAmount: 0,
     maxStdDev: 3,
@@ -231,14 +237,19 @@ async function start(): Promise<void> {
     projView.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
     frustum.setFromProjectionMatrix(projView);
     const settled = streamer.update(camera.position, frustum);
-    // Drawn only while something changes, and a while after (Spark sorts on a worker and shows the
-    // new order a few frames later): an idle page leaves the CPU/GPU to the mapper beside it.
+    // Drawn when something changes, a few frames after, and when Spark says its sort is done: an idle
+    // page, or one following a run between checkpoints, leaves the CPU/GPU to the mapper beside it.
+    // (It drew 30 frames after every change before: with chunks streaming in after each checkpoint of a
+    // live run that was nearly every frame, and in software WebGL a sixth of the mapper's speed.)
     const look = `${camera.matrixWorld.elements.join()}|${streamer.stats.loaded}|${streamer.stats.disposed}|${overlays.visible}${traj.visible}${grid.visible}|${skyVersion}|${innerWidth}x${innerHeight}`;
     if (look !== lastLook) {
       lastLook = look;
       quietFrames = 0;
     }
-    if (quietFrames++ < 30) renderer.render(scene, camera);
+    if (quietFrames++ < 3 || sparkDirty) {
+      sparkDirty = false;
+      renderer.render(scene, camera);
+    }
     const s = streamer.stats;
     if (state.firstFrameMs === undefined && s.loaded > 0) state.firstFrameMs = now;
     if (settled) {
