@@ -33,10 +33,11 @@ ImageF CpuOptimBackend::sampling_probability(std::span<const uint32_t> slots, co
   return chungs::sampling_probability(sampler, image, &composed_.rgb, &r.alpha);
 }
 
-LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
-                                const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
-                                const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
+void CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                           const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                           const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
   using P = StepPhaseTimes;
+  if (losses_.size() >= 2) fail("cpu mapping step: two steps' losses are not collected yet");
   clock_.begin();
   to_prune.clear();
   const HostTargets t = host_targets(*targets.load(), targets.depth);
@@ -73,7 +74,14 @@ LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCam
     clock_.mark(P::prune);
   }
   clock_.end();
-  return terms;
+  losses_.push_back(terms);
+}
+
+LossTerms CpuOptimBackend::collect_loss() {
+  if (losses_.empty()) fail("cpu mapping step: no step's loss to collect");
+  const LossTerms t = losses_.front();
+  losses_.pop_front();
+  return t;
 }
 
 }  // namespace chungs
