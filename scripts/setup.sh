@@ -4,7 +4,9 @@
 # Options through the environment: BUILD_DIR (default build), CHUNGS_CUDA (AUTO|ON|OFF),
 # CHUNGS_SKIP_APT=1 to skip the package step (no root needed then), CHUNGS_SKIP_FUZZ=1 to skip the
 # fuzz targets' build (build-fuzz, with clang; ctest's fuzz_short runs them). The build runs `npm ci` in
-# $BUILD_DIR/web for the viewer page when node and npm are found (CHUNGS_WEB=AUTO|ON|OFF).
+# $BUILD_DIR/web for the viewer page when node and npm are found (CHUNGS_WEB=AUTO|ON|OFF), and in
+# $BUILD_DIR/onnxruntime for ONNX Runtime's library, which --mono-depth-model opens at run time
+# (CHUNGS_ONNXRUNTIME=AUTO|ON|OFF; python3-onnx writes the tiny models its tests load).
 # --ros (or CI=true) also installs Debian's ROS 1 packages (about 140 packages, 220 MB) for the rosbag:
 # dataset, the node (ros/) and their tests; the build finds them (CHUNGS_ROS=AUTO|ON|OFF).
 set -euo pipefail
@@ -24,7 +26,7 @@ if [ "${CHUNGS_SKIP_APT:-0}" != 1 ]; then
   [ "$(id -u)" = 0 ] || SUDO="sudo"
   export DEBIAN_FRONTEND=noninteractive
   $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq --no-install-recommends build-essential cmake ninja-build ccache pkg-config libeigen3-dev libpng-dev libjpeg-dev zlib1g-dev libzstd-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-features2d-dev libceres-dev python3 clang libomp-dev libcpp-httplib-dev chromium fonts-liberation >/dev/null
+  $SUDO apt-get install -y -qq --no-install-recommends build-essential cmake ninja-build ccache pkg-config libeigen3-dev libpng-dev libjpeg-dev zlib1g-dev libzstd-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-features2d-dev libceres-dev python3 clang libomp-dev libcpp-httplib-dev chromium fonts-liberation python3-onnx >/dev/null
   # The viewer page (web/) is built with the machine's Node.js and npm where it has them (npm ci from the
   # committed lockfile during the build); Debian's only where none is installed.
   command -v npm >/dev/null || $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "chungs/datasets/mono_view.hpp"
+#include "chungs/depth/learned_depth.hpp"
 #include "dataset_spec.hpp"
 #include "flag_checks.hpp"
 #include "presets.hpp"
@@ -29,6 +30,8 @@ void add_map_flags(CLI::App& app, MapFlags& f) {
   app.add_option("--max-frames", f.max_frames, "use only the first n frames");
   app.add_option("--lpips-weights", f.lpips_weights,
                  "LPIPS weights (scripts/lpips_convert.py) to score the evaluation with; else no LPIPS");
+  app.add_option("--mono-depth-model", f.mono_depth_model,
+                 "ONNX depth model for monocular input (README: the contract; needs ONNX Runtime)");
   app.add_option("--input", f.input, "auto (all the dataset has) or mono (left camera only: no right image, no depth)")
       ->capture_default_str();
 }
@@ -77,6 +80,18 @@ RunOptions map_flags_options(const CLI::App& app, const MapFlags& f) {
   if (given(app, "--lpips-weights")) {
     require_flag(!f.lpips_weights.empty(), "--lpips-weights", "a weights file", "an empty path");
     c.mapper.lpips_weights = f.lpips_weights;
+  }
+  if (given(app, "--mono-depth-model")) {
+    require_flag(!f.mono_depth_model.empty(), "--mono-depth-model", "an ONNX model file", "an empty path");
+    c.mapper.mono_depth_model = f.mono_depth_model;
+  }
+  if (!c.mapper.mono_depth_model.empty()) {
+    const char* source = given(app, "--mono-depth-model") ? "--mono-depth-model" : "mapper.mono_depth_model";
+    try {
+      o.mono_depth_model = LearnedDepth::load(c.mapper.mono_depth_model);
+    } catch (const Error& e) {
+      fail(source, ": ", e.what());
+    }
   }
   o.tracker.local_ba = !f.no_ba;
   o.tracker.loop_closure = !f.no_loop;

@@ -121,6 +121,8 @@ void fields(V& v, MapperConfig& c) {
   v("max_saved_renders", c.max_saved_renders, "held-out renders written as PNG at most");
   v("lpips_weights", c.lpips_weights,
     "LPIPS weights file (scripts/lpips_convert.py) for the evaluation; empty: LPIPS not available");
+  v("mono_depth_model", c.mono_depth_model,
+    "monocular input: ONNX depth model (README: the contract; needs ONNX Runtime); empty: no learned depth");
   v("in_core_only", c.in_core_only,
     "comparison mode: stop when the map outgrows the budget instead of moving chunks to disk");
   v("loop_refine_iterations", c.loop_refine_iterations, "steps on the junction keyframes after a loop closure");

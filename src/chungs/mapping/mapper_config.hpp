@@ -37,6 +37,9 @@ struct MapperConfig {
   int eval_keyframe_stride = 1;     // paper protocol: score every n-th keyframe at the end (0: off)
   int max_saved_renders = 64;       // held-out renders written as PNG at most
   std::string lpips_weights;        // DCLPIPS1 file (scripts/lpips_convert.py); empty: no LPIPS
+  // Monocular input: an ONNX depth model (depth/learned_depth.hpp has the contract) run through ONNX
+  // Runtime, its relative inverse depth aligned to the tracker's points; empty: no learned depth.
+  std::string mono_depth_model;
   int loop_refine_iterations = 1000;         // steps on the junction after a loop closure (the paper's 1 k)
   double pose_update_min_translation = 0.01; // m: smaller keyframe moves from the tracker are not applied ...
   double pose_update_min_rotation_deg = 0.1; // ... unless it also turned this much

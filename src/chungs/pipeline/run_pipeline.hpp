@@ -2,6 +2,7 @@
 // evaluation, renders, a JSON report, a timeline CSV and a memory plot. Resumable after a crash.
 #pragma once
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -10,6 +11,8 @@
 #include "chungs/tracking/options.hpp"
 
 namespace chungs {
+
+class LearnedDepth;  // chungs/depth/learned_depth.hpp
 
 struct RunOptions {
   std::string dataset;        // kind:path
@@ -20,6 +23,8 @@ struct RunOptions {
   size_t max_frames = 0;      // use only the first n frames (0: all)
   tracking::TrackerOptions tracker;  // poses = track
   bool evaluate = true;       // render and score held-out frames (and keyframes) at the end
+  // config.mapper.mono_depth_model loaded by the caller (the CLI checks it before the folder is touched).
+  std::shared_ptr<const LearnedDepth> mono_depth_model;
 };
 
 // Runs (or resumes) the mapping and returns the report that it also writes to out/report.json.
