@@ -3,8 +3,7 @@
 // mapped keyframe by keyframe, with a few steps after each, until the steps render about `--visible`
 // Gaussians; then `--steps` steps are timed twice: plain (the figure that counts: nothing waits for
 // the device but what the step itself waits for) and profiled (each phase bounded by a CUDA event,
-// so the device is waited for at the end of every step); plain steps are also timed with each step's
-// loss read before the next is prepared (as before the mapper read it one step late).
+// so the device is waited for at the end of every step).
 //
 //   bench_step_loop [--visible 200000] [--steps 500] [--device auto|cpu|cuda] [--width W --height H]
 //                   [--density F] [--json FILE] [--folder DIR] [--map MAP]
@@ -93,16 +92,12 @@ struct Timed {
   StepPhaseTimes backend;
 };
 
-// lag: the steps' losses the mapper may leave in flight (Mapper::set_loss_lag); the last one is read
-// inside the timed span.
-Timed time_steps(Mapper& m, int steps, bool profile, size_t lag = 1) {
+Timed time_steps(Mapper& m, int steps, bool profile) {
   m.set_step_profiling(profile);
-  m.set_loss_lag(lag);
   const Mapper::StepTimes before = m.step_times();
   const auto t0 = std::chrono::steady_clock::now();
   double rendered = 0;
   for (int i = 0; i < steps; ++i) rendered += double(m.step().rendered);
-  m.set_loss_lag(0);
   Timed t;
   t.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   t.rendered = rendered / steps;
@@ -199,11 +194,8 @@ int run(const Options& o) {
               (unsigned long long)m.total_gaussians(), m.chunk_count());
   time_steps(m, std::min(o.steps, 100), false);  // warm-up: buffers at their size, caches filled
   const nlohmann::json plain = report(time_steps(m, o.steps, false), o.steps);
-  // As before the loss was read late: each step's loss read before step() returns.
-  const nlohmann::json plain_sync = report(time_steps(m, o.steps, false, 0), o.steps);
   const nlohmann::json profiled = report(time_steps(m, o.steps, true), o.steps);
   print("plain", plain);
-  print("plain, the loss read within its step", plain_sync);
   print("profiled", profiled);
   if (!o.json.empty()) {
     nlohmann::json out = {{"device", m.device()},
@@ -213,7 +205,6 @@ int run(const Options& o) {
                           {"keyframes", m.keyframes().size()},
                           {"map_gaussians", m.total_gaussians()},
                           {"plain", plain},
-                          {"plain_loss_in_step", plain_sync},
                           {"profiled", profiled}};
     std::ofstream(o.json) << out.dump(1) << "\n";
   }

@@ -117,47 +117,6 @@ TEST(CudaMappingLoss, PixelMaskMatchesCpuTwin) {
     }
 }
 
-// Two launches in flight (a mapping step's loss is read after the next step is queued): each
-// finish() returns its own launch's terms, oldest first, each equal to the CPU twin's; a third launch
-// and a finish with none in flight are refused, as is evaluate() while one is in flight.
-TEST(CudaMappingLoss, TwoLaunchesInFlightFinishInOrder) {
-  CHUNGS_REQUIRE_GPU();
-  std::mt19937 rng(11);
-  cuda::CudaMappingLoss gpu;
-  const int sizes[2][2] = {{61, 43}, {118, 35}};
-  LossConfig cfg[2];
-  cfg[1].lambda_depth = 0.0;
-  cfg[1].lambda_ssim = 0.5;
-  LossTerms want[2];
-  std::vector<cuda::DeviceArray<float>> keep;
-  for (int k = 0; k < 2; ++k) {
-    const int w = sizes[k][0], h = sizes[k][1];
-    RenderOutput<float> r;
-    r.rgb = random_image(w, h, 3, rng, 0.2f);
-    r.inv_depth = random_image(w, h, 1, rng, 0.3f);
-    const Image<float> target = random_image(w, h, 3, rng, 0.2f), tinv = random_image(w, h, 1, rng, 0.3f);
-    want[k] = mapping_loss(cfg[k], r, target, &tinv, nullptr, nullptr);
-    keep.emplace_back(r.rgb.vec()), keep.emplace_back(r.inv_depth.vec());
-    keep.emplace_back(target.vec()), keep.emplace_back(tinv.vec());
-    cuda::DeviceRenderOutput out;
-    out.width = w, out.height = h, out.rgb = keep[4 * k].data(), out.inv_depth = keep[4 * k + 1].data();
-    gpu.launch(cfg[k], out, keep[4 * k + 2].data(), keep[4 * k + 3].data(), nullptr);
-    EXPECT_EQ(gpu.in_flight(), k + 1);
-  }
-  cuda::DeviceRenderOutput again;
-  again.width = sizes[0][0], again.height = sizes[0][1], again.rgb = keep[0].data(), again.inv_depth = keep[1].data();
-  EXPECT_THROW(gpu.launch(cfg[0], again, keep[2].data(), keep[3].data(), nullptr), Error);
-  EXPECT_THROW(gpu.evaluate(cfg[0], again, keep[2].data(), keep[3].data(), nullptr), Error);
-  for (int k = 0; k < 2; ++k) {
-    const LossTerms got = gpu.finish();
-    EXPECT_NEAR(got.l1, want[k].l1, 1e-6 * want[k].l1) << k;
-    EXPECT_NEAR(got.total, want[k].total, 1e-5 * want[k].total) << k;
-    EXPECT_EQ(got.depth_pixels, want[k].depth_pixels) << k;
-  }
-  EXPECT_EQ(gpu.in_flight(), 0);
-  EXPECT_THROW(gpu.finish(), Error);
-}
-
 }  // namespace
 }  // namespace chungs
 #endif

@@ -33,11 +33,10 @@ ImageF CpuOptimBackend::sampling_probability(std::span<const uint32_t> slots, co
   return chungs::sampling_probability(sampler, image, &composed_.rgb, &r.alpha);
 }
 
-void CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
-                           const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
-                           const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
+LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                                const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
   using P = StepPhaseTimes;
-  if (losses_.size() >= 2) fail("cpu mapping step: two steps' losses are not collected yet");
   clock_.begin();
   to_prune.clear();
   const HostTargets t = host_targets(*targets.load(), targets.depth);
@@ -74,14 +73,7 @@ void CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<f
     clock_.mark(P::prune);
   }
   clock_.end();
-  losses_.push_back(terms);
-}
-
-LossTerms CpuOptimBackend::collect_loss() {
-  if (losses_.empty()) fail("cpu mapping step: no step's loss to collect");
-  const LossTerms t = losses_.front();
-  losses_.pop_front();
-  return t;
+  return terms;
 }
 
 }  // namespace chungs

@@ -1,7 +1,5 @@
 // The optimisation on the host: CpuGaussianPool, CpuRasterizer, the CPU loss and sparse Adam.
 #pragma once
-#include <deque>
-
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/step_phases.hpp"
 #include "chungs/render/cpu/rasterizer.hpp"
@@ -14,11 +12,9 @@ class CpuOptimBackend final : public OptimBackend {
   std::string name() const override { return "cpu"; }
   GaussianPool& pool() override { return pool_; }
   RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) override;
-  void step(std::span<const uint32_t> slots, const RenderCamera<float>& camera, const StepTargets& targets,
-            const LossConfig& loss, const AdamConfig& adam, const PruneConfig* prune,
-            std::vector<uint32_t>& to_prune) override;
-  LossTerms collect_loss() override;
-  int losses_in_flight() const override { return int(losses_.size()); }
+  LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                 const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                 const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;
   ImageF sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                               const SamplerConfig& sampler, const ImageF& image) override;
   void set_sky(const SkyTexture& sky, double lr) override;
@@ -38,7 +34,6 @@ class CpuOptimBackend final : public OptimBackend {
   std::vector<float> sky_grad_;
   std::vector<SkyTap> sky_taps_;  // of the last step's camera, shared by its forward and backward
   StepPhaseClock clock_;
-  std::deque<LossTerms> losses_;  // computed at once, handed back in step order
 };
 
 }  // namespace chungs

@@ -418,15 +418,15 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
                                 return images;
                               },
                               pixel_mask ? &*pixel_mask : nullptr};
-    backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss, config_.adam,
-                   prune ? &config_.prune : nullptr, to_prune_);
-    // A partial step's loss counts pixels it could not explain: not a measure of the keyframe.
-    pending_losses_.push_back({kf.id, !pixel_mask});
-    // The step before's loss: on the GPU it is ready or nearly so, and this step is queued behind it,
-    // so the device does not wait while the host prepares the next step.
-    collect_losses(loss_lag_);
+    const LossTerms terms =
+        backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
+                       config_.adam, prune ? &config_.prune : nullptr, to_prune_);
     step_times_.backend_ms += ms_since(t1);
     t2 = clock::now();
+    if (!std::isfinite(terms.total) && nonfinite_losses_++ == 0)
+      log::warn("keyframe ", kf.id, ": a step's loss is not finite (", terms.total, ", L1 ", terms.l1, ", SSIM ",
+                terms.ssim, ", depth ", terms.depth, "): the render or the target holds a non-finite value");
+    st.loss = terms.total;
     st.rendered = slots_.size();
     st.chunks = chunks.size();
     if (!slots_.empty()) residency_->mark_dirty(chunks);
@@ -452,6 +452,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   residency_->unpin(chunks);
   if (!pixel_mask && config_.sampler.resample_every > 0 && iterations_ % uint64_t(config_.sampler.resample_every) == 0)
     resample(kf);
+  // A partial step's loss counts pixels it could not explain: not a measure of the keyframe.
+  if (!pixel_mask) selector_.report_loss(kf.id, st.loss);
   step_times_.bookkeeping_ms += ms_since(t2);
   ++step_times_.steps;
   step_times_.total_ms += ms_since(t0);
@@ -486,27 +488,7 @@ void Mapper::recover_checkpoint_files() {
   }
 }
 
-void Mapper::set_loss_lag(size_t steps) {
-  if (steps > 1) fail("mapper: a loss lag of ", steps, " steps; the backends hold at most one step's loss back");
-  loss_lag_ = steps;
-  collect_losses(steps);
-}
-
-void Mapper::collect_losses(size_t keep) {
-  while (pending_losses_.size() > keep) {
-    const PendingLoss p = pending_losses_.front();
-    pending_losses_.pop_front();
-    const LossTerms terms = backend_->collect_loss();
-    if (!std::isfinite(terms.total) && nonfinite_losses_++ == 0)
-      log::warn("keyframe ", p.keyframe, ": a step's loss is not finite (", terms.total, ", L1 ", terms.l1,
-                ", SSIM ", terms.ssim, ", depth ", terms.depth,
-                "): the render or the target holds a non-finite value");
-    if (p.whole_view) selector_.report_loss(p.keyframe, terms.total);
-  }
-}
-
 void Mapper::checkpoint(const nlohmann::json& run_state, bool behind) {
-  collect_losses(0);  // the keyframes' last losses are saved with them
   residency_->finish_checkpoint();  // its files are renamed, its sequence number is taken
   const uint64_t seq = checkpoint_seq_ + 1;
   keyframes_in_checkpoint_ = keyframes_.size();

@@ -7,7 +7,6 @@
 // The pool, the renderer and the optimiser live in an OptimBackend (config.mapper.device: host or
 // GPU). Not thread-safe: one thread drives it.
 #pragma once
-#include <deque>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -32,6 +31,7 @@ namespace chungs {
 
 struct StepStats {
   uint32_t keyframe = 0;
+  double loss = 0;
   size_t rendered = 0;  // Gaussians in the visible chunks
   size_t chunks = 0;
   size_t pruned = 0;
@@ -51,10 +51,6 @@ class Mapper {
   SampleStats add_keyframe(uint64_t frame, double stamp, const Image8& color,
                            const std::optional<ImageF>& depth, const Camera& camera, const SE3& pose);
   StepStats step();  // one optimisation step; throws when there is no keyframe yet
-  // How many steps' losses may still be in flight when step() returns: 1 (the default) lets the host
-  // prepare the next step while the device runs this one; 0 reads each step's loss before step()
-  // returns, as before (benchmarks compare the two). Lowering it reads what is in flight.
-  void set_loss_lag(size_t steps);
   // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
 
@@ -189,15 +185,6 @@ class Mapper {
   bool loop_batch_allowed_ = true;
   bool sky_on_ = false;  // the backend holds a sky (render/sky.hpp), saved with each checkpoint
   uint64_t nonfinite_losses_ = 0;  // steps whose loss was NaN or infinite (warned once)
-  // Steps whose loss the backend has not handed back yet (a GPU step's loss is read once the next step
-  // is queued), in step order: the keyframe, and whether the step saw its whole view.
-  struct PendingLoss {
-    uint32_t keyframe = 0;
-    bool whole_view = false;
-  };
-  std::deque<PendingLoss> pending_losses_;
-  void collect_losses(size_t keep);  // reads losses until at most `keep` are left in flight
-  size_t loss_lag_ = 1;
 };
 
 }  // namespace chungs

@@ -47,7 +47,6 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
     stats = apply_pose_correction(*residency_, store_->chunk_size(), pc, candidates, keyframe_chunks_);
   stats.keyframes = new_poses.size();
 
-  collect_losses(0);  // their keyframes' losses before the selector is rebuilt
   // The keyframes follow; re-adding them to the selector keeps their usage but would make the
   // last one re-added define the training cell, so the newest keyframe is re-added last.
   for (const auto& [id, pose] : new_poses) {

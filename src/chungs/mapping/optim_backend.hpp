@@ -54,17 +54,10 @@ class OptimBackend {
   // Renders the slots, evaluates the loss against the targets (the images that `targets` names,
   // converted as host_targets does) and, when slots is non-empty, applies
   // the gradient with sparse Adam to the visible ones. With `prune`, `to_prune` receives the slots
-  // that the pruning rule selects after the update (else it is cleared). The step's loss comes
-  // back from collect_loss(): a GPU backend reads it only then, so the host can queue the next step
-  // first and the device does not wait for the host between steps. At most two steps' losses may be
-  // in flight: a third step() is refused.
-  virtual void step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
-                    const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
-                    const PruneConfig* prune, std::vector<uint32_t>& to_prune) = 0;
-  // The loss of the oldest step not collected yet, waiting for the device if need be; refused when
-  // none is in flight.
-  virtual LossTerms collect_loss() = 0;
-  virtual int losses_in_flight() const = 0;
+  // that the pruning rule selects after the update (else it is cleared).
+  virtual LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                         const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                         const PruneConfig* prune, std::vector<uint32_t>& to_prune) = 0;
   // The sampler's acceptance map (1 channel) for a keyframe image against the render of the slots:
   // chungs::sampling_probability(sampler, image, &render.rgb, &render.alpha), computed where the
   // render lives.

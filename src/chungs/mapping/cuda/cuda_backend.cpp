@@ -97,11 +97,10 @@ ImageF CudaOptimBackend::sampling_probability(std::span<const uint32_t> slots, c
   return p;
 }
 
-void CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
-                            const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
-                            const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
+LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                 const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                                 const PruneConfig* prune, std::vector<uint32_t>& to_prune) {
   using P = StepPhaseTimes;
-  if (loss_.in_flight() >= 2) fail("cuda mapping step: two steps' losses are not collected yet");
   begin_phases();
   to_prune.clear();
   const DeviceTargets t = targets_.expand(targets, target_rgb_, target_inv_, mask_);
@@ -127,7 +126,7 @@ void CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<
   const bool sky = !sky_.empty();
   DeviceRenderOutput scored = out;
   if (sky) scored.rgb = sky_.compose(out, camera);
-  // The loss sums are read by collect_loss(), after the next step is queued: the host's wait for them
+  // The loss sums are read only after the backward and Adam are queued: the host's wait for them
   // then overlaps the device's work instead of leaving the device idle until the next launch.
   loss_.launch(loss, scored, target_rgb_.data(), depth ? target_inv_.data() : nullptr,
                depth ? mask_.data() : nullptr, sky || !slots.empty(), pixel_mask);
@@ -140,8 +139,9 @@ void CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<
     mark(P::sky);
   }
   if (slots.empty()) {
+    const LossTerms terms = loss_.finish();
     end_phases();
-    return;
+    return terms;
   }
   const DeviceGaussianGrads& g = raster_.backward(grads);
   mark(P::backward);
@@ -156,7 +156,9 @@ void CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<
                    prune->min_visits > 0 ? d.adam_steps : nullptr, to_prune);
     mark(P::prune);
   }
+  const LossTerms terms = loss_.finish();
   end_phases();
+  return terms;
 }
 
 std::optional<DeviceMemory> CudaOptimBackend::device_memory() const {

@@ -23,11 +23,9 @@ class CudaOptimBackend final : public OptimBackend {
   std::string name() const override { return "cuda"; }
   GaussianPool& pool() override { return pool_; }
   RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) override;
-  void step(std::span<const uint32_t> slots, const RenderCamera<float>& camera, const StepTargets& targets,
-            const LossConfig& loss, const AdamConfig& adam, const PruneConfig* prune,
-            std::vector<uint32_t>& to_prune) override;
-  LossTerms collect_loss() override { return loss_.finish(); }
-  int losses_in_flight() const override { return loss_.in_flight(); }
+  LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                 const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
+                 const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;
   ImageF sampling_probability(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                               const SamplerConfig& sampler, const ImageF& image) override;
   std::optional<DeviceMemory> device_memory() const override;

@@ -7,23 +7,13 @@
 
 namespace chungs::cuda {
 
-CudaMappingLoss::CudaMappingLoss() {
-  try {
-    for (Pending& p : ring_) p.readback = detail::loss_readback_create();
-  } catch (...) {
-    for (Pending& p : ring_) detail::loss_readback_destroy(p.readback);
-    throw;
-  }
-}
+CudaMappingLoss::CudaMappingLoss() : readback_(detail::loss_readback_create()) {}
 
-CudaMappingLoss::~CudaMappingLoss() {
-  for (Pending& p : ring_) detail::loss_readback_destroy(p.readback);
-}
+CudaMappingLoss::~CudaMappingLoss() { detail::loss_readback_destroy(readback_); }
 
 LossTerms CudaMappingLoss::evaluate(const LossConfig& config, const DeviceRenderOutput& render,
                                     const float* target_rgb, const float* target_inv_depth,
                                     const uint8_t* depth_mask, bool want_grads, const uint8_t* pixel_mask) {
-  if (count_ > 0) fail("CUDA mapping loss: evaluate() with ", count_, " launched losses not finished");
   launch(config, render, target_rgb, target_inv_depth, depth_mask, want_grads, pixel_mask);
   return finish();
 }
@@ -32,7 +22,6 @@ void CudaMappingLoss::launch(const LossConfig& config, const DeviceRenderOutput&
                              const float* target_inv_depth, const uint8_t* depth_mask, bool want_grads,
                              const uint8_t* pixel_mask) {
   config.validate();
-  if (count_ == 2) fail("CUDA mapping loss: two launched losses are not finished yet (finish() one first)");
   const int W = render.width, H = render.height;
   if (W <= 0 || H <= 0 || !render.rgb) fail("CUDA mapping loss: no rendered image (", W, "x", H, ")");
   if (!target_rgb) fail("CUDA mapping loss: target image missing (null pointer)");
@@ -63,10 +52,9 @@ void CudaMappingLoss::launch(const LossConfig& config, const DeviceRenderOutput&
                        want_grads && ls > 0 ? planes_.data() : nullptr,
                        sums_.data(),
                        sums_.data() + 4};
-  Pending& p = ring_[(first_ + count_) % 2];
-  detail::launch_mapping_loss(a, p.readback);
-  p.plane = plane, p.ls = ls, p.ld = ld, p.use_depth = use_depth;
-  ++count_;
+  pending_ = false;
+  detail::launch_mapping_loss(a, readback_);
+  plane_ = plane, ls_ = ls, ld_ = ld, use_depth_ = use_depth, pending_ = true;
   grads_ = DeviceRenderGrads{};
   if (want_grads) {
     grads_.rgb = grad_rgb_.data();
@@ -75,14 +63,13 @@ void CudaMappingLoss::launch(const LossConfig& config, const DeviceRenderOutput&
 }
 
 LossTerms CudaMappingLoss::finish() {
-  if (count_ == 0) fail("CUDA mapping loss: no launched loss to finish");
-  const Pending p = ring_[first_];
-  first_ = (first_ + 1) % 2, --count_;
+  if (!pending_) fail("CUDA mapping loss: no launched loss to finish");
+  pending_ = false;
   double s[4];
-  detail::loss_readback_wait(p.readback, s);
-  const size_t plane = p.plane;
-  const double ls = p.ls, ld = p.ld;
-  const bool use_depth = p.use_depth;
+  detail::loss_readback_wait(readback_, s);
+  const size_t plane = plane_;
+  const double ls = ls_, ld = ld_;
+  const bool use_depth = use_depth_;
   LossTerms t;
   t.l1 = s[0] / double(3 * plane);
   t.ssim = ls > 0 ? s[1] / double(3 * plane) : 1.0;

@@ -24,14 +24,12 @@ class CudaMappingLoss {
                      const float* target_inv_depth, const uint8_t* depth_mask, bool want_grads = true,
                      const uint8_t* pixel_mask = nullptr);
   // evaluate() in two halves: launch() queues the kernels (grads() is valid for the kernels queued
-  // after it), finish() waits for the sums of the oldest launch not finished. Up to two launches may
-  // be in flight: a mapping step's loss is read after the next step is queued, so the device never
-  // waits for the host between steps. evaluate() needs none in flight.
+  // after it), finish() waits for the sums of the last launch. Queuing the backward between the two
+  // keeps the device busy while the host waits for the loss.
   void launch(const LossConfig& config, const DeviceRenderOutput& render, const float* target_rgb,
               const float* target_inv_depth, const uint8_t* depth_mask, bool want_grads = true,
               const uint8_t* pixel_mask = nullptr);
   LossTerms finish();
-  int in_flight() const { return count_; }
 
   CudaMappingLoss();
   ~CudaMappingLoss();
@@ -45,15 +43,11 @@ class CudaMappingLoss {
   DeviceArray<float> grad_rgb_, grad_inv_depth_, planes_;
   DeviceArray<double> sums_;
   DeviceRenderGrads grads_;
-  // What finish() needs of a launch, and where its sums arrive; a ring of two in launch order.
-  struct Pending {
-    detail::LossReadback* readback = nullptr;
-    size_t plane = 0;
-    double ls = 0, ld = 0;
-    bool use_depth = false;
-  };
-  Pending ring_[2];
-  int first_ = 0, count_ = 0;
+  detail::LossReadback* readback_ = nullptr;
+  // What finish() needs of the last launch.
+  size_t plane_ = 0;
+  double ls_ = 0, ld_ = 0;
+  bool use_depth_ = false, pending_ = false;
 };
 
 }  // namespace chungs::cuda
