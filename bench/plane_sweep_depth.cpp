@@ -10,8 +10,12 @@
 //   bench_plane_sweep_depth [--dataset kitti:PATH|street:LENGTH_M,W,H[,SEED]] [--reference stereo|dataset] [--keyframes 5] [--first 10]
 //                           [--every 20] [--window 6] [--neighbours 4] [--scale 0.5] [--samples 5000]
 //                           [--near 2] [--far 80] [--scene-depth 15] [--prior-points 0] [--prior-noise 0.1]
-//                           [--max-rel-per-px 0.1] [--best-k 3]
+//                           [--max-rel-per-px 0.1] [--best-k 3] [--dense 1] [--stride 0]
 //                           [--json FILE] [--save DIR]
+//
+// --stride S: also the depth a run from one camera gives its keyframes (multiview_depth.hpp: the sweep
+// at every S-th pixel of the scaled image, spread edge-aware, with the prior when --prior-points is
+// given), scored against the same reference. --dense 0 skips the dense sweep (40 s a KITTI keyframe).
 //
 // --save: per keyframe the scaled image and both depths as 8-bit inverse depth (white near, black
 // invalid) beside each other, to look at.
@@ -30,6 +34,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/datasets/dataset.hpp"
+#include "chungs/depth/multiview_depth.hpp"
 #include "chungs/depth/plane_sweep.hpp"
 #include "chungs/depth/prior_densify.hpp"
 #include "chungs/depth/stereo_depth.hpp"
@@ -44,6 +49,7 @@ namespace {
 struct Options {
   std::string dataset = "kitti:../shared/data/kitti_seq1", reference = "stereo", json, save;
   size_t best_k = 3, keyframes = 5, first = 10, every = 20, window = 6, neighbours = 4, samples = 5000, prior_points = 0;
+  size_t stride = 0, dense = 1;
   double scale = 0.5, near = 2, far = 80, scene_depth = 15, prior_noise = 0.1, max_rel = 0.1;
 };
 
@@ -77,6 +83,8 @@ Options parse(int argc, char** argv) {
     else if (a == "--prior-noise") o.prior_noise = num();
     else if (a == "--max-rel-per-px") o.max_rel = num();
     else if (a == "--best-k") o.best_k = size_t(num());
+    else if (a == "--stride") o.stride = size_t(num());
+    else if (a == "--dense") o.dense = size_t(num());
     else fail("unknown option ", a);
   }
   if (o.reference != "stereo" && o.reference != "dataset") fail("--reference: stereo or dataset, not ", o.reference);
@@ -170,7 +178,7 @@ int run(const Options& o) {
   cfg.near = o.near, cfg.far = o.far;
   cfg.max_rel_per_px = o.max_rel;
   cfg.best_k = int(o.best_k);
-  Row dense, sampled, prior_row;
+  Row dense, sampled, prior_row, grid_row;
   size_t done = 0;
   std::mt19937 rng(1);
   for (size_t k = o.first; done < o.keyframes && k < d->size(); k += o.every, ++done) {
@@ -217,9 +225,9 @@ int run(const Options& o) {
       row.asked += size_t(w) * size_t(h), row.valid += out.valid;
     };
     double t0 = wall_seconds(), c0 = cpu_seconds();
-    const PlaneSweepDepth out = plane_sweep_dense(in, cfg);
+    const PlaneSweepDepth out = o.dense ? plane_sweep_dense(in, cfg) : PlaneSweepDepth{ImageF(w, h, 1, 0.0f), ImageF(w, h, 1, 0.0f), 0};
     dense.wall += wall_seconds() - t0, dense.cpu += cpu_seconds() - c0;
-    score_dense(out, dense);
+    if (o.dense) score_dense(out, dense);
     const DepthMetrics one = compare_depth([&] {
       ImageF r(w, h, 1);
       for (int y = 0; y < h; ++y)
@@ -241,7 +249,7 @@ int run(const Options& o) {
     std::printf("keyframe %4zu  neighbours %-16s dense: valid %5.1f %%  AbsRel %.4f  d<1.25 %.4f\n", k, names.c_str(),
                 100.0 * double(out.valid) / double(w * h), one.abs_rel, one.delta1);
 
-    if (o.prior_points) {
+    if (o.prior_points && o.dense) {
       std::vector<DepthSample> pts;
       std::normal_distribution<float> noise(0.0f, float(o.prior_noise));
       for (size_t tries = 0; pts.size() < o.prior_points && tries < 100 * o.prior_points; ++tries) {
@@ -257,6 +265,28 @@ int run(const Options& o) {
       const PlaneSweepDepth pout = plane_sweep_dense(pin, cfg);
       prior_row.wall += wall_seconds() - t0, prior_row.cpu += cpu_seconds() - c0;
       score_dense(pout, prior_row);
+    }
+
+    if (o.stride) {
+      MultiviewDepthInput min;
+      min.camera = cam;
+      min.reference = in.reference;
+      min.neighbours = in.neighbours;
+      std::normal_distribution<float> noise(0.0f, float(o.prior_noise));
+      for (size_t tries = 0; min.points.size() < o.prior_points && tries < 100 * o.prior_points; ++tries) {
+        const int x = int(rng() % size_t(f.camera.width)), y = int(rng() % size_t(f.camera.height));
+        if (ref_depth(x, y) <= 0) continue;
+        min.points.push_back({float((x + 0.5) * sx - 0.5), float((y + 0.5) * sx - 0.5),
+                              ref_depth(x, y) * std::max(0.3f, 1.0f + noise(rng)), 1.0f});
+      }
+      MultiviewDepthConfig mc;
+      mc.stride = int(o.stride);
+      mc.sweep = cfg;
+      const MapPointPrior prior(mc.min_prior_points, mc.densify);
+      t0 = wall_seconds(), c0 = cpu_seconds();
+      const MultiviewDepth g = multiview_depth(min, mc, &prior);
+      grid_row.wall += wall_seconds() - t0, grid_row.cpu += cpu_seconds() - c0;
+      score_dense(PlaneSweepDepth{g.depth, g.confidence, g.valid}, grid_row);
     }
 
     // Sampled pixels at full resolution.
@@ -275,13 +305,15 @@ int run(const Options& o) {
     sampled.asked += px.size();
   }
   if (!done) fail("no keyframe: --first ", o.first, " is past the ", d->size(), " frames");
-  print_row("dense", dense, done);
-  if (o.prior_points) print_row("dense with prior", prior_row, done);
+  if (o.dense) print_row("dense", dense, done);
+  if (o.stride) print_row(cat("grid ", o.stride, " spread").c_str(), grid_row, done);
+  if (o.prior_points && o.dense) print_row("dense with prior", prior_row, done);
   print_row("sampled", sampled, done);
   if (!o.json.empty()) {
     nlohmann::json j = {{"dataset", o.dataset}, {"reference", o.reference}, {"keyframes", done},
                         {"scale", o.scale}, {"dense", row_json(dense, done)}, {"sampled", row_json(sampled, done)}};
-    if (o.prior_points) j["dense_with_prior"] = row_json(prior_row, done);
+    if (o.prior_points && o.dense) j["dense_with_prior"] = row_json(prior_row, done);
+    if (o.stride) j["grid_spread"] = row_json(grid_row, done), j["stride"] = o.stride;
     std::ofstream(o.json) << j.dump(2) << "\n";
   }
   return 0;

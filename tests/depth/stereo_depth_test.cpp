@@ -110,15 +110,17 @@ TEST(StereoDepth, RejectsMismatchedImages) {
   EXPECT_THROW(stereo_depth(Image8(64, 64), Image8(64, 64), 100, 0), Error);
 }
 
-TEST(DepthSource, PicksSensorThenStereoThenNone) {
+TEST(DepthSource, PicksSensorThenStereoThenMultiview) {
   EXPECT_EQ(resolve_depth_mode(DepthMode::Auto, true, true), DepthMode::Sensor);
   EXPECT_EQ(resolve_depth_mode(DepthMode::Auto, false, true), DepthMode::Stereo);
-  EXPECT_EQ(resolve_depth_mode(DepthMode::Auto, false, false), DepthMode::None);
+  EXPECT_EQ(resolve_depth_mode(DepthMode::Auto, false, false), DepthMode::Multiview);
+  EXPECT_EQ(parse_depth_mode("multiview"), DepthMode::Multiview);
   EXPECT_THROW(parse_depth_mode("lidar"), Error);
   Frame f;
   f.left = Image8(8, 8);
   EXPECT_THROW(frame_depth(f, DepthMode::Stereo), Error);
   EXPECT_FALSE(frame_depth(f, DepthMode::None).has_value());
+  EXPECT_FALSE(frame_depth(f, DepthMode::Multiview).has_value());  // the run sweeps it against its neighbours
 }
 
 }  // namespace

@@ -111,7 +111,7 @@ void fields(V& v, MapperConfig& c) {
   v("frame_lookahead", c.frame_lookahead,
     "frames read ahead; keyframes are loaded and depth computed on their own threads (0: current frame only)");
   v("resolution", c.resolution, "image scale factor for mapping (1 = full resolution)");
-  v("depth", c.depth, "auto | sensor | stereo | none");
+  v("depth", c.depth, "auto | sensor | stereo | multiview (one camera: plane sweep against earlier keyframes) | none (= multiview for run)");
   v("checkpoint_seconds", c.checkpoint_seconds, "seconds between checkpoints (resume points; 0: off) ...");
   v("checkpoint_every", c.checkpoint_every, "... or keyframes between them (0: off) ...");
   v("checkpoint_max_share", c.checkpoint_max_share,
@@ -147,6 +147,20 @@ void fields(V& v, SamplerConfig& c) {
   v("fill_depth", c.fill_depth, "metres given to sampled pixels without depth (sky); 0: skip them");
   v("resample_every", c.resample_every,
     "steps between samplings of the keyframe just trained on where its render lacks detail (0: only at arrival)");
+  v("map_point_seeds", c.map_point_seeds,
+    "--poses track: the tracker's map points first seen by a keyframe become Gaussians of it too");
+}
+template <class V>
+void fields(V& v, MultiviewDepthConfig& c) {
+  v("stride", c.stride, "host: plane sweep every n-th pixel per axis, spread edge-aware to the rest");
+  v("cuda_stride", c.cuda_stride, "the same under --device cuda");
+  v("neighbours", c.neighbours, "earlier keyframes a keyframe is swept against (1 to 8)");
+  v("min_prior_points", c.min_prior_points, "tracker map points in view for a prior (else the wide sweep)");
+  v("min_confidence", c.min_confidence, "spread depth below this confidence is dropped");
+  v("keep_keyframes", c.keep_keyframes, "recent keyframes kept (images) to choose neighbours from");
+  v("near", c.sweep.near, "wide sweep from (metres; a monocular tracker's unit is scaled to its points)");
+  v("far", c.sweep.far, "... to (metres)");
+  v("prior_range", c.sweep.prior_range, "sweep around a prior: its inverse depth x (1 -+ this)");
 }
 template <class V>
 void fields(V& v, KeyframeSelectorConfig& c) {
@@ -198,6 +212,7 @@ void sections(V& v, Config& c) {
   v.section("sampler", c.sampler);
   v.section("selector", c.selector);
   v.section("stereo", c.stereo);
+  v.section("multiview", c.multiview);
   v.section("sky", c.sky);
 }
 

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/depth/multiview_depth.hpp"
 #include "chungs/depth/stereo_depth.hpp"
 #include "chungs/mapping/keyframe_selector.hpp"
 #include "chungs/mapping/mapper_config.hpp"
@@ -34,6 +35,7 @@ struct Config {
   SamplerConfig sampler;
   KeyframeSelectorConfig selector;
   StereoDepthConfig stereo;
+  MultiviewDepthConfig multiview;  // one camera (issue 25)
   SkyConfig sky;
 
   // Each section's own checks. Inline, so that the mapping library, which takes the whole tree,
@@ -49,6 +51,7 @@ struct Config {
     sampler.validate();
     selector.validate();
     stereo.validate();
+    multiview.validate();
     sky.validate();
     if (sky.enabled && (raster.background[0] != 0 || raster.background[1] != 0 || raster.background[2] != 0))
       fail("sky: enabled, it is the background: raster.background must stay 0 0 0");

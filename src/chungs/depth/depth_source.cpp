@@ -6,8 +6,9 @@ DepthMode parse_depth_mode(const std::string& name) {
   if (name == "auto") return DepthMode::Auto;
   if (name == "sensor") return DepthMode::Sensor;
   if (name == "stereo") return DepthMode::Stereo;
+  if (name == "multiview") return DepthMode::Multiview;
   if (name == "none") return DepthMode::None;
-  fail("depth source '", name, "' is not one of auto, sensor, stereo, none");
+  fail("depth source '", name, "' is not one of auto, sensor, stereo, multiview, none");
 }
 
 const char* depth_mode_name(DepthMode mode) {
@@ -15,6 +16,7 @@ const char* depth_mode_name(DepthMode mode) {
     case DepthMode::Auto: return "auto";
     case DepthMode::Sensor: return "sensor";
     case DepthMode::Stereo: return "stereo";
+    case DepthMode::Multiview: return "multiview";
     case DepthMode::None: return "none";
   }
   return "?";
@@ -24,13 +26,14 @@ DepthMode resolve_depth_mode(DepthMode mode, bool has_depth, bool has_right) {
   if (mode != DepthMode::Auto) return mode;
   if (has_depth) return DepthMode::Sensor;
   if (has_right) return DepthMode::Stereo;
-  return DepthMode::None;
+  return DepthMode::Multiview;
 }
 
 std::optional<ImageF> frame_depth(const Frame& frame, DepthMode mode, const StereoDepthConfig& stereo) {
   mode = resolve_depth_mode(mode, frame.depth.has_value(), frame.right.has_value());
   switch (mode) {
-    case DepthMode::None: return std::nullopt;
+    case DepthMode::None:
+    case DepthMode::Multiview: return std::nullopt;
     case DepthMode::Sensor:
       if (!frame.depth) fail("frame ", frame.index, " (", frame.source, "): depth source 'sensor' but the frame has no depth");
       return *frame.depth;

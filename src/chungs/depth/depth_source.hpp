@@ -1,4 +1,5 @@
-// Where a frame's depth comes from: the sensor (RGB-D), stereo matching, or nowhere.
+// Where a frame's depth comes from: the sensor (RGB-D), stereo matching, the frame's neighbouring
+// keyframes (multiview: one camera, computed by the run, multiview_depth.hpp), or nowhere.
 #pragma once
 #include <optional>
 #include <string>
@@ -8,15 +9,17 @@
 
 namespace chungs {
 
-enum class DepthMode { Auto, Sensor, Stereo, None };
+enum class DepthMode { Auto, Sensor, Stereo, Multiview, None };
 
-DepthMode parse_depth_mode(const std::string& name);  // auto|sensor|stereo|none, else Error
+DepthMode parse_depth_mode(const std::string& name);  // auto|sensor|stereo|multiview|none, else Error
 const char* depth_mode_name(DepthMode mode);
-// Auto picks sensor depth when the frame has it, else stereo when it has a right image, else none.
+// Auto picks sensor depth when the frame has it, else stereo when it has a right image, else
+// multiview (one camera: depth from the neighbouring keyframes).
 DepthMode resolve_depth_mode(DepthMode mode, bool has_depth, bool has_right);
 
-// The frame's depth (metres, 0 invalid) by the mode, or nothing for None. Throws Error naming the
-// frame when the mode needs data the frame lacks.
+// The frame's depth (metres, 0 invalid) by the mode, or nothing for None and Multiview (a frame alone
+// has none: the run sweeps it against earlier keyframes). Throws Error naming the frame when the mode
+// needs data the frame lacks.
 std::optional<ImageF> frame_depth(const Frame& frame, DepthMode mode, const StereoDepthConfig& stereo = {});
 
 }  // namespace chungs

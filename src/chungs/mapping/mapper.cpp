@@ -213,7 +213,7 @@ RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
 
 // New Gaussians for keyframe `id` where its image has detail the render of the map lacks.
 SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& depth, const Camera& camera,
-                                const SE3& pose, uint64_t cap) {
+                                const SE3& pose, uint64_t cap, const std::vector<Eigen::Vector3d>* seeds) {
   using clock = std::chrono::steady_clock;
   SampleStats stats;
   const ImageF target = to_rgb_float(color);
@@ -233,7 +233,7 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
     if (count > 0) exclude.insert(chunk);
   for (ChunkId chunk : shown) exclude.erase(chunk);
   auto batches = sample_gaussians(config_.sampler, target, depth, prob, camera, pose, store_->chunk_size(), id,
-                                  uint32_t(iterations_), rng_, &stats, &exclude, cap);
+                                  uint32_t(iterations_), rng_, &stats, &exclude, cap, seeds);
   keyframe_times_.sample_ms += ms_since(t2);
   const auto t3 = clock::now();
   for (auto& b : batches) {
@@ -249,7 +249,8 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
 }
 
 SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& color,
-                                 const std::optional<ImageF>& depth, const Camera& camera, const SE3& pose) {
+                                 const std::optional<ImageF>& depth, const Camera& camera, const SE3& pose,
+                                 const std::vector<Eigen::Vector3d>* seeds) {
   camera.validate(cat("keyframe of frame ", frame));
   if (depth && !depth->same_size(color))
     fail("mapper: frame ", frame, ": depth ", depth->width(), "x", depth->height(),
@@ -277,7 +278,12 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
                 "without data, or stereo images that do not match); report.json counts such keyframes "
                 "(keyframes_without_depth)");
   }
-  if (depth) stats = sample_view(id, color, *depth, camera, pose, new_gaussian_cap(color));
+  if (!config_.sampler.map_point_seeds || (seeds && seeds->empty())) seeds = nullptr;
+  if (depth || seeds) {
+    // Seeds need no depth map: without one (a keyframe whose depth comes later) only they are taken.
+    const ImageF none = depth ? ImageF() : ImageF(color.width(), color.height(), 1, 0.0f);
+    stats = sample_view(id, color, depth ? *depth : none, camera, pose, new_gaussian_cap(color), seeds);
+  }
   steps_at_last_keyframe_ = iterations_;
   KeyframeRecord rec;
   rec.id = id;
@@ -295,6 +301,27 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   keyframes_.push_back(rec);
   update_training_window();
   ++keyframe_times_.keyframes;
+  keyframe_times_.total_ms += ms_since(t0);
+  return stats;
+}
+
+SampleStats Mapper::add_late_depth(uint64_t frame, const ImageF& depth) {
+  const KeyframeRecord* kf = nullptr;
+  for (auto it = keyframes_.rbegin(); it != keyframes_.rend() && !kf; ++it)
+    if (it->frame == frame) kf = &*it;
+  if (!kf) fail("mapper: no keyframe of frame ", frame, " to give depth to");
+  const std::shared_ptr<const KeyframeImages> images = keyframe_store_->get(kf->id);
+  if (!depth.same_size(images->color) || depth.channels() != 1)
+    fail("mapper: frame ", frame, ": depth ", depth.width(), "x", depth.height(), " does not match the image ",
+         images->color.width(), "x", images->color.height());
+  const auto t0 = std::chrono::steady_clock::now();
+  // Capped as a keyframe arriving now would be, without counting as one for the cap's average.
+  const double rate = config_.sampler.new_per_step;
+  const uint64_t cap =
+      rate > 0 && steps_per_keyframe_ >= 0
+          ? uint64_t(rate * (double(images->color.pixels()) / 1e5) * std::max(steps_per_keyframe_, 1.0))
+          : 0;
+  const SampleStats stats = sample_view(kf->id, images->color, depth, kf->camera, kf->pose, cap);
   keyframe_times_.total_ms += ms_since(t0);
   return stats;
 }

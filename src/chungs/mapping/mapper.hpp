@@ -48,8 +48,16 @@ class Mapper {
 
   // Stores the keyframe, renders the map from its pose, samples new Gaussians where the render
   // lacks the image's detail. color: 1 or 3 channels; depth: metres (0 invalid), or none.
+  // seeds: world points (the tracker's map points first seen by this keyframe) that become Gaussians
+  // of it as well, when sampler.map_point_seeds is on (sample_gaussians).
   SampleStats add_keyframe(uint64_t frame, double stamp, const Image8& color,
-                           const std::optional<ImageF>& depth, const Camera& camera, const SE3& pose);
+                           const std::optional<ImageF>& depth, const Camera& camera, const SE3& pose,
+                           const std::vector<Eigen::Vector3d>* seeds = nullptr);
+  // Samples the keyframe of `frame`, added earlier without depth, at a depth known only now (one
+  // camera: the first keyframe has no earlier one to sweep against). The depth serves this sampling
+  // only; the keyframe keeps being trained without a depth target. Throws Error for an unknown frame
+  // or a depth of another size.
+  SampleStats add_late_depth(uint64_t frame, const ImageF& depth);
   StepStats step();  // one optimisation step; throws when there is no keyframe yet
   // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
@@ -140,7 +148,7 @@ class Mapper {
   uint64_t new_gaussian_cap(const Image8& image);
   void resample(const KeyframeRecord& kf);
   SampleStats sample_view(uint32_t id, const Image8& color, const ImageF& depth, const Camera& camera,
-                          const SE3& pose, uint64_t cap);
+                          const SE3& pose, uint64_t cap, const std::vector<Eigen::Vector3d>* seeds = nullptr);
   // One optimisation step on the given keyframe: on its whole view (loading what it needs) when it is
   // in the training window or `whole_view`, else on the resident part (view_coverage.hpp).
   StepStats step_keyframe(uint32_t keyframe, bool whole_view = false);

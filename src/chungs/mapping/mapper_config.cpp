@@ -27,8 +27,8 @@ void MapperConfig::validate() const {
   if (frame_lookahead < 0 || frame_lookahead > 64)
     fail("mapper: frame_lookahead must be in [0, 64], got ", frame_lookahead);
   if (!(resolution > 0 && resolution <= 1)) fail("mapper: resolution must be in (0, 1], got ", resolution);
-  if (depth != "auto" && depth != "sensor" && depth != "stereo" && depth != "none")
-    fail("mapper: depth must be auto, sensor, stereo or none, got '", depth, "'");
+  if (depth != "auto" && depth != "sensor" && depth != "stereo" && depth != "multiview" && depth != "none")
+    fail("mapper: depth must be auto, sensor, stereo, multiview or none, got '", depth, "'");
   if (checkpoint_every < 0) fail("mapper: checkpoint_every must be >= 0, got ", checkpoint_every);
   if (!(checkpoint_seconds >= 0) || !std::isfinite(checkpoint_seconds))
     fail("mapper: checkpoint_seconds must be >= 0, got ", checkpoint_seconds);

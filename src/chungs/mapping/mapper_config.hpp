@@ -24,7 +24,7 @@ struct MapperConfig {
   int frame_lookahead = 4;          // frames read ahead, each keyframe loaded (and its depth computed) on
                                     // its own thread while the map trains (0: only the current frame)
   double resolution = 1.0;          // images (and intrinsics) scaled by this before mapping
-  std::string depth = "auto";       // auto | sensor | stereo | none
+  std::string depth = "auto";       // auto | sensor | stereo | multiview | none (run: as multiview)
   // A checkpoint (the resume point) is due every checkpoint_seconds, or every checkpoint_every
   // keyframes (0: off), but never before the optimiser time the last one cost is at most
   // checkpoint_max_share of the time since it began (0: no such bound): its cost grows with the

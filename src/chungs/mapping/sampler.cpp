@@ -62,7 +62,8 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
                                          std::mt19937_64& rng, SampleStats* stats,
-                                         const std::unordered_set<ChunkId>* exclude, uint64_t max_new) {
+                                         const std::unordered_set<ChunkId>* exclude, uint64_t max_new,
+                                         const std::vector<Eigen::Vector3d>* seeds) {
   config.validate();
   if (!depth.same_size(image) || !probability.same_size(image) || depth.channels() != 1)
     fail("sampler: image ", image.width(), "x", image.height(), ", depth ", depth.width(), "x", depth.height(),
@@ -131,6 +132,26 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
     const SampleStats& bs = band_stats[size_t(band)];
     st.candidates += bs.candidates, st.no_depth += bs.no_depth, st.excluded += bs.excluded;
     picks.insert(picks.end(), band_picks[size_t(band)].begin(), band_picks[size_t(band)].end());
+  }
+  if (seeds) {
+    const SE3 T_cw = pose.inverse();
+    for (const Eigen::Vector3d& X : *seeds) {
+      if (!X.allFinite()) continue;
+      const Eigen::Vector3d pc = T_cw * X;
+      if (!(pc.z() > 1e-6)) continue;
+      const Eigen::Vector2d uv = camera.project(pc);
+      const long x = std::lround(uv.x()), y = std::lround(uv.y());
+      if (!(x >= 0 && y >= 0 && x < image.width() && y < image.height())) continue;
+      const ChunkId id = chunk_id_of(X, chunk_size);
+      if (exclude && exclude->count(id)) {
+        ++st.excluded;
+        continue;
+      }
+      const float p = std::max(probability(int(x), int(y)), float(kSeedMinProbability));
+      // The footprint rule below divides by the stride a drawn pixel stands for: a seed is one point.
+      picks.push_back({int(x), int(y), p * float(s * s), float(pc.z()), X, id});
+      ++st.seeds;
+    }
   }
   // Stray points (chunks that would get only a few) go before the cap, so a cap thins every chunk
   // alike instead of pushing them all under the threshold.

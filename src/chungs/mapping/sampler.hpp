@@ -38,6 +38,10 @@ struct SamplerConfig {
   // its render still lacks the image's detail, so a place trained longer gains Gaussians as pruning
   // removes others, instead of being sampled only once, when its keyframe arrived.
   int resample_every = 0;
+  // The tracker's sparse map points seen by a keyframe (--poses track) also become Gaussians of it,
+  // beside the drawn pixels, at the points' positions (the paper's "sparse point cloud ... provides one
+  // source of Gaussians"), each point once.
+  bool map_point_seeds = true;
   void validate() const;
 };
 
@@ -48,6 +52,7 @@ struct SampleStats {
   uint64_t dropped_small_chunks = 0;
   uint64_t excluded = 0;  // ... whose point lies in a chunk the render left out (held on disk)
   uint64_t capped = 0;    // ... beyond the cap on new Gaussians
+  uint64_t seeds = 0;     // map points in view taken as Gaussians (before the chunk and cap rules)
   size_t chunks = 0;
 };
 
@@ -66,13 +71,18 @@ ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, co
 // 0 invalid, same size. Points falling in a chunk of `exclude` are not taken (the map holds that
 // place but the render that set the probability left it out); of the rest at most max_new (0: no
 // cap; config.max_per_keyframe caps too), a uniform random subset. Returns batches by chunk in
-// ascending id order.
+// ascending id order. seeds (world points, may be null): each one in front of the camera and inside
+// the image is taken as well, without a draw, at its own position, coloured by its pixel and sized
+// like a drawn pixel's Gaussian at its depth (its acceptance probability, at least kSeedMinProbability).
 std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
                                          std::mt19937_64& rng, SampleStats* stats = nullptr,
                                          const std::unordered_set<ChunkId>* exclude = nullptr,
-                                         uint64_t max_new = 0);
+                                         uint64_t max_new = 0, const std::vector<Eigen::Vector3d>* seeds = nullptr);
+// A seed where the render already shows the image's detail (probability 0) is sized as a pixel drawn
+// with this probability (10 pixels across), not as the sampler's largest footprint.
+constexpr double kSeedMinProbability = 0.01;
 
 // SH DC coefficient for a colour value c in [0, 1] (renders as 0.5 + C0 * dc).
 float sh_dc_of_colour(float c);

@@ -27,6 +27,17 @@ struct FeedItem {
   bool keyframe = false;            // the mapper adds it (never for a held-out frame)
   long keyframe_id = -1;            // the source's id for it (the frame index for given poses)
   std::vector<PoseUpdate> updates;  // to apply after this frame
+  // The tracker's sparse map (issue 25): the points this keyframe observes (world), the prior of its
+  // depth from one camera; of them, those no earlier keyframe handed over, which become Gaussians of
+  // this keyframe (sampler.map_point_seeds); and keyframes the tracker made that the map does not take
+  // (a monocular segment's first view), as neighbours for the plane sweep.
+  std::vector<Eigen::Vector3d> map_points, seeds;
+  struct View {
+    size_t frame = 0;
+    long id = -1;  // the source's keyframe id (its pose updates name it)
+    SE3 pose;
+  };
+  std::vector<View> sweep_views;
 };
 
 class FrameFeed {

@@ -8,8 +8,8 @@
 
 namespace chungs {
 
-FrameLookahead::FrameLookahead(FrameFeed& feed, size_t depth, Load load, SecondsUntil seconds_until)
-    : feed_(feed), depth_(depth), load_(std::move(load)), until_(std::move(seconds_until)) {
+FrameLookahead::FrameLookahead(FrameFeed& feed, size_t depth, Load load, SecondsUntil seconds_until, Seen seen)
+    : feed_(feed), depth_(depth), load_(std::move(load)), until_(std::move(seconds_until)), seen_(std::move(seen)) {
   for (size_t k = 0; k <= depth_; ++k) workers_.emplace_back([this] { work(); });
 }
 
@@ -48,6 +48,7 @@ void FrameLookahead::fill(size_t target, bool wait_for_one) {
       break;
     }
     Entry e{std::move(*item), {}};
+    if (seen_) seen_(e.item);
     if (e.item.keyframe && e.item.pose) {
       const size_t i = e.item.frame;
       std::packaged_task<MappingFrame()> task([this, i] {

@@ -25,6 +25,10 @@ class FrameLookahead {
  public:
   using Load = std::function<MappingFrame(size_t frame)>;
   using SecondsUntil = std::function<double(size_t frame)>;  // until the frame arrives (<= 0: it has)
+  // Told of each item as it is pulled from the feed, in order, on the caller's thread, before its load
+  // is queued: a load may then count on every earlier item being known (the multiview depth's
+  // earlier keyframes).
+  using Seen = std::function<void(const FeedItem& item)>;
 
   struct Entry {
     FeedItem item;
@@ -35,7 +39,7 @@ class FrameLookahead {
   // depth: items pulled from the feed beyond the one handed out (0: none; the handed-out keyframe
   // still loads while the caller steps); from a feed that is not ready() they are not waited for.
   // seconds_until may be empty (every frame is available at once).
-  FrameLookahead(FrameFeed& feed, size_t depth, Load load, SecondsUntil seconds_until = {});
+  FrameLookahead(FrameFeed& feed, size_t depth, Load load, SecondsUntil seconds_until = {}, Seen seen = {});
   // Stops waiting for arrivals, waits for loads still running; their results (and errors) are
   // dropped, loads not yet started are not run.
   ~FrameLookahead();
@@ -59,6 +63,7 @@ class FrameLookahead {
   size_t depth_;
   Load load_;
   SecondsUntil until_;
+  Seen seen_;
   std::atomic<bool> stop_{false};
   std::deque<Entry> ahead_;
   bool feed_done_ = false;

@@ -25,6 +25,9 @@ struct MappingFrame {
   Frame frame;                  // images and camera at the mapping resolution
   std::optional<ImageF> depth;  // metres, 0 invalid
   double median_depth = 0;      // of the valid depth pixels (0: no depth)
+  // Multiview depth: earlier keyframes whose depth waited for a neighbour, computed with this one's
+  // load (frame index, depth at the mapping resolution).
+  std::vector<std::pair<size_t, ImageF>> late_depth;
 };
 
 // Median of the finite positive values (0 when there are none).

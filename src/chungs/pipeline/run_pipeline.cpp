@@ -1,5 +1,6 @@
 #include "chungs/pipeline/run_pipeline.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <unordered_map>
@@ -14,6 +15,7 @@
 #include "chungs/pipeline/frame_lookahead.hpp"
 #include "chungs/pipeline/frame_source.hpp"
 #include "chungs/pipeline/memory_flatness.hpp"
+#include "chungs/pipeline/multiview_keyframes.hpp"
 #include "chungs/pipeline/pacing_summary.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/pipeline/pose_updates.hpp"
@@ -78,12 +80,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const MapperConfig& mc = cfg.mapper;
   const Dataset* dataset = &data;
   const DatasetInfo& info = dataset->info();
-  const DepthMode mode = resolve_depth_mode(parse_depth_mode(mc.depth), info.has_depth, info.has_right);
-  if (mode == DepthMode::None)
-    fail("dataset ", o.dataset,
-         ": its frames give no depth (no depth images, no right camera, or --input mono) and the mapper "
-         "places Gaussians at depth; mapping from one camera is not available yet (track --input mono "
-         "estimates the trajectory)");
+  DepthMode mode = resolve_depth_mode(parse_depth_mode(mc.depth), info.has_depth, info.has_right);
+  // The mapper places Gaussians at depth: frames that give none (one camera, or their depth not used)
+  // get it from their neighbouring keyframes.
+  if (mode == DepthMode::None) mode = DepthMode::Multiview;
   const int width = std::max(1, int(std::lround(info.camera.width * mc.resolution)));
   const int height = std::max(1, int(std::lround(info.camera.height * mc.resolution)));
   {
@@ -193,11 +193,34 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   std::unordered_map<size_t, std::pair<double, double>> load_times;
   StereoDepthConfig stereo = cfg.stereo;
   stereo.cuda = mapper.device() == "cuda";  // a few ms a pair there, against 50-250 ms on the host
+  // One camera: each keyframe is swept against earlier ones in its load (multiview_keyframes.hpp).
+  // Its prior is the tracker's map points densified; a learned model (--mono-depth-model) is another
+  // DepthPriorSource to hand over here.
+  std::unique_ptr<MultiviewKeyframes> multiview;
+  if (mode == DepthMode::Multiview) {
+    // A tracker with depth or a second camera measures metres; one camera alone has its own unit.
+    const bool metric = !tracked || info.has_depth || info.has_right;
+    multiview = std::make_unique<MultiviewKeyframes>(
+        *dataset, mc.resolution, cfg.multiview, mapper.device() == "cuda", metric,
+        std::make_shared<MapPointPrior>(cfg.multiview.min_prior_points, cfg.multiview.densify));
+  }
   FrameLookahead ahead(
       *feed, size_t(mc.frame_lookahead),
       [&](size_t i) {
         const double begin = seconds();
-        MappingFrame m = load_mapping_frame(*dataset, i, mc.resolution, mode, stereo);
+        MappingFrame m;
+        try {
+          m = load_mapping_frame(*dataset, i, mc.resolution, mode, stereo);
+        } catch (...) {
+          if (multiview) multiview->failed(i, std::current_exception());  // later sweeps skip it
+          throw;
+        }
+        if (multiview) {
+          MultiviewKeyframes::Result r = multiview->depth(i, m.frame.left);
+          m.depth = std::move(r.depth);
+          m.late_depth = std::move(r.late);
+          if (m.depth) m.median_depth = median_valid_depth(*m.depth);
+        }
         if (log_lag) {
           std::lock_guard lock(load_times_mutex);
           load_times[i] = {begin, seconds()};
@@ -205,7 +228,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         return m;
       },
       mc.pacing == "anytime" ? FrameLookahead::SecondsUntil([&](size_t i) { return arrival(i) - seconds(); })
-                             : FrameLookahead::SecondsUntil());
+                             : FrameLookahead::SecondsUntil(),
+      [&](const FeedItem& item) {
+        if (multiview) multiview->seen(item);
+      });
   const bool anytime = mc.pacing == "anytime";
   std::optional<SE3> last_pose;
   auto checkpoint_due = [&] {
@@ -259,9 +285,21 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       } else {
         MappingFrame m;
         timed(frames_wait_ms, [&] { m = entry->frame.get(); });
+        // Earlier keyframes whose depth waited for a neighbour (one camera) first: they are older.
+        for (const auto& late : m.late_depth) {
+          const size_t frame = late.first;
+          const ImageF& depth = late.second;
+          const auto& kfs = mapper.keyframes();
+          if (std::none_of(kfs.begin(), kfs.end(), [&](const auto& k) { return k.frame == frame; }))
+            continue;  // dropped (real-time pacing)
+          const SampleStats ls = mapper.add_late_depth(frame, depth);
+          if (!(m.median_depth > 0)) m.median_depth = median_valid_depth(depth);
+          log::debug("frame ", frame, ": ", ls.kept, " new Gaussians from depth computed with frame ", i);
+        }
         feed->set_scene_depth(m.median_depth);
-        const SampleStats ss =
-            mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose);
+        if (multiview) multiview->set_scene_depth(m.median_depth);
+        const SampleStats ss = mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera,
+                                                   *item->pose, item->seeds.empty() ? nullptr : &item->seeds);
         updates.added(item->keyframe_id, mapper.keyframes().back().id);
         added = true;
         log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
@@ -302,6 +340,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   progress.finish();
   const size_t done = stopped_at ? *stopped_at + 1 : n;  // frames the map covers
   if (mapper.keyframes().empty()) fail("dataset ", o.dataset, ": no frame with a pose became a keyframe");
+  if (multiview && mapper.total_gaussians() == 0)
+    log::warn("dataset ", o.dataset, ": no keyframe got depth from its neighbours (one camera needs two keyframes "
+              "that see the same textured scene from places apart), so the map is empty");
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
     Progress refine("refining", mc.final_iterations);
     for (int k = 0; k < mc.final_iterations; ++k) {
@@ -334,6 +375,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                          {"gaussians", mapper.total_gaussians()}};
   report["resolution"] = {info.camera.width * mc.resolution, info.camera.height * mc.resolution};
   report["depth"] = depth_mode_name(mode);
+  if (multiview) report["multiview"] = multiview->report();
   report["settings"] = {{"pacing", mc.pacing},
                         {"iterations_per_keyframe", mc.iterations_per_keyframe},
                         {"final_iterations", mc.final_iterations},

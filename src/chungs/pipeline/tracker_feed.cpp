@@ -1,6 +1,7 @@
 #include "chungs/pipeline/tracker_feed.hpp"
 
 #include <thread>
+#include <unordered_set>
 #include <vector>
 
 #include "chungs/common/blocking_queue.hpp"
@@ -105,8 +106,17 @@ class TrackerFeed : public FrameFeed {
         }
         item.keyframe = r.keyframe && !r.doubtful() && !is_held_out(i, holdout_every_);
         item.keyframe_id = r.keyframe ? r.keyframe_id : -1;
-        for (const MapOperation& op : tracker_.take_map_operations()) {
-          if (op.kind == MapOperation::Kind::NewKeyframe) continue;  // the frame's own result says it
+        for (MapOperation& op : tracker_.take_map_operations()) {
+          if (op.kind == MapOperation::Kind::NewKeyframe) {
+            // The frame's own result says whether it is a keyframe; its record brings the points.
+            // Another keyframe (a monocular segment's first view) is a sweep neighbour, unless its frame
+            // is held out (never seen by the map) or its pose doubtful.
+            if (r.keyframe && op.keyframe.id == r.keyframe_id)
+              take_points(op.keyframe, item);
+            else if (!is_held_out(op.keyframe.frame_index, holdout_every_) && op.keyframe.doubts == 0)
+              item.sweep_views.push_back({op.keyframe.frame_index, op.keyframe.id, op.keyframe.pose});
+            continue;
+          }
           loops_ += op.kind == MapOperation::Kind::LoopClosure;
           item.updates.push_back(pose_update_of(op));
         }
@@ -118,7 +128,17 @@ class TrackerFeed : public FrameFeed {
     }
   }
 
+  // The keyframe's map points: all of them for its depth prior, and those no mapped keyframe has
+  // handed over yet as seeds (a point is seen by many keyframes and would otherwise be seeded by each).
+  void take_points(const tracking::KeyframeRecord& kf, FeedItem& item) {
+    item.map_points = kf.points;
+    if (!item.keyframe) return;  // not mapped: its points stay for a keyframe that is
+    for (size_t k = 0; k < kf.points.size() && k < kf.point_ids.size(); ++k)
+      if (seeded_.insert(kf.point_ids[k]).second) item.seeds.push_back(kf.points[k]);
+  }
+
   const Dataset& dataset_;
+  std::unordered_set<long> seeded_;  // map point ids handed over as seeds (tracking thread)
   size_t n_;
   int holdout_every_;
   tracking::VisualTracker tracker_;

@@ -1,0 +1,100 @@
+#include "chungs/depth/multiview_depth.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "chungs/common/error.hpp"
+
+namespace chungs {
+
+void MultiviewDepthConfig::validate() const {
+  if (stride < 1 || stride > 64) fail("multiview: stride ", stride, " (1 to 64)");
+  if (cuda_stride < 1 || cuda_stride > 64) fail("multiview: cuda_stride ", cuda_stride, " (1 to 64)");
+  if (neighbours < 1 || neighbours > 8) fail("multiview: neighbours ", neighbours, " (1 to 8)");
+  if (!(min_confidence >= 0 && min_confidence <= 1)) fail("multiview: min_confidence ", min_confidence, " (0 to 1)");
+  if (keep_keyframes < 2 || keep_keyframes > 1000) fail("multiview: keep_keyframes ", keep_keyframes, " (2 to 1000)");
+  sweep.validate();
+  densify.validate();
+}
+
+std::optional<DensePrior> MapPointPrior::prior(const Image8& image, const std::vector<DepthSample>& points) const {
+  if (points.size() < std::max<size_t>(min_points_, 1)) return std::nullopt;
+  return densify_prior(image, points, densify_);
+}
+
+std::vector<DepthSample> project_points(const std::vector<Eigen::Vector3d>& world, const Camera& camera,
+                                        const SE3& T_wc) {
+  const SE3 T_cw = T_wc.inverse();
+  std::vector<DepthSample> out;
+  out.reserve(world.size());
+  for (const Eigen::Vector3d& X : world) {
+    if (!X.allFinite()) continue;
+    const Eigen::Vector3d pc = T_cw * X;
+    if (!(pc.z() > 1e-6)) continue;
+    const Eigen::Vector2d px = camera.project(pc);
+    // Centres at integers: a pixel rounds inside the image from -0.5 to size - 0.5.
+    if (!(px.x() >= -0.5 && px.y() >= -0.5 && px.x() < camera.width - 0.5 && px.y() < camera.height - 0.5)) continue;
+    out.push_back({float(px.x()), float(px.y()), float(pc.z()), 1.0f});
+  }
+  return out;
+}
+
+MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDepthConfig& config,
+                               const DepthPriorSource* prior_source) {
+  config.validate();
+  if (!(std::isfinite(in.units_per_metre) && in.units_per_metre > 0))
+    fail("multiview: units_per_metre ", in.units_per_metre);
+  if (!in.reference.image || in.reference.image->empty()) fail("multiview: the reference has no image");
+  const Image8& image = *in.reference.image;
+  const int w = image.width(), h = image.height();
+  PlaneSweepConfig sweep = config.sweep;
+  sweep.near *= in.units_per_metre;
+  sweep.far *= in.units_per_metre;
+
+  MultiviewDepth out;
+  out.depth = ImageF(w, h, 1, 0.0f);
+  out.confidence = ImageF(w, h, 1, 0.0f);
+  std::optional<DensePrior> prior;
+  if (prior_source) prior = prior_source->prior(image, in.points);
+  out.prior = prior.has_value();
+
+  PlaneSweepInput sin;
+  sin.camera = in.camera;
+  sin.reference = in.reference;
+  sin.neighbours = in.neighbours;
+  if (prior) sin.prior_inv_depth = &prior->inv_depth, sin.prior_confidence = &prior->confidence;
+  // The grid starts half a stride in, so its points sit at the centres of stride x stride blocks.
+  const int s = sweep.cuda ? config.cuda_stride : config.stride;
+  std::vector<SweepPixel> grid;
+  for (int y = s / 2; y < h; y += s)
+    for (int x = s / 2; x < w; x += s) grid.push_back({x, y});
+  out.swept = grid.size();
+  const std::vector<SweepSample> swept = plane_sweep_at(sin, grid, sweep);
+
+  std::vector<DepthSample> samples;
+  samples.reserve(grid.size() + in.points.size());
+  for (size_t i = 0; i < grid.size(); ++i)
+    if (swept[i].depth > 0 && std::isfinite(swept[i].depth)) {
+      samples.push_back({float(grid[i].x), float(grid[i].y), swept[i].depth, std::max(swept[i].confidence, 1e-3f)});
+      ++out.matched;
+    }
+  if (samples.empty()) return out;  // nothing matched: no depth rather than the points alone
+  // The map points were measured over several views: they join the swept samples, at full weight.
+  for (const DepthSample& p : in.points)
+    if (p.depth > 0 && std::isfinite(p.depth) && p.depth >= sweep.near && p.depth <= sweep.far) samples.push_back(p);
+
+  const DensePrior dense = densify_prior(image, samples, config.densify);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float inv = dense.inv_depth(x, y), c = dense.confidence(x, y);
+      if (!(inv > 0) || !std::isfinite(inv) || c < float(config.min_confidence)) continue;
+      const float z = 1.0f / inv;
+      if (!(z >= sweep.near && z <= sweep.far)) continue;
+      out.depth(x, y) = z;
+      out.confidence(x, y) = c;
+      ++out.valid;
+    }
+  return out;
+}
+
+}  // namespace chungs

@@ -1,0 +1,88 @@
+// Depth of a keyframe seen by one camera (issue 25): the plane sweep (plane_sweep.hpp) against earlier
+// keyframes at a grid of the keyframe's pixels, around a dense prior where one exists (the tracker's
+// map points densified, or a learned model's prediction aligned to them), then spread to every pixel
+// by the same edge-aware densification the prior uses (prior_densify.hpp), with a confidence that
+// drops what no confident sample of the pixel's own surface reaches.
+//
+// Why a grid and not every pixel: on the host a sweep costs ~0.3 ms a pixel (a dense half-size KITTI
+// keyframe took 40 s), while the sampler draws a few per cent of the pixels and puts a Gaussian of
+// several pixels at each; the edge-aware spread keeps depth steps at image edges between grid points.
+// On the GPU the grid can be every pixel (cuda_stride).
+#pragma once
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "chungs/depth/plane_sweep.hpp"
+#include "chungs/depth/prior_densify.hpp"
+
+namespace chungs {
+
+// Where a keyframe's dense prior comes from. The default densifies the map points seen by the
+// keyframe (MapPointPrior); a learned model (--mono-depth-model, depth/learned_*) plugs in here as a
+// source that predicts a relative inverse depth from the image and aligns it to the same points by
+// a median/MAD fit in inverse depth. prior() is called from several loader threads at once.
+class DepthPriorSource {
+ public:
+  virtual ~DepthPriorSource() = default;
+  virtual std::string name() const = 0;
+  // A dense prior (inverse depth in the points' units, 0 where none, and a confidence) for `image`,
+  // given the sparse depths seen in it (may be few or none); nothing when it cannot give one.
+  virtual std::optional<DensePrior> prior(const Image8& image, const std::vector<DepthSample>& points) const = 0;
+};
+
+// The tracker's map points projected into the keyframe, densified edge-aware; none below min_points.
+class MapPointPrior : public DepthPriorSource {
+ public:
+  MapPointPrior(size_t min_points, DensifyConfig densify) : min_points_(min_points), densify_(densify) {}
+  std::string name() const override { return "map points"; }
+  std::optional<DensePrior> prior(const Image8& image, const std::vector<DepthSample>& points) const override;
+
+ private:
+  size_t min_points_;
+  DensifyConfig densify_;
+};
+
+struct MultiviewDepthConfig {
+  int stride = 4;       // host: sweep every stride-th pixel per axis (then spread edge-aware)
+  int cuda_stride = 1;  // under --device cuda
+  size_t neighbours = 4;  // keyframes swept against (best first, select_sweep_neighbours); the paper: 6
+  size_t min_prior_points = 20;  // map points in view below which there is no prior (the sweep goes wide)
+  // Spread depth is kept where its confidence (prior_densify's, from the swept samples' support) is
+  // at least this: pixels far from any confident sample of their own surface get none.
+  double min_confidence = 0.5;
+  int keep_keyframes = 24;  // recent keyframes whose images the run keeps for the sweep
+  PlaneSweepConfig sweep;
+  NeighbourChoice choice;
+  DensifyConfig densify;
+  void validate() const;
+};
+
+struct MultiviewDepthInput {
+  Camera camera;  // the keyframe's and every neighbour's (one camera), undistorted
+  SweepView reference;
+  std::vector<SweepView> neighbours;  // 1 .. 8 (fewer than `neighbours` when fewer qualified)
+  std::vector<DepthSample> points;    // sparse depths in the reference (map points), the poses' units
+  // Map units per metre (1 for metric poses; a monocular tracker's unit is its first keyframe's median
+  // depth): sweep.near / far are metres and are scaled by it.
+  double units_per_metre = 1.0;
+};
+
+struct MultiviewDepth {
+  ImageF depth;       // the poses' units along the optical axis, 0 where invalid; the reference's size
+  ImageF confidence;  // (0, 1] where valid
+  size_t swept = 0, matched = 0, valid = 0;  // grid pixels swept, of them given depth, pixels with depth
+  bool prior = false;  // whether a prior narrowed the sweep
+};
+
+// Throws Error on bad configuration or inputs (plane_sweep.hpp's checks). `prior_source` may be null:
+// no prior, the wide sweep everywhere. The grid's stride is config.cuda_stride when sweep.cuda.
+MultiviewDepth multiview_depth(const MultiviewDepthInput& input, const MultiviewDepthConfig& config,
+                               const DepthPriorSource* prior_source);
+
+// Map points (world) seen in a view: those in front of the camera and inside the image, as depth samples.
+std::vector<DepthSample> project_points(const std::vector<Eigen::Vector3d>& world, const Camera& camera,
+                                        const SE3& T_wc);
+
+}  // namespace chungs

@@ -1,0 +1,81 @@
+// The multiview depth of a run from one camera (issue 25): the recent keyframes (frame, pose, the
+// tracker's map points) the plane sweep of a new keyframe chooses its neighbours from, with their
+// images at the mapping resolution.
+//
+// Where it runs: in the keyframe's load on the frame lookahead's worker threads, beside the decoding,
+// so it overlaps the optimiser like stereo matching does. Keyframes are registered in feed order on the
+// run's thread before their loads are queued (FrameLookahead::Seen); a load publishes its image first
+// thing, and sweeps only against keyframes registered before it, whose loads the lookahead's FIFO
+// started earlier, so a load waits only for loads already running, never for one queued behind it.
+//
+// The first keyframe has no earlier one: its sampling is deferred. At registration, a keyframe without
+// a usable neighbour among the earlier ones is pending; the first later keyframe with which it has one
+// computes its depth too (after its own), and the run samples it then (Mapper::add_late_depth).
+#pragma once
+#include <deque>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <vector>
+
+#include "chungs/datasets/dataset.hpp"
+#include "chungs/depth/multiview_depth.hpp"
+#include "chungs/pipeline/frame_feed.hpp"
+
+namespace chungs {
+
+class MultiviewKeyframes {
+ public:
+  // metric: the poses are in metres (given poses, or a tracker with depth); else the unit is the
+  // monocular tracker's and the sweep's metre ranges follow the map points' depths. prior: null for no
+  // prior (the wide sweep everywhere). Throws Error when the dataset's camera is distorted.
+  MultiviewKeyframes(const Dataset& dataset, double resolution, const MultiviewDepthConfig& config, bool cuda,
+                     bool metric, std::shared_ptr<const DepthPriorSource> prior);
+  MultiviewKeyframes(const MultiviewKeyframes&) = delete;
+  MultiviewKeyframes& operator=(const MultiviewKeyframes&) = delete;
+
+  // The run's thread, in feed order, before the item's load is queued: a mapped keyframe with a pose,
+  // the tracker's extra views, pose corrections.
+  void seen(const FeedItem& item);
+  // The run's thread: the median depth of a keyframe just loaded (the neighbour choice's scene depth).
+  void set_scene_depth(double median);
+
+  struct Result {
+    std::optional<ImageF> depth;                       // none: no neighbour yet (deferred or none at all)
+    std::vector<std::pair<size_t, ImageF>> late;       // earlier keyframes' deferred depth (frame, depth)
+  };
+  // A loader thread: frame's image (the mapping resolution) is published for later sweeps, then its
+  // depth computed. Call exactly once per registered keyframe, or failed() when its load failed.
+  Result depth(size_t frame, const Image8& image);
+  void failed(size_t frame, std::exception_ptr error);
+
+  nlohmann::json report() const;
+
+ private:
+  struct Entry;
+  std::shared_ptr<Entry> find(size_t frame) const;  // under mutex_
+  std::shared_ptr<const Image8> image_of(Entry& e);
+  std::optional<ImageF> sweep(const Entry& ref, const std::vector<std::shared_ptr<Entry>>& candidates,
+                              const Image8& image);
+  std::vector<size_t> choose(const SE3& ref, const std::vector<SE3>& others) const;
+
+  const Dataset& dataset_;
+  double resolution_;
+  Camera camera_;  // at the mapping resolution
+  MultiviewDepthConfig config_;
+  bool metric_;
+  std::shared_ptr<const DepthPriorSource> prior_;
+  mutable std::mutex mutex_;
+  std::deque<std::shared_ptr<Entry>> entries_;  // in feed order, the last config_.keep_keyframes
+  std::vector<size_t> pending_;                 // frames whose depth waits for a neighbour
+  double scene_depth_ = 0;                      // 0: unknown yet
+  double units_per_metre_ = 1;                  // the latest estimate (monocular tracking)
+  // Totals for the report.
+  size_t keyframes_ = 0, deferred_ = 0, late_ = 0, without_ = 0, with_prior_ = 0, sweeps_ = 0;
+  double ms_ = 0, valid_share_ = 0;
+  uint64_t swept_ = 0;
+};
+
+}  // namespace chungs

@@ -1,0 +1,176 @@
+// Depth of a keyframe from one camera (depth/multiview_depth.hpp) on the plane sweep's ray-cast scene:
+// the grid sweep spread edge-aware covers the textured surfaces with a small error, a map-point prior
+// narrows it and is said to, the flat patch on the wall takes the wall's depth, map points project as depth samples, and
+// bad settings are refused by name.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "chungs/common/error.hpp"
+#include "chungs/depth/multiview_depth.hpp"
+#include "sweep_scene.hpp"
+
+namespace chungs {
+namespace {
+
+using test::translated;
+
+struct Views {
+  test::SweepScene scene = test::wall_box_scene();
+  Image8 ref;
+  ImageF gt;
+  std::vector<Image8> images;
+  std::vector<SE3> poses;
+  Views() {
+    ImageF unused;
+    scene.render(SE3(), ref, gt, 1.5, 1);
+    poses = {translated(0.35, 0, 0), translated(-0.2, 0.25, 0.1), translated(0.05, -0.05, 0.6)};
+    images.resize(poses.size());
+    for (size_t i = 0; i < poses.size(); ++i) scene.render(poses[i], images[i], unused, 1.5, unsigned(2 + i));
+  }
+  MultiviewDepthInput input() const {
+    MultiviewDepthInput in;
+    in.camera = scene.camera;
+    in.reference = {&ref, SE3()};
+    for (size_t i = 0; i < images.size(); ++i) in.neighbours.push_back({&images[i], poses[i]});
+    return in;
+  }
+  bool flat(int x, int y) const { return x >= 108 && x <= 139 && y >= 20 && y <= 51; }
+};
+
+// As the plane sweep's tests: these baselines move the image less than the default parallax test
+// asks at this scene's depths, and the view ahead does not see the borders.
+MultiviewDepthConfig config() {
+  MultiviewDepthConfig c;
+  c.sweep.max_rel_per_px = 0.5;
+  c.sweep.best_k = 2;
+  return c;
+}
+
+struct Score {
+  double abs_rel = 0, coverage = 0, flat_abs_rel = 0;
+  size_t valid = 0, flat_valid = 0;
+};
+
+// Over the textured pixels with ground truth, 6 px from the borders (the patch does not reach them).
+Score score(const Views& v, const ImageF& depth) {
+  Score s;
+  double sum = 0;
+  size_t textured = 0;
+  for (int y = 6; y < depth.height() - 6; ++y)
+    for (int x = 6; x < depth.width() - 6; ++x) {
+      if (v.flat(x, y)) {
+        if (depth(x, y) > 0 && v.gt(x, y) > 0)
+          ++s.flat_valid, s.flat_abs_rel += std::abs(depth(x, y) - v.gt(x, y)) / v.gt(x, y);
+        continue;
+      }
+      if (v.gt(x, y) <= 0) continue;
+      ++textured;
+      if (depth(x, y) <= 0) continue;
+      ++s.valid;
+      sum += std::abs(depth(x, y) - v.gt(x, y)) / v.gt(x, y);
+    }
+  s.abs_rel = s.valid ? sum / double(s.valid) : 1e9;
+  s.coverage = double(s.valid) / double(std::max<size_t>(textured, 1));
+  s.flat_abs_rel /= double(std::max<size_t>(s.flat_valid, 1));
+  return s;
+}
+
+TEST(MultiviewDepth, AGridSweepSpreadEdgeAwareCoversTheTexturedSurfaces) {
+  const Views v;
+  const MultiviewDepth d = multiview_depth(v.input(), config(), nullptr);
+  const Score s = score(v, d.depth);
+  std::printf("stride 4: %zu swept, %zu matched, coverage %.3f, AbsRel %.4f, flat patch pixels with depth %zu\n",
+              d.swept, d.matched, s.coverage, s.abs_rel, s.flat_valid);
+  EXPECT_EQ(d.swept, size_t(40 * 30));  // 160x120 at stride 4
+  EXPECT_FALSE(d.prior);
+  EXPECT_GT(s.coverage, 0.8);
+  EXPECT_LT(s.abs_rel, 0.05);
+  EXPECT_EQ(d.valid, size_t(std::count_if(d.depth.vec().begin(), d.depth.vec().end(), [](float z) { return z > 0; })));
+  for (size_t i = 0; i < d.depth.pixels(); ++i)
+    ASSERT_EQ(d.depth.vec()[i] > 0, d.confidence.vec()[i] > 0) << "pixel " << i;
+  // The untextured patch lies on the wall: where the spread reaches it, it carries the wall's depth,
+  // which is the patch's (the sweep alone keeps none of it).
+  EXPECT_LT(s.flat_abs_rel, 0.05);
+}
+
+TEST(MultiviewDepth, MapPointsNarrowTheSweepAroundTheirPrior) {
+  const Views v;
+  MultiviewDepthInput in = v.input();
+  std::mt19937 rng(4);
+  std::uniform_int_distribution<int> X(8, 151), Y(8, 111);
+  // 300 points with 3 % depth noise, off the flat patch (features need texture).
+  std::normal_distribution<float> noise(0.0f, 0.03f);
+  while (in.points.size() < 300) {
+    const int x = X(rng), y = Y(rng);
+    if (v.flat(x, y) || v.gt(x, y) <= 0) continue;
+    in.points.push_back({float(x), float(y), v.gt(x, y) * (1.0f + noise(rng)), 1.0f});
+  }
+  const MapPointPrior prior(20, DensifyConfig{});
+  const MultiviewDepth d = multiview_depth(in, config(), &prior);
+  const Score s = score(v, d.depth);
+  std::printf("with a prior of 300 points: coverage %.3f, AbsRel %.4f\n", s.coverage, s.abs_rel);
+  EXPECT_TRUE(d.prior);
+  EXPECT_GT(s.coverage, 0.8);
+  EXPECT_LT(s.abs_rel, 0.05);
+  // Too few points give no prior: the sweep goes wide.
+  in.points.resize(10);
+  EXPECT_FALSE(multiview_depth(in, config(), &prior).prior);
+}
+
+TEST(MultiviewDepth, EveryPixelSweptIsSpreadTheSameWay) {
+  const Views v;
+  MultiviewDepthConfig c = config();
+  c.stride = 1;
+  const MultiviewDepth d = multiview_depth(v.input(), c, nullptr);
+  const Score s = score(v, d.depth);
+  std::printf("stride 1: coverage %.3f, AbsRel %.4f\n", s.coverage, s.abs_rel);
+  EXPECT_EQ(d.swept, size_t(160 * 120));
+  EXPECT_GT(s.coverage, 0.8);
+  EXPECT_LT(s.abs_rel, 0.05);
+}
+
+TEST(MultiviewDepth, ProjectsMapPointsInFrontAndInsideOnly) {
+  const Camera cam(100, 80, 50, 50, 49.5, 39.5);
+  const SE3 T_wc = translated(1, 2, 3);
+  const std::vector<Eigen::Vector3d> world = {
+      {1, 2, 7},        // straight ahead, 4 m: the principal point
+      {1, 2, 1},        // behind
+      {1 + 40, 2, 5},   // far outside to the right
+      {1.5, 2.25, 5},   // inside: (49.5 + 12.5, 39.5 + 6.25) at 2 m
+      {std::nan(""), 0, 5}};
+  const std::vector<DepthSample> s = project_points(world, cam, T_wc);
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_NEAR(s[0].x, 49.5, 1e-4);
+  EXPECT_NEAR(s[0].y, 39.5, 1e-4);
+  EXPECT_NEAR(s[0].depth, 4.0, 1e-5);
+  EXPECT_NEAR(s[1].x, 62.0, 1e-4);
+  EXPECT_NEAR(s[1].y, 45.75, 1e-4);
+  EXPECT_NEAR(s[1].depth, 2.0, 1e-5);
+}
+
+TEST(MultiviewDepth, BadSettingsAndInputsAreRefusedByName) {
+  const Views v;
+  auto refused = [&](auto change, const char* word) {
+    MultiviewDepthConfig c = config();
+    MultiviewDepthInput in = v.input();
+    change(c, in);
+    try {
+      multiview_depth(in, c, nullptr);
+      ADD_FAILURE() << "accepted: " << word;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+    }
+  };
+  refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.stride = 0; }, "stride");
+  refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.neighbours = 9; }, "neighbours");
+  refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.min_confidence = 1.5; }, "min_confidence");
+  refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.units_per_metre = 0; }, "units_per_metre");
+  refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.neighbours.clear(); }, "neighbour");
+  refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.reference.image = nullptr; }, "reference");
+}
+
+}  // namespace
+}  // namespace chungs

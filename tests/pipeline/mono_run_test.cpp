@@ -1,0 +1,190 @@
+// Mapping from one camera (issue 25): keyframes get depth from a plane sweep against earlier ones
+// (pipeline/multiview_keyframes.hpp). A street seen by its left camera maps close to its stereo run;
+// the multiview depth of its keyframes is checked against the rendered depth; the first keyframe,
+// which has no earlier one, is sampled once a later one gives it a neighbour; one frame or black
+// frames give an empty but valid map, not a failure.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "chungs/common/log.hpp"
+#include "chungs/datasets/mono_view.hpp"
+#include "chungs/pipeline/multiview_keyframes.hpp"
+#include "chungs/pipeline/run_pipeline.hpp"
+#include "chungs/synth/street_dataset.hpp"
+#include "mapping/synthetic_sequence.hpp"
+#include "mapping/tiny_config.hpp"
+#include "test_support.hpp"
+
+namespace chungs {
+namespace {
+
+synth::StreetDatasetOptions street_options(bool depth) {
+  synth::StreetDatasetOptions so;
+  so.street.length_m = 60;
+  so.street.seed = 7;
+  so.width = 310;
+  so.height = 94;
+  so.depth = depth;
+  return so;
+}
+
+// The defaults with the outdoor preset `run` picks for a street, at test size.
+Config street_config() {
+  Config c;
+  c.loss = LossConfig::kitti();
+  c.adam.lr_position = AdamConfig::kitti().lr_position;
+  c.sampler.fill_depth = 80.0;
+  c.mapper.device = "cpu";
+  c.mapper.iterations_per_keyframe = 10;
+  c.mapper.final_iterations = 50;
+  c.mapper.eval_keyframe_stride = 0;
+  c.mapper.max_saved_renders = 0;
+  c.store.durable = false;
+  c.keyframes.durable = false;
+  c.validate();
+  return c;
+}
+
+nlohmann::json map(const Dataset& data, const std::filesystem::path& out, const Config& c, const char* name) {
+  RunOptions o;
+  o.dataset = name;
+  o.out = out;
+  o.config = c;
+  return run_mapping(o, data);
+}
+
+// The 60 m street's 310x94 left camera alone against both cameras, with the same poses and settings.
+// The bound: 3 dB, against the issue's 2 dB for a long run, because this run is short (its first
+// keyframes, where the sweep has the fewest neighbours, weigh more) and single (threads make runs
+// differ by a few tenths of a dB).
+TEST(MonoRun, AStreetFromOneCameraMapsCloseToItsStereoRun) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const synth::StreetDataset stereo(street_options(false));
+  const auto mono = with_input_mode(std::make_unique<synth::StreetDataset>(street_options(false)), InputMode::Mono);
+  const nlohmann::json rs = map(stereo, dir / "stereo", street_config(), "synth-street:stereo");
+  const nlohmann::json rm = map(*mono, dir / "mono", street_config(), "synth-street:mono");
+  const double ps = rs["held_out"]["mean_psnr"], pm = rm["held_out"]["mean_psnr"];
+  std::printf("held-out PSNR: stereo %.2f dB, mono %.2f dB; Gaussians %llu / %llu; multiview %s\n", ps, pm,
+              (unsigned long long)rs["gaussians"]["total"].get<uint64_t>(),
+              (unsigned long long)rm["gaussians"]["total"].get<uint64_t>(), rm["multiview"].dump().c_str());
+  EXPECT_EQ(rm["depth"], "multiview");
+  EXPECT_GT(rm["gaussians"]["total"].get<uint64_t>(), 1000u);
+  EXPECT_GT(pm, ps - 3.0);
+  EXPECT_EQ(rm["multiview"]["deferred"].get<size_t>(), 1u);  // the first keyframe
+  EXPECT_EQ(rm["multiview"]["deferred_then_sampled"].get<size_t>(), 1u);
+}
+
+// Keyframes every 2 m of the same street, swept against each other as a run does, scored against the
+// rendered depth. The bound 0.15 leaves room above the plane sweep's 0.07-0.11 on the street
+// (bench/README.md) for the spread between grid points.
+TEST(MultiviewKeyframes, StreetDepthAgainstRenderedDepth) {
+  const synth::StreetDataset street(street_options(true));
+  MultiviewKeyframes mv(street, 1.0, MultiviewDepthConfig{}, false, true, nullptr);
+  std::vector<size_t> frames;
+  for (size_t i = 0; i < std::min<size_t>(street.size(), 24); i += 2) frames.push_back(i);
+  for (size_t i : frames) {
+    FeedItem item;
+    item.frame = i;
+    item.pose = street.gt_pose(i);
+    item.keyframe = true;
+    item.keyframe_id = long(i);
+    mv.seen(item);
+  }
+  double sum = 0;
+  size_t valid = 0, truth = 0, late = 0;
+  auto score = [&](const ImageF& est, const ImageF& gt) {
+    for (size_t k = 0; k < est.pixels(); ++k) {
+      const float g = gt.vec()[k], e = est.vec()[k];
+      if (!(g > 0 && g < 80)) continue;  // the sky has no depth to compare
+      ++truth;
+      if (!(e > 0)) continue;
+      ++valid;
+      sum += std::abs(e - g) / g;
+    }
+  };
+  size_t with_depth = 0;
+  for (size_t i : frames) {
+    const Frame f = street.frame(i);
+    MultiviewKeyframes::Result r = mv.depth(i, f.left);
+    EXPECT_EQ(r.depth.has_value(), i != frames.front()) << "frame " << i;
+    if (r.depth) score(*r.depth, *f.depth), ++with_depth;
+    for (auto& [frame, depth] : r.late) {
+      ++late, ++with_depth;
+      EXPECT_EQ(frame, frames.front());
+      score(depth, *street.frame(frame).depth);
+    }
+  }
+  EXPECT_EQ(with_depth, frames.size());
+  const double abs_rel = sum / double(std::max<size_t>(valid, 1)), coverage = double(valid) / double(truth);
+  std::printf("street keyframes: AbsRel %.4f over %.1f %% of the pixels with depth below 80 m; %s\n", abs_rel,
+              100 * coverage, mv.report().dump().c_str());
+  EXPECT_EQ(late, 1u);
+  EXPECT_LT(abs_rel, 0.15);
+  EXPECT_GT(coverage, 0.3);
+}
+
+// The tiny wall seen by one camera: the first keyframe's depth waits for the second, and both are
+// sampled. Its focal length (50 px) moves the image less per keyframe than the default parallax test
+// asks, so that is relaxed as in the plane sweep's tests; and its checker repeats every 8 px, which
+// the default range (0.5-80 m: 25 px of disparity here) would find several times over, so the sweep
+// is kept to 2-10 m around the wall at 3 m.
+Config wall_config() {
+  Config c = test::tiny_mapping_config();
+  c.multiview.sweep.max_rel_per_px = 0.5;
+  c.multiview.sweep.best_k = 1;
+  c.multiview.sweep.near = 2.0;
+  c.multiview.sweep.far = 10.0;
+  return c;
+}
+
+TEST(MonoRun, TheFirstKeyframeIsSampledOnceALaterOneGivesItANeighbour) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const auto wall = with_input_mode(std::make_unique<test::WallSequence>(12, 64, 48, 0.25), InputMode::Mono);
+  const nlohmann::json r = map(*wall, dir / "map", wall_config(), "synthetic:mono-wall");
+  std::printf("mono wall: %llu Gaussians, held-out PSNR %.2f dB, %s\n",
+              (unsigned long long)r["gaussians"]["total"].get<uint64_t>(), r["held_out"]["mean_psnr"].get<double>(),
+              r["multiview"].dump().c_str());
+  EXPECT_EQ(r["multiview"]["deferred"].get<size_t>(), 1u);
+  EXPECT_EQ(r["multiview"]["deferred_then_sampled"].get<size_t>(), 1u);
+  EXPECT_GT(r["gaussians"]["total"].get<uint64_t>(), 100u);
+  // 15.0 dB measured; an almost empty map (241 Gaussians, before the sweep range suited the wall) scored 8.1.
+  EXPECT_GT(r["held_out"]["mean_psnr"].get<double>(), 12.0);
+}
+
+TEST(MonoRun, OneFrameGivesAnEmptyButValidMap) {
+  log::set_level(log::Level::Error);
+  test::TempDir dir;
+  const auto wall = with_input_mode(std::make_unique<test::WallSequence>(1, 64, 48), InputMode::Mono);
+  const nlohmann::json r = map(*wall, dir / "map", wall_config(), "synthetic:one-frame");
+  EXPECT_EQ(r["keyframes"].get<size_t>(), 1u);
+  EXPECT_EQ(r["gaussians"]["total"].get<uint64_t>(), 0u);
+  EXPECT_EQ(r["multiview"]["deferred"].get<size_t>(), 1u);
+  EXPECT_TRUE(std::filesystem::exists(dir / "map" / "report.json"));
+}
+
+class BlackWall : public test::WallSequence {
+ public:
+  using WallSequence::WallSequence;
+  Frame frame(size_t i) const override {
+    Frame f = WallSequence::frame(i);
+    std::fill(f.left.vec().begin(), f.left.vec().end(), uint8_t(0));
+    return f;
+  }
+};
+
+TEST(MonoRun, BlackFramesGiveAnEmptyButValidMap) {
+  log::set_level(log::Level::Error);
+  test::TempDir dir;
+  const auto black = with_input_mode(std::make_unique<BlackWall>(10, 64, 48, 0.25), InputMode::Mono);
+  const nlohmann::json r = map(*black, dir / "map", wall_config(), "synthetic:black");
+  EXPECT_GT(r["keyframes"].get<size_t>(), 1u);
+  EXPECT_EQ(r["gaussians"]["total"].get<uint64_t>(), 0u);  // no texture: the sweep keeps no pixel
+  EXPECT_TRUE(std::filesystem::exists(dir / "map" / "report.json"));
+}
+
+}  // namespace
+}  // namespace chungs
