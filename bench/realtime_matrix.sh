@@ -12,7 +12,8 @@
 # GPU, so they share it alike); the 10 km drive at 72 km/h runs alone, after KITTI.
 # Env: BUNDLE (default .gpu/rt, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/rt`), DATA (a
 # folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1,
-# SKIP_KITTI=1, PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none),
+# SKIP_KITTI=1, PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none;
+# "speeds" runs 20, 36 and 72 km/h at the default budget side by side, issue 20's ordering),
 # LPIPS_WEIGHTS (a DCLPIPS1 file, scripts/lpips_convert.py: every run also scores LPIPS; without it
 # the summary's lpips_held_out is null and lpips_unavailable says why).
 set -uo pipefail
@@ -49,6 +50,14 @@ all() {
   [[ ${SKIP_DRIVE:-0} == 1 ]] || cell drive10k_a72 --dataset "$(street 10000)" --pacing anytime --speed 2
   # The fast intakes first: the slowest group (fixed pacing) last.
   for pacing in ${PACINGS:-a72 a36 fixed}; do
+    if [[ $pacing == speeds ]]; then
+      # Issue 20's ordering: 20, 36 and 72 km/h at the default budget, side by side on the one GPU.
+      cell speed20_default --dataset "$(street 2000)" --pacing anytime --speed 0.5556 &
+      cell speed36_default --dataset "$(street 2000)" --pacing anytime &
+      cell speed72_default --dataset "$(street 2000)" --pacing anytime --speed 2 &
+      wait
+      continue
+    fi
     case $pacing in
     none) continue ;;
     fixed) args=() ;;
