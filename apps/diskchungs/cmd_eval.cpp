@@ -2,6 +2,7 @@
 // and depth quality (AbsRel, delta < 1.25).
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -112,7 +113,7 @@ void write_ate_plot(const std::string& file, const Trajectory& gt, const Traject
 namespace {
 
 struct EvalArgs {
-  std::string gt, est, align = "se3", plot;
+  std::string gt, est, align = "auto", plot;
   double max_dt = 0.02;
   int rpe_delta = 1;
   std::string ref, test, mask, lpips_weights;
@@ -129,9 +130,23 @@ std::string fmt(double v, const char* f = "%.6f") {
 }
 
 int run_ate(const EvalArgs& a) {
-  const Alignment align = parse_alignment(a.align);
+  std::string name = a.align;
+  for (char& c : name) c = char(std::tolower(static_cast<unsigned char>(c)));
+  const bool auto_align = name == "auto";
+  require_flag(auto_align || name == "se3" || name == "sim3" || name == "none", "--align", "auto, se3, sim3 or none",
+               a.align);
   // KITTI files carry no stamps: read_trajectory gives both i / 10 s, so they pair by index.
   const Trajectory gt = read_trajectory(a.gt), est = read_trajectory(a.est);
+  // One camera measures no scale: a monocular run's file says so (track --input mono), and auto then
+  // aligns with a similarity; a rigid alignment would score the tracker's unit as error.
+  const bool mono = trajectory_is_monocular(a.est);
+  const Alignment align = auto_align ? (mono ? Alignment::Sim3 : Alignment::SE3) : parse_alignment(a.align);
+  std::string why;
+  if (auto_align && mono)
+    why = cat(a.est, " says it comes from a monocular run (its scale is the tracker's own): sim3 alignment chosen");
+  else if (mono && align == Alignment::SE3)
+    why = cat("note: ", a.est, " comes from a monocular run, whose scale is the tracker's own: --align sim3 "
+              "measures the path's shape");
   AteResult ate;
   RpeResult rpe;
   try {
@@ -142,12 +157,14 @@ int run_ate(const EvalArgs& a) {
   }
   if (!a.plot.empty()) write_ate_plot(a.plot, gt, est, ate);
   if (a.json) {
-    nlohmann::json j = {{"gt", a.gt}, {"est", a.est}, {"max_dt", a.max_dt}, {"ate", to_json(ate)},
-                        {"rpe", to_json(rpe)}};
+    nlohmann::json j = {{"gt", a.gt},           {"est", a.est},        {"max_dt", a.max_dt},
+                        {"ate", to_json(ate)},  {"rpe", to_json(rpe)}, {"estimate_monocular", mono},
+                        {"alignment_chosen_by", auto_align ? "auto" : "--align"}};
     if (!a.plot.empty()) j["plot"] = a.plot;
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
+  if (!why.empty()) std::printf("%s\n", why.c_str());
   std::printf("ATE (%s alignment, %zu of %zu estimated poses matched within %g s, scale %s)\n",
               alignment_name(ate.align), ate.matched(), est.size(), a.max_dt, fmt(ate.alignment.s).c_str());
   std::printf("  rmse   %s m\n  mean   %s m\n  median %s m\n  max    %s m\n", fmt(ate.stats.rmse).c_str(),
@@ -216,7 +233,9 @@ const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE), image quality (P
   CLI::App* ate = app.add_subcommand("ate", "ATE and RPE of an estimated trajectory (TUM or KITTI files)");
   ate->add_option("--gt", args->gt, "ground-truth trajectory")->required();
   ate->add_option("--est", args->est, "estimated trajectory")->required();
-  ate->add_option("--align", args->align, "alignment of the estimate: se3, sim3 (monocular) or none")
+  ate->add_option("--align", args->align,
+                  "alignment of the estimate: auto (sim3 when the estimate says it comes from a monocular run, "
+                  "else se3), se3, sim3 or none")
       ->capture_default_str();
   ate->add_option("--max-dt", args->max_dt, "largest stamp difference of a matched pair, seconds")
       ->capture_default_str();

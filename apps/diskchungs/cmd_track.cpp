@@ -93,7 +93,7 @@ int run_track(const TrackArgs& a) {
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const Trajectory est = tracker.trajectory();
-  write_trajectory(a.out, est, format);
+  write_trajectory(a.out, est, format, mono);
   const std::string quality_file = a.out + ".quality.csv";
   {
     std::ofstream q(quality_file);

@@ -80,10 +80,11 @@ Trajectory read_trajectory(const std::filesystem::path& file, double rate_hz) {
                          " fields (TUM has 8, KITTI 12, a 4x4 matrix 16)"));
 }
 
-void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& tr) {
+void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& tr, bool monocular) {
   if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
   std::ofstream out(file);
   if (!out) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
+  if (monocular) out << kMonocularTrajectoryComment << '\n';
   out << "# timestamp tx ty tz qx qy qz qw\n" << std::setprecision(17);
   for (size_t i = 0; i < tr.size(); ++i) {
     const auto& p = tr.poses[i];
@@ -94,10 +95,11 @@ void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& t
   if (!out.flush()) fail(file.string(), ": write failed (", std::strerror(errno), ")");
 }
 
-void write_kitti_trajectory(const std::filesystem::path& file, const Trajectory& tr) {
+void write_kitti_trajectory(const std::filesystem::path& file, const Trajectory& tr, bool monocular) {
   if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
   std::ofstream out(file);
   if (!out) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
+  if (monocular) out << kMonocularTrajectoryComment << '\n';
   out << std::setprecision(12);
   for (const auto& p : tr.poses) {
     auto m = p.matrix3x4();
@@ -107,11 +109,26 @@ void write_kitti_trajectory(const std::filesystem::path& file, const Trajectory&
   if (!out.flush()) fail(file.string(), ": write failed (", std::strerror(errno), ")");
 }
 
-void write_trajectory(const std::filesystem::path& file, const Trajectory& tr, TrajectoryFormat f) {
+void write_trajectory(const std::filesystem::path& file, const Trajectory& tr, TrajectoryFormat f, bool monocular) {
   if (f == TrajectoryFormat::Tum)
-    write_tum_trajectory(file, tr);
+    write_tum_trajectory(file, tr, monocular);
   else
-    write_kitti_trajectory(file, tr);
+    write_kitti_trajectory(file, tr, monocular);
+}
+
+bool trajectory_is_monocular(const std::filesystem::path& file) {
+  require_file(file, "trajectory");
+  std::ifstream in(file);
+  if (!in) fail(file.string(), ": cannot open (", std::strerror(errno), ")");
+  // Only the comment block before the first pose: a long trajectory is not read through.
+  std::string line;
+  for (int n = 0; n < 64 && std::getline(in, line); ++n) {
+    const size_t a = line.find_first_not_of(" \t\r");
+    if (a == std::string::npos) continue;
+    if (line[a] != '#') return false;
+    if (line.compare(a, 13, "# input: mono") == 0) return true;
+  }
+  return false;
 }
 
 TrajectoryFormat parse_trajectory_format(const std::string& name) {

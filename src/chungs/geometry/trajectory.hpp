@@ -32,9 +32,18 @@ Trajectory read_kitti_trajectory(const std::filesystem::path& file, const std::v
 // By content: 8 fields per line -> TUM, 12 -> KITTI (16 -> 4x4 row-major, as Replica's traj.txt).
 Trajectory read_trajectory(const std::filesystem::path& file, double rate_hz_if_unstamped = 10.0);
 
-void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& traj);
-void write_kitti_trajectory(const std::filesystem::path& file, const Trajectory& traj);
-void write_trajectory(const std::filesystem::path& file, const Trajectory& traj, TrajectoryFormat format);
+// monocular: the trajectory comes from one camera, whose scale is the tracker's own: the file then
+// begins with kMonocularTrajectoryComment (a '#' line, which both formats' readers here and evo's
+// skip), and `eval ate` aligns it with Sim(3) by itself.
+void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& traj, bool monocular = false);
+void write_kitti_trajectory(const std::filesystem::path& file, const Trajectory& traj, bool monocular = false);
+void write_trajectory(const std::filesystem::path& file, const Trajectory& traj, TrajectoryFormat format,
+                      bool monocular = false);
+inline constexpr const char* kMonocularTrajectoryComment =
+    "# input: mono (one camera: the scale is the tracker's own, align with sim3)";
+// Whether the comment lines before the file's first pose include one that begins "# input: mono".
+// Throws Error naming the file when it cannot be read.
+bool trajectory_is_monocular(const std::filesystem::path& file);
 TrajectoryFormat parse_trajectory_format(const std::string& name);  // "tum" | "kitti"
 
 // Pairs each stamp of `a` with the nearest stamp of `b` within max_dt seconds, each b used at most
