@@ -1,6 +1,7 @@
 // The optional learned depth (issue 25): the median/MAD fit against a float64 reference on random
 // inputs with outliers, the aligned prior, and the model loader and predict() on tiny ONNX models
-// that make_tiny_depth_model.py writes (skipped, saying why, without python3-onnx or ONNX Runtime).
+// that make_tiny_depth_model.py writes (skipped, saying why, without python3-onnx or ONNX Runtime), and
+// the model as the plane sweep's prior source.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <thread>
 
 #include "chungs/depth/learned_depth.hpp"
+#include "chungs/depth/learned_prior.hpp"
 #include "test_support.hpp"
 
 using namespace chungs;
@@ -443,4 +445,49 @@ TEST(LearnedDepth, MissingFileOrRuntimeIsOneClearError) {
   EXPECT_EQ(e.find('\n'), std::string::npos) << e;
   EXPECT_FALSE(probe.available);
   EXPECT_NE(probe.reason.find("no_such_libonnxruntime"), std::string::npos) << probe.reason;
+}
+
+// The model as the plane sweep's prior source: aligned to the points when the fit takes them, else
+// the fallback's prior (the map points densified), else none.
+TEST(LearnedPrior, AlignsTheModelToThePointsElseAsksTheFallback) {
+  SKIP_WITHOUT_MODEL_TOOLS();
+  test::TempDir dir;
+  std::shared_ptr<const LearnedDepth> model = LearnedDepth::load(make_model(dir, "dynamic"), 1);
+  const Image8 img = random_rgb(40, 30, 6);
+  const ImageF pred = model->predict(img);
+  const float lo = *std::min_element(pred.vec().begin(), pred.vec().end());
+  const double s = 0.3, o = 0.05 - 0.3 * std::min(lo, 0.f);
+  std::mt19937 rng(8);
+  std::vector<DepthSample> points;
+  for (int i = 0; i < 50; ++i) {
+    const int x = int(rng() % 40), y = int(rng() % 30);
+    points.push_back({float(x), float(y), float(1 / (s * pred(x, y) + o)), 1.f});
+  }
+  auto fallback = std::make_shared<MapPointPrior>(3, DensifyConfig{});
+  const LearnedPrior lp(model, {}, fallback);
+  EXPECT_EQ(lp.name(), "learned depth");
+  const std::optional<DensePrior> p = lp.prior(img, points);
+  ASSERT_TRUE(p.has_value());
+  EXPECT_EQ(lp.aligned(), 1u);
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 40; ++x) ASSERT_NEAR(p->inv_depth(x, y), s * pred(x, y) + o, 1e-4 * (s * pred(x, y) + o));
+
+  // Four points: no fit is tried, the densified points answer.
+  const std::vector<DepthSample> few(points.begin(), points.begin() + 4);
+  std::optional<DensePrior> q = lp.prior(img, few);
+  const std::optional<DensePrior> want = fallback->prior(img, few);
+  ASSERT_TRUE(q.has_value() && want.has_value());
+  EXPECT_EQ(q->inv_depth.vec(), want->inv_depth.vec());
+  EXPECT_EQ(lp.refused(), 1u);
+  // Points that disagree with the model (nearer where it says farther): the fit is refused.
+  std::vector<DepthSample> against = points;
+  for (auto& pt : against) pt.depth = float(s * pred(int(pt.x), int(pt.y)) + o);
+  q = lp.prior(img, against);
+  ASSERT_TRUE(q.has_value());
+  EXPECT_EQ(q->inv_depth.vec(), fallback->prior(img, against)->inv_depth.vec());
+  EXPECT_EQ(lp.refused(), 2u);
+  EXPECT_EQ(lp.aligned(), 1u);
+  // Without a fallback: no prior, the sweep goes wide.
+  EXPECT_FALSE(LearnedPrior(model).prior(img, few).has_value());
+  EXPECT_THROW(LearnedPrior(nullptr), Error);
 }

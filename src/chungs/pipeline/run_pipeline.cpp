@@ -9,6 +9,7 @@
 #include "chungs/common/heap.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
+#include "chungs/depth/learned_prior.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/pipeline/evaluation.hpp"
 #include "chungs/pipeline/frame_feed.hpp"
@@ -110,6 +111,18 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   if (lpips.metric && (width < kLpipsMinSide || height < kLpipsMinSide))
     fail("dataset ", o.dataset, ": ", width, "x", height, " mapping images are below the ", kLpipsMinSide, "x",
          kLpipsMinSide, " LPIPS needs (raise --resolution or drop --lpips-weights)");
+  // The learned depth model as well (the CLI hands it over loaded); it serves the multiview depth only.
+  std::shared_ptr<const LearnedDepth> learned = o.mono_depth_model;
+  if (!learned && !mc.mono_depth_model.empty()) {
+    try {
+      learned = LearnedDepth::load(mc.mono_depth_model);
+    } catch (const Error& e) {
+      fail("mapper.mono_depth_model: ", e.what());
+    }
+  }
+  if (learned && mode != DepthMode::Multiview)
+    log::warn("--mono-depth-model: this run's depth is ", depth_mode_name(mode),
+              ", so the model is not used (it gives the plane sweep of monocular input its prior)");
 
   Mapper mapper(o.out, cfg, o.resume);
   const nlohmann::json& prev = mapper.resumed_state();
@@ -194,15 +207,18 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   StereoDepthConfig stereo = cfg.stereo;
   stereo.cuda = mapper.device() == "cuda";  // a few ms a pair there, against 50-250 ms on the host
   // One camera: each keyframe is swept against earlier ones in its load (multiview_keyframes.hpp).
-  // Its prior is the tracker's map points densified; a learned model (--mono-depth-model) is another
-  // DepthPriorSource to hand over here.
+  // Its prior is the tracker's map points densified, or a learned model's prediction aligned to them
+  // (--mono-depth-model), with the densified points where the model's fit is refused.
   std::unique_ptr<MultiviewKeyframes> multiview;
+  std::shared_ptr<const LearnedPrior> learned_prior;
   if (mode == DepthMode::Multiview) {
     // A tracker with depth or a second camera measures metres; one camera alone has its own unit.
     const bool metric = !tracked || info.has_depth || info.has_right;
-    multiview = std::make_unique<MultiviewKeyframes>(
-        *dataset, mc.resolution, cfg.multiview, mapper.device() == "cuda", metric,
-        std::make_shared<MapPointPrior>(cfg.multiview.min_prior_points, cfg.multiview.densify));
+    std::shared_ptr<const DepthPriorSource> prior =
+        std::make_shared<MapPointPrior>(cfg.multiview.min_prior_points, cfg.multiview.densify);
+    if (learned) prior = learned_prior = std::make_shared<LearnedPrior>(learned, InverseDepthFitOptions{}, prior);
+    multiview = std::make_unique<MultiviewKeyframes>(*dataset, mc.resolution, cfg.multiview,
+                                                     mapper.device() == "cuda", metric, prior);
   }
   FrameLookahead ahead(
       *feed, size_t(mc.frame_lookahead),
@@ -357,7 +373,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   Trajectory traj;  // the poses the map was made on (after every correction), TUM format
   for (size_t i = 0; i < std::min(done, poses.size()); ++i)
     if (poses[i]) traj.push_back(dataset->timestamp(i), *poses[i]);
-  write_tum_trajectory(o.out / "trajectory.txt", traj);
+  // A tracker with one camera: its unit is its own, and the file says so (eval ate then aligns with Sim(3)).
+  write_tum_trajectory(o.out / "trajectory.txt", traj, tracked && !info.has_depth && !info.has_right);
   // The last sample sees the run as it ends (after the final checkpoint), so the plot, the CSV and
   // the report's times agree.
   disk_measured_at = -1e9;
@@ -376,6 +393,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["resolution"] = {info.camera.width * mc.resolution, info.camera.height * mc.resolution};
   report["depth"] = depth_mode_name(mode);
   if (multiview) report["multiview"] = multiview->report();
+  if (learned_prior)
+    report["learned_depth"] = {{"model", learned->describe()},
+                               {"aligned_keyframes", learned_prior->aligned()},
+                               {"fallback_keyframes", learned_prior->refused()}};
   report["settings"] = {{"pacing", mc.pacing},
                         {"iterations_per_keyframe", mc.iterations_per_keyframe},
                         {"final_iterations", mc.final_iterations},
