@@ -8,21 +8,21 @@
 # `npm ci --ignore-scripts` from the lockfile in cmake/onnxruntime/ installs it into
 # ${CMAKE_BINARY_DIR}/onnxruntime (the package's install script would fetch GPU providers from
 # outside the registry), and that path is compiled into chungs_depth as the first place to look after
-# the CHUNGS_ONNXRUNTIME environment variable.
-# CHUNGS_ONNXRUNTIME: AUTO installs it when npm is found (a failed download only warns: the tests that
+# the CHUNGS_ONNXRUNTIME environment variable (a library file).
+# CHUNGS_ONNXRUNTIME_NPM: AUTO installs it when npm is found (a failed download only warns: the tests that
 # need it then skip), ON requires it, OFF skips it.
-set(CHUNGS_ONNXRUNTIME AUTO CACHE STRING "Install ONNX Runtime's library from npm for --mono-depth-model: AUTO, ON or OFF")
-set_property(CACHE CHUNGS_ONNXRUNTIME PROPERTY STRINGS AUTO ON OFF)
+set(CHUNGS_ONNXRUNTIME_NPM AUTO CACHE STRING "Install ONNX Runtime's library from npm for --mono-depth-model: AUTO, ON or OFF")
+set_property(CACHE CHUNGS_ONNXRUNTIME_NPM PROPERTY STRINGS AUTO ON OFF)
 set(ort_src ${PROJECT_SOURCE_DIR}/cmake/onnxruntime)
 file(READ ${ort_src}/package.json ort_package)
 string(JSON ort_version GET "${ort_package}" dependencies onnxruntime-node)
 target_compile_definitions(chungs_depth PRIVATE CHUNGS_ONNXRUNTIME_NPM_VERSION="${ort_version}")
-if(NOT CHUNGS_ONNXRUNTIME STREQUAL "OFF")
+if(NOT CHUNGS_ONNXRUNTIME_NPM STREQUAL "OFF")
   find_program(NPM_EXECUTABLE npm)
   if(NPM_EXECUTABLE AND CMAKE_SYSTEM_NAME STREQUAL "Linux" AND CMAKE_SYSTEM_PROCESSOR MATCHES "x86_64|AMD64")
     set(ort_bin ${CMAKE_BINARY_DIR}/onnxruntime)
     set(ort_required OFF)
-    if(CHUNGS_ONNXRUNTIME STREQUAL "ON")
+    if(CHUNGS_ONNXRUNTIME_NPM STREQUAL "ON")
       set(ort_required ON)
     endif()
     add_custom_command(
@@ -36,9 +36,9 @@ if(NOT CHUNGS_ONNXRUNTIME STREQUAL "OFF")
     target_compile_definitions(chungs_depth PRIVATE
       CHUNGS_ONNXRUNTIME_BUILD_LIB="${ort_bin}/node_modules/onnxruntime-node/bin/napi-v6/linux/x64/libonnxruntime.so.1")
     message(STATUS "ONNX Runtime ${ort_version}: installed from npm into ${ort_bin} (for --mono-depth-model)")
-  elseif(CHUNGS_ONNXRUNTIME STREQUAL "ON")
-    message(FATAL_ERROR "CHUNGS_ONNXRUNTIME=ON needs npm (apt-get install npm) on linux-x64")
+  elseif(CHUNGS_ONNXRUNTIME_NPM STREQUAL "ON")
+    message(FATAL_ERROR "CHUNGS_ONNXRUNTIME_NPM=ON needs npm (apt-get install npm) on linux-x64")
   else()
-    message(STATUS "ONNX Runtime: not installed (npm not found or not linux-x64); --mono-depth-model then needs CHUNGS_ONNXRUNTIME")
+    message(STATUS "ONNX Runtime: not installed (npm not found or not linux-x64); --mono-depth-model then needs the CHUNGS_ONNXRUNTIME environment variable")
   endif()
 endif()

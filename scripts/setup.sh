@@ -6,7 +6,7 @@
 # fuzz targets' build (build-fuzz, with clang; ctest's fuzz_short runs them). The build runs `npm ci` in
 # $BUILD_DIR/web for the viewer page when node and npm are found (CHUNGS_WEB=AUTO|ON|OFF), and in
 # $BUILD_DIR/onnxruntime for ONNX Runtime's library, which --mono-depth-model opens at run time
-# (CHUNGS_ONNXRUNTIME=AUTO|ON|OFF; python3-onnx writes the tiny models its tests load).
+# (CHUNGS_ONNXRUNTIME_NPM=AUTO|ON|OFF; python3-onnx writes the tiny models its tests load).
 # --ros (or CI=true) also installs Debian's ROS 1 packages (about 140 packages, 220 MB) for the rosbag:
 # dataset, the node (ros/) and their tests; the build finds them (CHUNGS_ROS=AUTO|ON|OFF).
 set -euo pipefail
