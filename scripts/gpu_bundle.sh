@@ -42,6 +42,12 @@ for exe in "${exes[@]}"; do
     [[ -e "$bundle/lib/$name" ]] || cp -L "$path" "$bundle/lib/$name"
   done
 done
+# ONNX Runtime for --mono-depth-model: opened at run time (not in any ldd closure) as libonnxruntime.so.1,
+# which the bundle's LD_LIBRARY_PATH finds here; the npm copy the build installs (cmake/onnxruntime.cmake).
+if ninja -C "$build" onnxruntime >/dev/null 2>&1; then
+  ort="$build/onnxruntime/node_modules/onnxruntime-node/bin/napi-v6/linux/x64/libonnxruntime.so.1"
+  [[ -e "$ort" ]] && cp -L "$ort" "$bundle/lib/libonnxruntime.so.1"
+fi
 # Missing libraries make ldd print "not found": fail here, not on the GPU machine.
 if ldd "${exes[@]}" | grep -q "not found"; then
   ldd "${exes[@]}" | grep "not found" >&2
