@@ -468,6 +468,21 @@ def config_cases():
     c.append(err("config.run_missing_file", RUN + " --dataset %s --out out --config cfg.yaml" % STREET, "cfg.yaml"))
     c.append(err("config.render_bad_value", "render --map map --poses traj.txt --out r --config cfg.yaml",
                  "budget_gaussians", both(bad, a_map(), seed("traj_tum.txt", "traj.txt")), watch=["map"]))
+    # A monocular depth model (--mono-depth-model, mapper.mono_depth_model): refused before the run
+    # starts, naming the file; garbage is refused by the runtime's parser, or for want of the runtime.
+    mono = RUN + " --dataset %s --out out --input mono --mono-depth-model m.onnx" % STREET
+    for name, setup, says in [
+        ("missing", None, ["m.onnx", "does not exist"]),
+        ("is_folder", lambda d, s: forge.make_dir(d / "m.onnx"), ["m.onnx", "not a file"]),
+        ("is_fifo", lambda d, s: forge.make_fifo(d / "m.onnx"), ["m.onnx", "not a file"]),
+        ("is_dev_zero", lambda d, s: forge.link_to(d / "m.onnx", "/dev/zero"), ["m.onnx", "not a file"]),
+        ("empty", file_in("m.onnx", ""), ["m.onnx", "empty"]),
+        ("garbage", file_in("m.onnx", bytes(range(256)) * 64), ["m.onnx", "ONNX Runtime"]),
+        ("yaml_instead", file_in("m.onnx", "mapper:\n  budget: 1\n"), ["m.onnx", "ONNX Runtime"]),
+    ]:
+        c.append(err("model." + name, mono, says, setup, timeout=30))
+    c.append(err("model.config_key_missing_file", RUN + " --dataset %s --out out --input mono --config cfg.yaml" % STREET,
+                 ["mapper.mono_depth_model", "m.onnx"], file_in("cfg.yaml", "mapper:\n  mono_depth_model: m.onnx\n")))
     return c
 
 
