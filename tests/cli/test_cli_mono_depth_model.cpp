@@ -96,3 +96,24 @@ TEST(CliMonoDepthModel, TrackedMonoRunUsesTheModelAsThePrior) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("ATE (sim3 alignment"), std::string::npos) << r.out;
 }
+
+// Depth from stereo (or a sensor) needs no prior: the model is loaded (and so checked) but not used,
+// and the run says so.
+TEST(CliMonoDepthModel, StereoRunSaysTheModelIsNotUsed) {
+  const char* python = "/usr/bin/python3";
+  if (run_shell(std::string(python) + " -c 'import onnx'").code != 0)
+    GTEST_SKIP() << "python3-onnx is not installed (apt-get install python3-onnx): no test model";
+  chungs::test::TempDir dir;
+  const fs::path generator = fs::path(__FILE__).parent_path().parent_path() / "depth" / "make_tiny_depth_model.py";
+  auto r = run_shell(std::string(python) + " " + generator.string() + " --kind dynamic --out " +
+                     (dir / "tiny.onnx").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run_cli("run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --max-frames 4 "
+              "--iterations 1 --out " + (dir / "map").string() + " --mono-depth-model " + (dir / "tiny.onnx").string());
+  if (r.code != 0 && r.out.find("install ONNX Runtime's library") != std::string::npos)
+    GTEST_SKIP() << "no ONNX Runtime: " << r.out;
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("this run's depth is stereo, so the model is not used"), std::string::npos) << r.out;
+  std::ifstream f(dir / "map" / "report.json");
+  EXPECT_FALSE(nlohmann::json::parse(f).contains("learned_depth"));
+}
