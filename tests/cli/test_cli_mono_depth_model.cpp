@@ -30,6 +30,13 @@ TEST(CliMonoDepthModel, BadModelIsRefusedBeforeTheFolderIsTouched) {
       << r.out;
   EXPECT_FALSE(fs::exists(map));
 
+  // pareto takes run's mapping flags, this one too.
+  r = run_cli("pareto --dataset synth-street:length=12,width=160,height=48,seed=2 --input mono --out " + map.string() +
+              " --mono-depth-model " + (dir / "absent.onnx").string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("--mono-depth-model: " + (dir / "absent.onnx").string()), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(map));
+
   r = run_cli(kRun + " --out " + map.string() + " --mono-depth-model ''");
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.out.find("--mono-depth-model must be an ONNX model file"), std::string::npos) << r.out;
