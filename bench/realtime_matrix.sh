@@ -12,7 +12,7 @@
 # GPU, so they share it alike); the 10 km drive at 72 km/h runs alone, after KITTI.
 # Env: BUNDLE (default .gpu/rt, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/rt`), DATA (a
 # folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1,
-# SKIP_KITTI=1, PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none;
+# SKIP_KITTI=1, EXTRA_ARGS (words added to every run, e.g. "--config FILE"), PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none;
 # "speeds" runs 20, 36 and 72 km/h at the default budget side by side, issue 20's ordering),
 # LPIPS_WEIGHTS (a DCLPIPS1 file, scripts/lpips_convert.py: every run also scores LPIPS; without it
 # the summary's lpips_held_out is null and lpips_unavailable says why).
@@ -33,7 +33,8 @@ cell() {  # cell NAME ARGS...: one mapping run in $work/NAME
   local poses=(--poses gt) lpips=()
   [[ " $* " == *" --poses "* ]] && poses=()
   [[ -n ${LPIPS_WEIGHTS:-} ]] && lpips=(--lpips-weights "$LPIPS_WEIGHTS")
-  "$bin" run "${poses[@]}" "${lpips[@]}" --out "$work/$name/map" --device cuda "$@" >"$work/$name/log" 2>&1
+  # shellcheck disable=SC2086 # EXTRA_ARGS: words added to every run (e.g. --config FILE for an A/B of a setting)
+  "$bin" run "${poses[@]}" "${lpips[@]}" --out "$work/$name/map" --device cuda "$@" ${EXTRA_ARGS:-} >"$work/$name/log" 2>&1
   echo $? >"$work/$name/exit"
 }
 
