@@ -17,27 +17,8 @@ namespace {
 
 using test::translated;
 
-struct Views {
-  test::SweepScene scene = test::wall_box_scene();
-  Image8 ref;
-  ImageF gt;
-  std::vector<Image8> images;
-  std::vector<SE3> poses;
-  Views() {
-    ImageF unused;
-    scene.render(SE3(), ref, gt, 1.5, 1);
-    // Sideways, upwards and forwards: the last puts the epipole inside the image.
-    poses = {translated(0.35, 0, 0), translated(-0.2, 0.25, 0.1), translated(0.05, -0.05, 0.6)};
-    images.resize(poses.size());
-    for (size_t i = 0; i < poses.size(); ++i) scene.render(poses[i], images[i], unused, 1.5, unsigned(2 + i));
-  }
-  PlaneSweepInput input() const {
-    PlaneSweepInput in;
-    in.camera = scene.camera;
-    in.reference = {&ref, SE3()};
-    for (size_t i = 0; i < images.size(); ++i) in.neighbours.push_back({&images[i], poses[i]});
-    return in;
-  }
+struct Views : test::SweepViews {
+  PlaneSweepInput input() const { return SweepViews::input<PlaneSweepInput>(); }
   // Pixels of textured surfaces with a valid ground truth, away from the depth step and the borders.
   bool scored(int x, int y) const {
     if (x < 6 || y < 6 || x >= gt.width() - 6 || y >= gt.height() - 6 || gt(x, y) <= 0) return false;

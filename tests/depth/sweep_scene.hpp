@@ -80,4 +80,30 @@ inline SweepScene wall_box_scene() {
 
 inline SE3 translated(double x, double y, double z) { return SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, y, z)); }
 
+// The wall-and-box scene from the origin (with its exact depth) and from three neighbours: sideways,
+// upwards and forwards (the last puts the epipole inside the image). input<T>() fills the camera,
+// reference and neighbours that the plane sweep's and the multiview depth's inputs share.
+struct SweepViews {
+  SweepScene scene = wall_box_scene();
+  Image8 ref;
+  ImageF gt;
+  std::vector<Image8> images;
+  std::vector<SE3> poses;
+  SweepViews() {
+    ImageF unused;
+    scene.render(SE3(), ref, gt, 1.5, 1);
+    poses = {translated(0.35, 0, 0), translated(-0.2, 0.25, 0.1), translated(0.05, -0.05, 0.6)};
+    images.resize(poses.size());
+    for (size_t i = 0; i < poses.size(); ++i) scene.render(poses[i], images[i], unused, 1.5, unsigned(2 + i));
+  }
+  template <typename Input>
+  Input input() const {
+    Input in;
+    in.camera = scene.camera;
+    in.reference = {&ref, SE3()};
+    for (size_t i = 0; i < images.size(); ++i) in.neighbours.push_back({&images[i], poses[i]});
+    return in;
+  }
+};
+
 }  // namespace chungs::test
