@@ -6,7 +6,8 @@
 # target machine; everything else the executables load is copied.
 #
 # Usage: scripts/gpu_bundle.sh [BUNDLE_DIR]      (default: .gpu/bundle; .gpu/ is git-ignored)
-# Env:   BUILD_DIR (default build-gpu), JOBS (default 2), CUDA_ARCHS (default 90),
+# Env:   BUILD_DIR (default build-gpu), JOBS (default 2), CUDA_ARCHS (default 90), WITH_ONNXRUNTIME=1 (add
+#        ONNX Runtime's library for --mono-depth-model, 46 MB),
 #        TARGETS (default: test_render test_optim test_residency bench_cuda_rasterizer diskchungs)
 # Then on the GPU machine: scripts/gpu_run.sh OUTDIR   (with .gpu carried along)
 set -euo pipefail
@@ -44,7 +45,9 @@ for exe in "${exes[@]}"; do
 done
 # ONNX Runtime for --mono-depth-model: opened at run time (not in any ldd closure) as libonnxruntime.so.1,
 # which the bundle's LD_LIBRARY_PATH finds here; the npm copy the build installs (cmake/onnxruntime.cmake).
-if ninja -C "$build" onnxruntime >/dev/null 2>&1; then
+# Only with WITH_ONNXRUNTIME=1: the library is 46 MB, and a bundle with it and KITTI's excerpt no longer fits
+# what a lent GPU machine is given (64 MiB).
+if [[ ${WITH_ONNXRUNTIME:-0} == 1 ]] && ninja -C "$build" onnxruntime >/dev/null 2>&1; then
   ort="$build/onnxruntime/node_modules/onnxruntime-node/bin/napi-v6/linux/x64/libonnxruntime.so.1"
   [[ -e "$ort" ]] && cp -L "$ort" "$bundle/lib/libonnxruntime.so.1"
 fi
