@@ -18,6 +18,21 @@ namespace {
 const std::string kRun = "run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --max-frames 4 "
                          "--iterations 1 --input mono";
 
+// A tiny model written by tests/depth/make_tiny_depth_model.py into `file`; false (and why) when
+// python3-onnx is missing, so the caller skips.
+bool write_tiny_model(const fs::path& file, std::string& why) {
+  const std::string python = "/usr/bin/python3";
+  if (run_shell(python + " -c 'import onnx'").code != 0) {
+    why = "python3-onnx is not installed (apt-get install python3-onnx): no test model";
+    return false;
+  }
+  const fs::path generator = fs::path(__FILE__).parent_path().parent_path() / "depth" / "make_tiny_depth_model.py";
+  const auto r = run_shell(python + " " + generator.string() + " --kind dynamic --out " + file.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  why = "the model generator failed: " + r.out;
+  return r.code == 0;
+}
+
 }  // namespace
 
 TEST(CliMonoDepthModel, BadModelIsRefusedBeforeTheFolderIsTouched) {
@@ -74,14 +89,13 @@ TEST(CliMonoDepthModel, InfoConfigListsTheKey) {
 // End to end: a tracked monocular run with a (tiny, generated) model uses it as the plane sweep's prior,
 // reports it, and its trajectory says it is monocular, so eval ate aligns it with Sim(3).
 TEST(CliMonoDepthModel, TrackedMonoRunUsesTheModelAsThePrior) {
-  const char* python = "/usr/bin/python3";
-  if (run_shell(std::string(python) + " -c 'import onnx'").code != 0)
-    GTEST_SKIP() << "python3-onnx is not installed (apt-get install python3-onnx): no test model";
   chungs::test::TempDir dir;
-  const fs::path generator = fs::path(__FILE__).parent_path().parent_path() / "depth" / "make_tiny_depth_model.py";
-  auto r = run_shell(std::string(python) + " " + generator.string() + " --kind dynamic --out " +
-                     (dir / "tiny.onnx").string());
-  ASSERT_EQ(r.code, 0) << r.out;
+  std::string why;
+  if (!write_tiny_model(dir / "tiny.onnx", why)) {
+    if (::testing::Test::HasFailure()) return;
+    GTEST_SKIP() << why;
+  }
+  chungs::test::CliResult r;
   const fs::path map = dir / "map";
   r = run_cli("-q run --dataset synth-street:length=30,width=320,height=96,seed=1 --input mono --poses track "
               "--max-frames 30 --device cpu --out " + map.string() + " --mono-depth-model " + (dir / "tiny.onnx").string());
@@ -107,14 +121,13 @@ TEST(CliMonoDepthModel, TrackedMonoRunUsesTheModelAsThePrior) {
 // Depth from stereo (or a sensor) needs no prior: the model is loaded (and so checked) but not used,
 // and the run says so.
 TEST(CliMonoDepthModel, StereoRunSaysTheModelIsNotUsed) {
-  const char* python = "/usr/bin/python3";
-  if (run_shell(std::string(python) + " -c 'import onnx'").code != 0)
-    GTEST_SKIP() << "python3-onnx is not installed (apt-get install python3-onnx): no test model";
   chungs::test::TempDir dir;
-  const fs::path generator = fs::path(__FILE__).parent_path().parent_path() / "depth" / "make_tiny_depth_model.py";
-  auto r = run_shell(std::string(python) + " " + generator.string() + " --kind dynamic --out " +
-                     (dir / "tiny.onnx").string());
-  ASSERT_EQ(r.code, 0) << r.out;
+  std::string why;
+  if (!write_tiny_model(dir / "tiny.onnx", why)) {
+    if (::testing::Test::HasFailure()) return;
+    GTEST_SKIP() << why;
+  }
+  chungs::test::CliResult r;
   r = run_cli("run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --max-frames 4 "
               "--iterations 1 --out " + (dir / "map").string() + " --mono-depth-model " + (dir / "tiny.onnx").string());
   if (r.code != 0 && r.out.find("install ONNX Runtime's library") != std::string::npos)
