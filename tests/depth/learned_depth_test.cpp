@@ -380,17 +380,23 @@ TEST(LearnedDepth, PredictFromSeveralThreadsAtOnceGivesTheSameMaps) {
   for (int i = 0; i < 4; ++i) EXPECT_EQ(got[i].vec(), (i % 2 ? rb : ra).vec()) << i;
 }
 
+namespace {
+
+// What LearnedDepth::load says of a file, or "no error".
+std::string error_of(const fs::path& p) {
+  try {
+    LearnedDepth::load(p);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+}  // namespace
+
 TEST(LearnedDepth, LoaderRefusesModelsOutsideTheContractNamingTheFile) {
   SKIP_WITHOUT_MODEL_TOOLS();
   test::TempDir dir;
-  auto error_of = [](const fs::path& p) {
-    try {
-      LearnedDepth::load(p);
-    } catch (const Error& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
   const fs::path text = dir / "notes.onnx";
   std::ofstream(text) << "this is not a protobuf\n";
   std::string e = error_of(text);
@@ -412,14 +418,6 @@ TEST(LearnedDepth, LoaderRefusesModelsOutsideTheContractNamingTheFile) {
 // cannot be loaded is reported with what to install.
 TEST(LearnedDepth, MissingFileOrRuntimeIsOneClearError) {
   test::TempDir dir;
-  auto error_of = [](const fs::path& p) {
-    try {
-      LearnedDepth::load(p);
-    } catch (const Error& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
   std::string e = error_of(dir / "absent.onnx");
   EXPECT_NE(e.find((dir / "absent.onnx").string() + ": the depth model does not exist"), std::string::npos) << e;
   e = error_of(dir.path());
