@@ -135,3 +135,24 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
     }
   }
 }
+
+TEST(Config, DepthRefinementKeysLoadAndBadRangesAreRefusedByName) {
+  const chungs::Config c = chungs::config_from_yaml(
+      "multiview:\n  refine: on\n  refine_rgbd_range: 0.1\n  refine_stereo_range: 0.02\n", "r.yaml");
+  EXPECT_TRUE(c.multiview.refine);
+  EXPECT_DOUBLE_EQ(c.multiview.refine_rgbd_range, 0.1);
+  EXPECT_DOUBLE_EQ(c.multiview.refine_stereo_range, 0.02);
+  EXPECT_FALSE(chungs::config_from_yaml("multiview:\n  refine: off\n").multiview.refine);
+  for (const auto& [yaml, needle] : std::vector<std::pair<std::string, std::string>>{
+           {"multiview: {refine_rgbd_range: 0}", "got 0"},
+           {"multiview: {refine_stereo_range: -0.01}", "got -0.01"},
+           {"multiview: {refine_stereo_range: .nan}", "refine_stereo_range"},
+           {"multiview: {refine: maybe}", "multiview.refine"}}) {
+    try {
+      chungs::config_from_yaml(yaml, "t.yaml");
+      ADD_FAILURE() << yaml << " accepted";
+    } catch (const chungs::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << yaml << ": " << e.what();
+    }
+  }
+}

@@ -1,5 +1,6 @@
 // The plane sweep on the GPU against its CPU twin, bit for bit: dense and at sampled pixels, with and
-// without a prior, over random poses, patch sizes and neighbour counts.
+// without a prior, over random poses, patch sizes and neighbour counts; and the refinement of measured
+// depth, which runs the same kernel with an absolute band.
 #ifdef CHUNGS_WITH_CUDA
 #include <gtest/gtest.h>
 
@@ -11,6 +12,7 @@
 #include <random>
 
 #include "chungs/common/error.hpp"
+#include "chungs/depth/depth_refine.hpp"
 #include "chungs/depth/plane_sweep.hpp"
 #include "sweep_scene.hpp"
 
@@ -80,6 +82,52 @@ TEST(CudaPlaneSweep, MatchesTheCpuTwinBitForBit) {
         EXPECT_TRUE(same_bits(a[i].depth, cpu.depth(px[i].x, px[i].y))) << i;
       }
     }
+  }
+}
+
+// The refinement of measured depth (depth_refine.hpp) runs the same kernel with an absolute band:
+// random measurements, bands and poses give the same refined depths on both, bit for bit.
+TEST(CudaPlaneSweep, DepthRefinementMatchesTheCpuTwinBitForBit) {
+  CHUNGS_REQUIRE_GPU();
+  const test::SweepScene scene = test::wall_box_scene();
+  std::mt19937 rng(33);
+  std::uniform_real_distribution<double> U(-0.4, 0.4), S(-1, 1);
+  Image8 ref;
+  ImageF gt, unused;
+  scene.render(SE3(), ref, gt, 1.5, 1);
+  for (int round = 0; round < 4; ++round) {
+    const int views = 2 + round;
+    std::vector<Image8> images(static_cast<size_t>(views));
+    std::vector<SE3> poses;
+    for (int i = 0; i < views; ++i) {
+      poses.push_back(SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(U(rng), U(rng), 0.5 * U(rng) + 0.2)));
+      scene.render(poses.back(), images[size_t(i)], unused, 2.0, unsigned(40 * round + i));
+    }
+    PlaneSweepInput in;
+    in.camera = scene.camera;
+    in.reference = {&ref, SE3()};
+    for (int i = 0; i < views; ++i) in.neighbours.push_back({&images[size_t(i)], poses[size_t(i)]});
+    const double range = round % 2 ? 0.01 : 0.05;
+    std::vector<PixelDepth> px;
+    ImageF used(160, 120, 1, 0.0f);
+    for (int i = 0; i < 1500; ++i) {
+      const int x = int(rng() % 160), y = int(rng() % 120);
+      if (used(x, y) != 0 || gt(x, y) <= 0) continue;
+      used(x, y) = 1;
+      px.push_back({x, y, float(1.0 / (1.0 / gt(x, y) + 0.8 * range * S(rng)))});
+    }
+    PlaneSweepConfig c;
+    c.max_rel_per_px = 0.5;
+    c.best_k = 1 + round % 2;
+    PlaneSweepConfig g = c;
+    g.cuda = true;
+    std::vector<PixelDepth> a = px, b = px;
+    const DepthRefineStats sa = refine_depths(in, a, range, c), sb = refine_depths(in, b, range, g);
+    EXPECT_EQ(sa.refined, sb.refined);
+    EXPECT_GT(sa.refined, px.size() / 4) << "round " << round;  // real matches, not only kept depths
+    for (size_t i = 0; i < px.size(); ++i)
+      EXPECT_TRUE(same_bits(a[i].depth, b[i].depth)) << "round " << round << " pixel " << i << ": " << a[i].depth
+                                                     << " vs " << b[i].depth;
   }
 }
 

@@ -161,6 +161,10 @@ void fields(V& v, MultiviewDepthConfig& c) {
   v("near", c.sweep.near, "wide sweep from (metres; a monocular tracker's unit is scaled to its points)");
   v("far", c.sweep.far, "... to (metres)");
   v("prior_range", c.sweep.prior_range, "sweep around a prior: its inverse depth x (1 -+ this)");
+  v("refine", c.refine,
+    "RGB-D and stereo input: polish the depth of sampled pixels by a sweep against earlier keyframes");
+  v("refine_rgbd_range", c.refine_rgbd_range, "refine: sensor depth's inverse depth -+ this (1/m)");
+  v("refine_stereo_range", c.refine_stereo_range, "refine: stereo depth's inverse depth -+ this (1/m)");
 }
 template <class V>
 void fields(V& v, KeyframeSelectorConfig& c) {

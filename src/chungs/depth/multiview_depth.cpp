@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "chungs/common/error.hpp"
 
@@ -13,6 +14,9 @@ void MultiviewDepthConfig::validate() const {
   if (neighbours < 1 || neighbours > 8) fail("multiview: neighbours ", neighbours, " (1 to 8)");
   if (!(min_confidence >= 0 && min_confidence <= 1)) fail("multiview: min_confidence ", min_confidence, " (0 to 1)");
   if (keep_keyframes < 2 || keep_keyframes > 1000) fail("multiview: keep_keyframes ", keep_keyframes, " (2 to 1000)");
+  for (const auto& [key, r] : {std::pair{"refine_rgbd_range", refine_rgbd_range},
+                                std::pair{"refine_stereo_range", refine_stereo_range}})
+    if (!(r > 0 && r <= 10)) fail("multiview: ", key, " is an inverse depth in 1/m, above 0 and at most 10; got ", r);
   sweep.validate();
   densify.validate();
 }

@@ -55,6 +55,11 @@ struct MultiviewDepthConfig {
   // synthetic room, +2.9 on Replica office0 (bench/README.md).
   double min_confidence = 0.25;
   int keep_keyframes = 24;  // recent keyframes whose images the run keeps for the sweep
+  // RGB-D and stereo input: the depth of each pixel the sampler draws is polished by the sweep against
+  // `neighbours` earlier keyframes over its inverse depth -+ the range (1/m; the paper's ranges) where
+  // the sweep is confident (depth_refine.hpp). Off by default: bench/README.md, issue 25.
+  bool refine = false;
+  double refine_rgbd_range = 0.05, refine_stereo_range = 0.01;
   PlaneSweepConfig sweep;
   NeighbourChoice choice;
   DensifyConfig densify;

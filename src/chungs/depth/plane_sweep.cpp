@@ -21,6 +21,8 @@ void PlaneSweepConfig::validate() const {
   if (best_k < 1 || best_k > ps::kMaxNeighbours) fail("plane sweep: best_k ", best_k, " (1 to ", ps::kMaxNeighbours, ")");
   if (!positive(near) || !positive(far) || !(far > near)) fail("plane sweep: near ", near, " and far ", far, " m");
   if (!(prior_range > 0 && prior_range < 1)) fail("plane sweep: prior_range ", prior_range, " (between 0 and 1)");
+  if (!(prior_abs_range >= 0) || !std::isfinite(prior_abs_range))
+    fail("plane sweep: prior_abs_range ", prior_abs_range, " (0: off, else a positive inverse depth)");
   if (!(min_prior_confidence >= 0 && min_prior_confidence <= 1))
     fail("plane sweep: min_prior_confidence ", min_prior_confidence, " (0 to 1)");
   if (!positive(step_px)) fail("plane sweep: step_px ", step_px);
@@ -93,6 +95,7 @@ PreparedSweep prepare_sweep(const PlaneSweepInput& in, const PlaneSweepConfig& c
   p.best_k = cfg.best_k;
   p.inv_near = float(1.0 / cfg.near), p.inv_far = float(1.0 / cfg.far);
   p.prior_range = float(cfg.prior_range);
+  p.prior_abs_range = float(cfg.prior_abs_range);
   p.min_prior_confidence = float(cfg.min_prior_confidence);
   p.step_px = float(cfg.step_px);
   p.min_hypotheses = cfg.min_hypotheses, p.max_hypotheses = cfg.max_hypotheses;

@@ -25,6 +25,10 @@ struct PlaneSweepConfig {
   int best_k = 3;
   double near = 0.5, far = 80.0;  // metres: the wide sweep where no confident prior exists
   double prior_range = 0.2;  // narrow sweep: prior inverse depth x (1 -+ range) (the paper: 0.2 mono)
+  // > 0: the narrow sweep is the prior's inverse depth -+ this instead (1 / the poses' unit), clipped
+  // to [1/far, 1/near]: the refinement of measured depth (depth_refine.hpp; the paper: 0.05 RGB-D,
+  // 0.01 stereo, in 1/m).
+  double prior_abs_range = 0;
   double min_prior_confidence = 0.5;
   double step_px = 1.0;      // hypothesis spacing, in pixels of the neighbour where the range is longest
   int min_hypotheses = 16, max_hypotheses = 192;  // per pixel (the paper: 16 around a prior)

@@ -80,6 +80,7 @@ struct Problem {
   int best_k = 3;
   float inv_near = 2.0f, inv_far = 0.0125f;  // the wide sweep, 1/m
   float prior_range = 0.2f;                   // the narrow sweep: prior * (1 -+ range)
+  float prior_abs_range = 0.0f;  // > 0: the narrow sweep is prior -+ this instead, inside [inv_far, inv_near]
   float min_prior_confidence = 0.5f;
   float step_px = 1.0f;  // hypotheses spaced so the widest-moving neighbour moves about this far
   int min_hypotheses = 16, max_hypotheses = 192;
@@ -199,8 +200,16 @@ CHUNGS_PS_HD inline PixelResult sweep_pixel(const Problem& p, int x, int y, floa
   const float rnorm = root(ss);
 
   const bool narrow = prior_inv > 0.0f && prior_conf >= p.min_prior_confidence;
-  const float lo = narrow ? mul(prior_inv, sub(1.0f, p.prior_range)) : p.inv_far;
-  const float hi = narrow ? mul(prior_inv, add(1.0f, p.prior_range)) : p.inv_near;
+  float lo = narrow ? mul(prior_inv, sub(1.0f, p.prior_range)) : p.inv_far;
+  float hi = narrow ? mul(prior_inv, add(1.0f, p.prior_range)) : p.inv_near;
+  if (narrow && p.prior_abs_range > 0.0f) {
+    // A measured depth (RGB-D, stereo) is off by a band of inverse depth, not by a share of it; the
+    // band stops at the sweep's near and far (a far measurement's band would reach past infinity).
+    lo = sub(prior_inv, p.prior_abs_range), hi = add(prior_inv, p.prior_abs_range);
+    if (lo < p.inv_far) lo = p.inv_far;
+    if (hi > p.inv_near) hi = p.inv_near;
+    if (!(hi > lo)) return out;
+  }
   // Spacing: hypotheses evenly spaced along the range's image in the neighbour where it is longest
   // (the guide), not evenly in inverse depth: with motion along the optical axis the image moves
   // many times faster per unit of inverse depth at one end of the range than at the other.

@@ -232,8 +232,14 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
   for (const auto& [chunk, count] : residency_->catalogue())
     if (count > 0) exclude.insert(chunk);
   for (ChunkId chunk : shown) exclude.erase(chunk);
+  RefineDepths refine;
+  if (refine_range_ > 0)
+    refine = [&](std::vector<PixelDepth>& pixels) {
+      refine_sampled_depths(camera, pose, id, keyframes_, *keyframe_store_, config_.multiview, refine_range_,
+                            device_ == "cuda", pixels, refine_totals_);
+    };
   auto batches = sample_gaussians(config_.sampler, target, depth, prob, camera, pose, store_->chunk_size(), id,
-                                  uint32_t(iterations_), rng_, &stats, &exclude, cap, seeds);
+                                  uint32_t(iterations_), rng_, &stats, &exclude, cap, seeds, &refine);
   keyframe_times_.sample_ms += ms_since(t2);
   const auto t3 = clock::now();
   for (auto& b : batches) {
@@ -303,6 +309,12 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   ++keyframe_times_.keyframes;
   keyframe_times_.total_ms += ms_since(t0);
   return stats;
+}
+
+void Mapper::set_depth_refinement(double inv_range) {
+  if (!(inv_range >= 0) || !std::isfinite(inv_range))
+    fail("mapper: depth refinement range ", inv_range, " (0: off, else a positive inverse depth in 1/m)");
+  refine_range_ = inv_range;
 }
 
 SampleStats Mapper::add_late_depth(uint64_t frame, const ImageF& depth) {

@@ -21,6 +21,7 @@
 #include "chungs/mapping/loop_corrector.hpp"
 #include "chungs/mapping/map_state.hpp"
 #include "chungs/mapping/optim_backend.hpp"
+#include "chungs/mapping/sample_refine.hpp"
 #include "chungs/mapping/sampler.hpp"
 #include "chungs/mapping/view_coverage.hpp"
 #include "chungs/residency/frustum_culler.hpp"
@@ -58,6 +59,12 @@ class Mapper {
   // only; the keyframe keeps being trained without a depth target. Throws Error for an unknown frame
   // or a depth of another size.
   SampleStats add_late_depth(uint64_t frame, const ImageF& depth);
+  // Measured depth (RGB-D, stereo): from now on the depths of the pixels a sampling draws are polished
+  // by the plane sweep against earlier keyframes over their inverse depth -+ inv_range (1/m; 0: off;
+  // mapping/sample_refine.hpp). The run sets it from config.multiview.refine and the depth's kind.
+  void set_depth_refinement(double inv_range);
+  double depth_refinement() const { return refine_range_; }
+  const SampleRefineTotals& refine_totals() const { return refine_totals_; }
   StepStats step();  // one optimisation step; throws when there is no keyframe yet
   // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
@@ -193,6 +200,8 @@ class Mapper {
   bool loop_batch_allowed_ = true;
   bool sky_on_ = false;  // the backend holds a sky (render/sky.hpp), saved with each checkpoint
   uint64_t nonfinite_losses_ = 0;  // steps whose loss was NaN or infinite (warned once)
+  double refine_range_ = 0;        // set_depth_refinement
+  SampleRefineTotals refine_totals_;
 };
 
 }  // namespace chungs

@@ -63,7 +63,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
                                          std::mt19937_64& rng, SampleStats* stats,
                                          const std::unordered_set<ChunkId>* exclude, uint64_t max_new,
-                                         const std::vector<Eigen::Vector3d>* seeds) {
+                                         const std::vector<Eigen::Vector3d>* seeds, const RefineDepths* refine) {
   config.validate();
   if (!depth.same_size(image) || !probability.same_size(image) || depth.channels() != 1)
     fail("sampler: image ", image.width(), "x", image.height(), ", depth ", depth.width(), "x", depth.height(),
@@ -73,6 +73,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   struct Pick {
     int x, y;
     float p, z;
+    bool filled;  // z is the fill depth, not a measurement
     Eigen::Vector3d pw;
     ChunkId id;
   };
@@ -98,19 +99,13 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
           continue;
         ++bs.candidates;
         float z = drow[x];
-        if (!(z > 0) || !std::isfinite(z)) {
+        const bool filled = !(z > 0) || !std::isfinite(z);
+        if (filled) {
           ++bs.no_depth;
           if (!(config.fill_depth > 0)) continue;
           z = float(config.fill_depth);
         }
-        const Eigen::Vector3d pw = pose * camera.unproject(Eigen::Vector2d(x, y), z);
-        const ChunkId id = chunk_id_of(pw, chunk_size);
-        // The map holds this place in a chunk the render left out: what looks missing is on disk.
-        if (exclude && exclude->count(id)) {
-          ++bs.excluded;
-          continue;
-        }
-        picks.push_back({x, y, p, z, pw, id});
+        picks.push_back({x, y, p, z, filled, {}, 0});
       }
     }
   };
@@ -130,8 +125,34 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   std::vector<Pick> picks;
   for (int band = 0; band < kBands; ++band) {
     const SampleStats& bs = band_stats[size_t(band)];
-    st.candidates += bs.candidates, st.no_depth += bs.no_depth, st.excluded += bs.excluded;
+    st.candidates += bs.candidates, st.no_depth += bs.no_depth;
     picks.insert(picks.end(), band_picks[size_t(band)].begin(), band_picks[size_t(band)].end());
+  }
+  if (refine && *refine) {
+    std::vector<PixelDepth> measured;
+    std::vector<size_t> of;
+    for (size_t i = 0; i < picks.size(); ++i)
+      if (!picks[i].filled) measured.push_back({picks[i].x, picks[i].y, picks[i].z}), of.push_back(i);
+    (*refine)(measured);
+    if (measured.size() != of.size())
+      fail("sampler: the depth refinement returned ", measured.size(), " pixels for ", of.size());
+    for (size_t k = 0; k < of.size(); ++k)
+      if (measured[k].depth > 0 && std::isfinite(measured[k].depth)) picks[of[k]].z = measured[k].depth;
+  }
+  // Points and chunks after the refinement, which moves them along their rays.
+  {
+    size_t kept = 0;
+    for (Pick& pk : picks) {
+      pk.pw = pose * camera.unproject(Eigen::Vector2d(pk.x, pk.y), pk.z);
+      pk.id = chunk_id_of(pk.pw, chunk_size);
+      // The map holds this place in a chunk the render left out: what looks missing is on disk.
+      if (exclude && exclude->count(pk.id)) {
+        ++st.excluded;
+        continue;
+      }
+      picks[kept++] = pk;
+    }
+    picks.resize(kept);
   }
   if (seeds) {
     const SE3 T_cw = pose.inverse();
@@ -149,7 +170,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
       }
       const float p = std::max(probability(int(x), int(y)), float(kSeedMinProbability));
       // The footprint rule below divides by the stride a drawn pixel stands for: a seed is one point.
-      picks.push_back({int(x), int(y), p * float(s * s), float(pc.z()), X, id});
+      picks.push_back({int(x), int(y), p * float(s * s), float(pc.z()), false, X, id});
       ++st.seeds;
     }
   }

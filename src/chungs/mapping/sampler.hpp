@@ -6,10 +6,12 @@
 // would otherwise create chunk files of a handful of Gaussians).
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <random>
 #include <unordered_set>
 #include <vector>
 
+#include "chungs/depth/depth_refine.hpp"
 #include "chungs/gaussians/gaussian_block.hpp"
 #include "chungs/geometry/camera.hpp"
 #include "chungs/geometry/se3.hpp"
@@ -66,6 +68,11 @@ struct ChunkBatch {
 ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, const ImageF* render,
                             const ImageF* render_alpha);
 
+// May replace the depths of drawn pixels (each pixel once; the measured depth in, the one to place the
+// Gaussian at out): called once per sampling, with the drawn pixels that have a depth of their own
+// (not fill depth, not seeds), before their points and chunks are computed.
+using RefineDepths = std::function<void(std::vector<PixelDepth>&)>;
+
 // Samples Gaussians for a keyframe, at most one per pixel (run_mapping counts on it to tell whether
 // a dataset can fill the budget). image: float colour (1 or 3 channels, [0,1]); depth: metres,
 // 0 invalid, same size. Points falling in a chunk of `exclude` are not taken (the map holds that
@@ -74,12 +81,15 @@ ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, co
 // ascending id order. seeds (world points, may be null): each one in front of the camera and inside
 // the image is taken as well, without a draw, at its own position, coloured by its pixel and sized
 // like a drawn pixel's Gaussian at its depth (its acceptance probability, at least kSeedMinProbability).
+// refine (may be null): see RefineDepths; a depth it returns that is not positive and finite keeps the
+// measured one.
 std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
                                          std::mt19937_64& rng, SampleStats* stats = nullptr,
                                          const std::unordered_set<ChunkId>* exclude = nullptr,
-                                         uint64_t max_new = 0, const std::vector<Eigen::Vector3d>* seeds = nullptr);
+                                         uint64_t max_new = 0, const std::vector<Eigen::Vector3d>* seeds = nullptr,
+                                         const RefineDepths* refine = nullptr);
 // A seed where the render already shows the image's detail (probability 0) is sized as a pixel drawn
 // with this probability (10 pixels across), not as the sampler's largest footprint.
 constexpr double kSeedMinProbability = 0.01;

@@ -220,6 +220,15 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     multiview = std::make_unique<MultiviewKeyframes>(*dataset, mc.resolution, cfg.multiview,
                                                      mapper.device() == "cuda", metric, prior);
   }
+  // Measured depth polished at the sampled pixels by the sweep against earlier keyframes (issue 25).
+  if (cfg.multiview.refine && (mode == DepthMode::Sensor || mode == DepthMode::Stereo)) {
+    if (info.camera.distorted())
+      log::warn("multiview.refine: the camera is distorted (", info.camera.describe(),
+                "), which the plane sweep cannot use; the depth stays as measured");
+    else
+      mapper.set_depth_refinement(mode == DepthMode::Sensor ? cfg.multiview.refine_rgbd_range
+                                                            : cfg.multiview.refine_stereo_range);
+  }
   FrameLookahead ahead(
       *feed, size_t(mc.frame_lookahead),
       [&](size_t i) {
@@ -393,6 +402,16 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["resolution"] = {info.camera.width * mc.resolution, info.camera.height * mc.resolution};
   report["depth"] = depth_mode_name(mode);
   if (multiview) report["multiview"] = multiview->report();
+  if (mapper.depth_refinement() > 0) {
+    const SampleRefineTotals& r = mapper.refine_totals();
+    report["depth_refinement"] = {{"inv_range", mapper.depth_refinement()},
+                                  {"samplings", r.samplings},
+                                  {"without_neighbour", r.without_neighbour},
+                                  {"pixels", r.asked},
+                                  {"refined", r.refined},
+                                  {"refined_share", r.asked ? double(r.refined) / double(r.asked) : 0.0},
+                                  {"mean_ms", r.samplings ? r.ms / double(r.samplings) : 0.0}};
+  }
   if (learned_prior)
     report["learned_depth"] = {{"model", learned->describe()},
                                {"aligned_keyframes", learned_prior->aligned()},
