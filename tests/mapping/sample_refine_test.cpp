@@ -146,9 +146,44 @@ TEST(SampleRefine, PolishesAgainstTheEarlierKeyframesOfTheStore) {
   for (size_t i = 0; i < kept.size(); ++i) EXPECT_EQ(kept[i].depth, before[i].depth);
 }
 
+#ifdef CHUNGS_WITH_CUDA
+// Under --device cuda the mapper's refinement runs the sweep's kernel: the same depths as the host's.
+TEST(SampleRefine, TheGpuPathRefinesToTheSameDepths) {
+  CHUNGS_REQUIRE_GPU();
+  const test::SweepViews v;
+  test::TempDir dir;
+  KeyframeStore store(dir.path());
+  std::vector<KeyframeRecord> records;
+  for (size_t i = 0; i < v.images.size(); ++i) {
+    KeyframeRecord r;
+    r.id = uint32_t(i), r.camera = v.scene.camera, r.pose = v.poses[i];
+    records.push_back(r);
+    store.put(i, KeyframeImages{v.images[i], ImageF()});
+  }
+  store.put(9, KeyframeImages{v.ref, ImageF()});
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<double> U(-0.04, 0.04);
+  std::vector<PixelDepth> px;
+  for (int y = 8; y < 112; y += 3)
+    for (int x = 8; x < 152; x += 3)
+      if (v.gt(x, y) > 0) px.push_back({x, y, float(1.0 / (1.0 / v.gt(x, y) + U(rng)))});
+  MultiviewDepthConfig c;
+  c.sweep.max_rel_per_px = 0.5;
+  c.sweep.best_k = 2;
+  c.choice.min_overlap = 0.2;
+  std::vector<PixelDepth> host = px, gpu = px;
+  SampleRefineTotals th, tg;
+  refine_sampled_depths(v.scene.camera, SE3(), 9, records, store, c, 0.05, false, host, th);
+  refine_sampled_depths(v.scene.camera, SE3(), 9, records, store, c, 0.05, true, gpu, tg);
+  EXPECT_EQ(th.refined, tg.refined);
+  EXPECT_GT(th.refined, px.size() / 2);
+  for (size_t i = 0; i < px.size(); ++i) EXPECT_EQ(host[i].depth, gpu[i].depth) << i;
+}
+#endif
+
 TEST(SampleRefine, ConfigRangesAreCheckedByName) {
   MultiviewDepthConfig c;
-  EXPECT_FALSE(c.refine);  // off by default: bench/README.md (issue 25) has the measurements
+  EXPECT_TRUE(c.refine);  // on by default: bench/README.md (issue 25) has the measurements
   EXPECT_EQ(c.refine_rgbd_range, 0.05);
   EXPECT_EQ(c.refine_stereo_range, 0.01);
   c.validate();
