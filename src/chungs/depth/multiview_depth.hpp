@@ -58,7 +58,8 @@ struct MultiviewDepthConfig {
   // RGB-D and stereo input: the depth of each pixel the sampler draws is polished by the sweep against
   // `neighbours` earlier keyframes over its inverse depth -+ the range (1/m; the paper's ranges) where
   // the sweep is confident (depth_refine.hpp). On: held-out +0.29 dB on KITTI stereo with ground-truth
-  // poses, +0.08 tracked, +0.21 on the synthetic RGB-D room, two CPU runs each (bench/README.md).
+  // poses, +0.08 tracked, +0.21 on the synthetic RGB-D room, two CPU runs each (bench/README.md). run
+  // skips it under anytime pacing, where its time would come out of the optimiser's steps.
   bool refine = true;
   double refine_rgbd_range = 0.05, refine_stereo_range = 0.01;
   PlaneSweepConfig sweep;

@@ -222,7 +222,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   }
   // Measured depth polished at the sampled pixels by the sweep against earlier keyframes (issue 25).
   if (cfg.multiview.refine && (mode == DepthMode::Sensor || mode == DepthMode::Stereo)) {
-    if (info.camera.distorted())
+    // Its cost is taken from the optimiser's thread; under a real-time intake that time is the steps
+    // of the map, and what the trade gives there has not been measured: only fixed pacing refines.
+    if (mc.pacing == "anytime")
+      log::info("multiview.refine: off under anytime pacing (it would take its time from the optimiser's steps)");
+    else if (info.camera.distorted())
       log::warn("multiview.refine: the camera is distorted (", info.camera.describe(),
                 "), which the plane sweep cannot use; the depth stays as measured");
     else
