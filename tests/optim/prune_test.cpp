@@ -14,7 +14,8 @@ TEST(Prune, SelectsFaintAndOversizedGaussiansOnly) {
   p.opacity = {logit(0.04), logit(0.06), logit(0.5), logit(0.9), logit(0.01), std::nanf("")};
   const std::vector<uint32_t> ids{0, 1, 2, 3, 5};
   const std::vector<float> radius{3.f, 4.f, 321.f, 319.f, 2.f};  // W = 640: limit 320 px
-  const PruneConfig paper;  // the paper's rule (the default): no wait for young Gaussians
+  PruneConfig paper;  // the paper's rule: no wait for young Gaussians, and the size test at 0.5 W
+  paper.max_radius_fraction = 0.5f;
   const auto out = select_for_pruning(paper, view_of(p), ids, radius, 640);
   EXPECT_EQ(out, (std::vector<uint32_t>{0, 2, 5}));  // faint, too large, diverged; 4 is not listed
   const auto opacity_only = select_for_pruning(paper, view_of(p), ids, {}, 640);
@@ -26,6 +27,27 @@ TEST(Prune, SelectsFaintAndOversizedGaussiansOnly) {
   EXPECT_THROW(select_for_pruning(waits, view_of(p), ids, radius, 640), Error);  // no visit counts given
 }
 
+TEST(Prune, TheDefaultHasNoSizeTest) {
+  // Issue 20: a view passing next to an object sees its Gaussians larger than half the image; the
+  // default keeps them. A faint or diverged Gaussian goes at any size.
+  GaussianParams p;
+  p.resize(4);
+  auto logit = [](double o) { return float(std::log(o / (1 - o))); };
+  p.opacity = {logit(0.5), logit(0.9), logit(0.04), std::nanf("")};
+  const std::vector<uint32_t> ids{0, 1, 2, 3};
+  const std::vector<float> radius{5000.f, 700.f, 1.f, 900.f};
+  const PruneConfig defaults;
+  EXPECT_EQ(select_for_pruning(defaults, view_of(p), ids, radius, 640), (std::vector<uint32_t>{2, 3}));
+  PruneConfig twice;
+  twice.max_radius_fraction = 2.0f;  // a limit of 1280 px
+  EXPECT_EQ(select_for_pruning(twice, view_of(p), ids, radius, 640), (std::vector<uint32_t>{0, 2, 3}));
+  for (float bad : {-0.5f, INFINITY, NAN}) {
+    PruneConfig c;
+    c.max_radius_fraction = bad;
+    EXPECT_THROW(c.validate(), Error) << bad;
+  }
+}
+
 TEST(Prune, WaitsForYoungGaussiansButNotForDivergedOrOversizedOnes) {
   GaussianParams p;
   p.resize(5);
@@ -35,6 +57,7 @@ TEST(Prune, WaitsForYoungGaussiansButNotForDivergedOrOversizedOnes) {
   const std::vector<uint32_t> ids{0, 1, 2, 3, 4};
   const std::vector<float> radius{1.f, 1.f, 1.f, 1.f, 400.f};  // W = 640: 4 is too large
   PruneConfig c;
+  c.max_radius_fraction = 0.5f;
   c.min_visits = 5;
   // 0 is faint but has been optimised in 4 steps only; 1 and 2 have had their 5.
   EXPECT_EQ(select_for_pruning(c, view_of(p), ids, radius, 640, visits), (std::vector<uint32_t>{1, 2, 3, 4}));

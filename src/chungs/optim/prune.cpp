@@ -9,8 +9,8 @@ namespace chungs {
 void PruneConfig::validate() const {
   if (!(min_opacity >= 0 && min_opacity < 1))
     fail("prune config: min_opacity must be in [0, 1), got ", min_opacity);
-  if (!(max_radius_fraction > 0))
-    fail("prune config: max_radius_fraction must be > 0, got ", max_radius_fraction);
+  if (!(max_radius_fraction >= 0) || !std::isfinite(max_radius_fraction))
+    fail("prune config: max_radius_fraction must be >= 0 (0: no size test), got ", max_radius_fraction);
   if (every < 1) fail("prune config: every must be >= 1, got ", every);
   if (min_visits < 0) fail("prune config: min_visits must be >= 0, got ", min_visits);
 }
@@ -29,13 +29,14 @@ std::vector<uint32_t> select_for_pruning(const PruneConfig& cfg, const GaussianA
   // Compare logits instead of opacities: sigmoid is monotone, so this is the same test without exp.
   const float min_logit = cfg.min_opacity > 0 ? std::log(cfg.min_opacity / (1 - cfg.min_opacity)) : -INFINITY;
   const float max_radius = cfg.max_radius_fraction * float(image_width);
+  const bool sized = cfg.max_radius_fraction > 0 && !radius.empty();
   std::vector<uint32_t> out;
   for (size_t j = 0; j < ids.size(); ++j) {
     // Written so that NaN (a diverged Gaussian) is pruned too.
     const float o = g.opacity[ids[j]];
     const bool young = aged && std::isfinite(o) && visits[ids[j]] < uint32_t(cfg.min_visits);
     const bool faint = !young && !(o >= min_logit);
-    const bool huge = !radius.empty() && !(radius[j] <= max_radius);
+    const bool huge = sized && !(radius[j] <= max_radius);
     if (faint || huge) out.push_back(ids[j]);
   }
   return out;

@@ -28,7 +28,7 @@ void CudaPruneSelector::select(const PruneConfig& cfg, const float* opacity, siz
                         uint32_t(capacity),
                         ids,
                         uint32_t(n),
-                        radius,
+                        cfg.max_radius_fraction > 0 ? radius : nullptr,  // as the CPU rule: 0 is no size test
                         cfg.max_radius_fraction * float(image_width),
                         cfg.min_opacity > 0 ? std::log(cfg.min_opacity / (1 - cfg.min_opacity)) : -INFINITY,
                         aged ? visits : nullptr,
