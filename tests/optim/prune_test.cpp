@@ -27,20 +27,20 @@ TEST(Prune, SelectsFaintAndOversizedGaussiansOnly) {
   EXPECT_THROW(select_for_pruning(waits, view_of(p), ids, radius, 640), Error);  // no visit counts given
 }
 
-TEST(Prune, TheDefaultHasNoSizeTest) {
+TEST(Prune, TheDefaultSizeLimitIsTwiceTheImageWidth) {
   // Issue 20: a view passing next to an object sees its Gaussians larger than half the image; the
-  // default keeps them. A faint or diverged Gaussian goes at any size.
+  // default keeps them up to twice its width. A faint or diverged Gaussian goes at any size.
   GaussianParams p;
   p.resize(4);
   auto logit = [](double o) { return float(std::log(o / (1 - o))); };
   p.opacity = {logit(0.5), logit(0.9), logit(0.04), std::nanf("")};
   const std::vector<uint32_t> ids{0, 1, 2, 3};
   const std::vector<float> radius{5000.f, 700.f, 1.f, 900.f};
-  const PruneConfig defaults;
-  EXPECT_EQ(select_for_pruning(defaults, view_of(p), ids, radius, 640), (std::vector<uint32_t>{2, 3}));
-  PruneConfig twice;
-  twice.max_radius_fraction = 2.0f;  // a limit of 1280 px
-  EXPECT_EQ(select_for_pruning(twice, view_of(p), ids, radius, 640), (std::vector<uint32_t>{0, 2, 3}));
+  const PruneConfig defaults;  // a limit of 1280 px
+  EXPECT_EQ(select_for_pruning(defaults, view_of(p), ids, radius, 640), (std::vector<uint32_t>{0, 2, 3}));
+  PruneConfig off;
+  off.max_radius_fraction = 0.0f;
+  EXPECT_EQ(select_for_pruning(off, view_of(p), ids, radius, 640), (std::vector<uint32_t>{2, 3}));
   for (float bad : {-0.5f, INFINITY, NAN}) {
     PruneConfig c;
     c.max_radius_fraction = bad;

@@ -90,7 +90,7 @@ template <class V>
 void fields(V& v, PruneConfig& c) {
   v("min_opacity", c.min_opacity, "");
   v("max_radius_fraction", c.max_radius_fraction,
-    "screen radius limit as a fraction of image width (0: off, the default; the paper: 0.5)");
+    "screen radius limit as a fraction of image width (0: off; the paper: 0.5)");
   v("every", c.every, "iterations between pruning passes");
   v("min_visits", c.min_visits, "steps a Gaussian was visible in before the opacity test applies (0: from birth)");
 }

@@ -1,10 +1,10 @@
 // Pruning rule of the mapper: Gaussians that became nearly transparent are removed every 10 iterations
 // (DiskChunGS: opacity < 0.05). The paper also removes those whose screen size in the step's view is
-// above 0.5 W; that test is off by default here: a view passing next to a parked car or a tree sees
-// its Gaussians that large, and pruning them there takes the object from every other view. The more
-// steps a keyframe gets, the more such views are pruned against, so more time made a worse map: on a
-// 150 m street at 150 steps per keyframe, 20.5 dB with it and 22.6 dB without, for the same map size
-// (bench/README.md, issue 20).
+// above 0.5 W; here the limit is 2 W: a view passing next to a parked car or a tree sees its Gaussians
+// larger than 0.5 W, and pruning them there takes the object from every other view. The more steps a
+// keyframe gets, the more such views are pruned against, so more time made a worse map: on a 150 m
+// street at 150 steps per keyframe, 20.5 dB at 0.5 W, 22.4 at 2 W, 22.6 without the test (bench/README.md,
+// issue 20). Without any limit, a small room trained long grew floaters of 10 m and steps 10x slower.
 // A new Gaussian starts at opacity 0.07, a few Adam steps above the threshold: with min_visits the
 // opacity test waits until it has been optimised in that many steps, so that it is judged on what it
 // became (off by default: the denser map it keeps costs quality under small budgets, bench/README).
@@ -19,7 +19,7 @@ namespace chungs {
 
 struct PruneConfig {
   float min_opacity = 0.05f;         // sigmoid(logit) below this is pruned
-  float max_radius_fraction = 0.0f;  // screen radius (3 sigma, px) above this * image width is pruned; 0: off
+  float max_radius_fraction = 2.0f;  // screen radius (3 sigma, px) above this * image width is pruned; 0: off
   int every = 10;                    // optimiser iterations between pruning passes (the mapper's schedule)
   int min_visits = 0;                // steps a Gaussian was visible in before the opacity test applies
   void validate() const;
