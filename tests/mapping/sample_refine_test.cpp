@@ -98,31 +98,48 @@ TEST(SamplerRefine, GaussiansSitAtTheRefinedDepthsAndOnlyMeasuredPixelsAreAsked)
   EXPECT_EQ(ex.kept + ex.excluded, st.kept);
 }
 
-TEST(SampleRefine, PolishesAgainstTheEarlierKeyframesOfTheStore) {
-  const test::SweepViews v;
+// The sweep scene's views as earlier keyframes of a store, the reference view stored as keyframe
+// `sampled` (the one being sampled, not yet in the records), and a sweep set for the scene.
+struct StoredViews {
+  test::SweepViews v;
   test::TempDir dir;
-  KeyframeStore store(dir.path());
+  KeyframeStore store{dir.path()};
   std::vector<KeyframeRecord> records;
-  for (size_t i = 0; i < v.images.size(); ++i) {
-    KeyframeRecord r;
-    r.id = uint32_t(i);
-    r.camera = v.scene.camera;
-    r.pose = v.poses[i];
-    records.push_back(r);
-    store.put(i, KeyframeImages{v.images[i], ImageF()});
-  }
-  store.put(7, KeyframeImages{v.ref, ImageF()});  // the keyframe being sampled, not yet in the records
-  std::mt19937 rng(2);
-  std::uniform_real_distribution<double> U(-0.035, 0.035);
-  std::vector<PixelDepth> px;
-  for (int y = 10; y < 110; y += 5)
-    for (int x = 10; x < 100; x += 5)
-      if (v.gt(x, y) > 0) px.push_back({x, y, float(1.0 / (1.0 / v.gt(x, y) + U(rng)))});
-  const std::vector<PixelDepth> before = px;
   MultiviewDepthConfig c;
-  c.sweep.max_rel_per_px = 0.5;  // the scene's short baselines (plane_sweep_test.cpp)
-  c.sweep.best_k = 2;
-  c.choice.min_overlap = 0.2;
+
+  explicit StoredViews(uint64_t sampled) {
+    for (size_t i = 0; i < v.images.size(); ++i) {
+      KeyframeRecord r;
+      r.id = uint32_t(i), r.camera = v.scene.camera, r.pose = v.poses[i];
+      records.push_back(r);
+      store.put(i, KeyframeImages{v.images[i], ImageF()});
+    }
+    store.put(sampled, KeyframeImages{v.ref, ImageF()});
+    c.sweep.max_rel_per_px = 0.5;  // the scene's short baselines (plane_sweep_test.cpp)
+    c.sweep.best_k = 2;
+    c.choice.min_overlap = 0.2;
+  }
+  // Pixels of the reference view on a grid from `first` to `end` in steps of `step`, with the true
+  // inverse depth off by up to `noise`.
+  std::vector<PixelDepth> noisy_pixels(int first, int step, int end_x, int end_y, double noise, unsigned seed) const {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> U(-noise, noise);
+    std::vector<PixelDepth> px;
+    for (int y = first; y < end_y; y += step)
+      for (int x = first; x < end_x; x += step)
+        if (v.gt(x, y) > 0) px.push_back({x, y, float(1.0 / (1.0 / v.gt(x, y) + U(rng)))});
+    return px;
+  }
+};
+
+TEST(SampleRefine, PolishesAgainstTheEarlierKeyframesOfTheStore) {
+  StoredViews sv(7);
+  const test::SweepViews& v = sv.v;
+  const std::vector<KeyframeRecord>& records = sv.records;
+  KeyframeStore& store = sv.store;
+  const MultiviewDepthConfig& c = sv.c;
+  std::vector<PixelDepth> px = sv.noisy_pixels(10, 5, 100, 110, 0.035, 2);
+  const std::vector<PixelDepth> before = px;
   SampleRefineTotals totals;
   refine_sampled_depths(v.scene.camera, SE3(), 7, records, store, c, 0.05, false, px, totals);
   EXPECT_EQ(totals.samplings, 1u);
@@ -150,27 +167,12 @@ TEST(SampleRefine, PolishesAgainstTheEarlierKeyframesOfTheStore) {
 // Under --device cuda the mapper's refinement runs the sweep's kernel: the same depths as the host's.
 TEST(SampleRefine, TheGpuPathRefinesToTheSameDepths) {
   CHUNGS_REQUIRE_GPU();
-  const test::SweepViews v;
-  test::TempDir dir;
-  KeyframeStore store(dir.path());
-  std::vector<KeyframeRecord> records;
-  for (size_t i = 0; i < v.images.size(); ++i) {
-    KeyframeRecord r;
-    r.id = uint32_t(i), r.camera = v.scene.camera, r.pose = v.poses[i];
-    records.push_back(r);
-    store.put(i, KeyframeImages{v.images[i], ImageF()});
-  }
-  store.put(9, KeyframeImages{v.ref, ImageF()});
-  std::mt19937 rng(6);
-  std::uniform_real_distribution<double> U(-0.04, 0.04);
-  std::vector<PixelDepth> px;
-  for (int y = 8; y < 112; y += 3)
-    for (int x = 8; x < 152; x += 3)
-      if (v.gt(x, y) > 0) px.push_back({x, y, float(1.0 / (1.0 / v.gt(x, y) + U(rng)))});
-  MultiviewDepthConfig c;
-  c.sweep.max_rel_per_px = 0.5;
-  c.sweep.best_k = 2;
-  c.choice.min_overlap = 0.2;
+  StoredViews sv(9);
+  const test::SweepViews& v = sv.v;
+  const std::vector<KeyframeRecord>& records = sv.records;
+  KeyframeStore& store = sv.store;
+  const MultiviewDepthConfig& c = sv.c;
+  const std::vector<PixelDepth> px = sv.noisy_pixels(8, 3, 152, 112, 0.04, 6);
   std::vector<PixelDepth> host = px, gpu = px;
   SampleRefineTotals th, tg;
   refine_sampled_depths(v.scene.camera, SE3(), 9, records, store, c, 0.05, false, host, th);
