@@ -1,0 +1,56 @@
+// More steps per keyframe must not make a worse map (issue 20): a short synthetic street on the CPU
+// mapped with the defaults (the outdoor preset, as `run` applies it) at 10 and 60 steps per keyframe,
+// scored on the held-out frames. Under the paper's pruning by screen size (> 0.5 W) the longer run
+// lost the parked cars that a close view saw large, and scored no better than the shorter one.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "chungs/common/log.hpp"
+#include "chungs/pipeline/run_pipeline.hpp"
+#include "chungs/synth/street_dataset.hpp"
+#include "test_support.hpp"
+
+namespace chungs {
+namespace {
+
+double held_out_psnr(int steps_per_keyframe) {
+  log::set_level(log::Level::Warn);
+  // Of the seeds tried (1, 2, 3, 7), the one where the old rule's loss shows most at this length.
+  synth::StreetDatasetOptions so;
+  so.street.length_m = 60;
+  so.street.seed = 7;
+  so.width = 160;
+  so.height = 48;
+  const synth::StreetDataset street(so);
+  test::TempDir dir;
+  RunOptions o;
+  o.dataset = "synth-street:length=60,width=160,height=48,seed=7";
+  o.out = dir / "map";
+  Config& c = o.config;  // the defaults, with the outdoor preset `run` picks for a street
+  c.loss = LossConfig::kitti();
+  c.adam.lr_position = AdamConfig::kitti().lr_position;
+  c.sampler.fill_depth = 80.0;
+  c.sky.enabled = true;
+  c.mapper.device = "cpu";
+  c.mapper.iterations_per_keyframe = steps_per_keyframe;
+  c.mapper.final_iterations = 0;
+  c.mapper.eval_keyframe_stride = 0;
+  c.mapper.max_saved_renders = 0;
+  c.store.durable = false;
+  c.keyframes.durable = false;
+  c.validate();
+  return run_mapping(o, street)["held_out"]["mean_psnr"].get<double>();
+}
+
+TEST(StepsQuality, SixtyStepsPerKeyframeScoreBetterThanTen) {
+  const double ten = held_out_psnr(10), sixty = held_out_psnr(60);
+  std::printf("held-out PSNR: 10 steps/kf %.2f dB, 60 steps/kf %.2f dB (%+.2f)\n", ten, sixty, sixty - ten);
+  // Runs of the same settings differ by up to ~0.3 dB. Gains measured at 2 W: +0.9 to +2.0 dB (the
+  // latter with the sampler's chunk threshold scaled to the image); at 0.5 W: -0.6 to +0.23. The
+  // margin sits between them, so that merely breaking even fails.
+  EXPECT_GE(sixty, ten + 0.5);
+}
+
+}  // namespace
+}  // namespace chungs
