@@ -146,8 +146,14 @@ ChunkStore::~ChunkStore() {
       remove_uncommitted_files();
     }
   } catch (const std::exception& e) {
-    log::error(folder_.string(), ": could not ",
-               config_.adopt_uncommitted ? "write the manifest" : "roll back", " on close: ", e.what());
+    if (config_.adopt_uncommitted) {
+      log::error(folder_.string(), ": could not write the manifest on close: ", e.what());
+    } else {
+      // The manifest on disk names none of these files, and a later session writing to the map retires
+      // what it does not name (ChunkStore::open's orphans), so the map is whole: a warning, not a failed run.
+      log::warn(folder_.string(), ": could not remove files the last commit does not name on close ",
+                "(a later session writing to the map removes them): ", e.what());
+    }
   }
 }
 
