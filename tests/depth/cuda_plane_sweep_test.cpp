@@ -124,7 +124,9 @@ TEST(CudaPlaneSweep, DepthRefinementMatchesTheCpuTwinBitForBit) {
     std::vector<PixelDepth> a = px, b = px;
     const DepthRefineStats sa = refine_depths(in, a, range, c), sb = refine_depths(in, b, range, g);
     EXPECT_EQ(sa.refined, sb.refined);
-    EXPECT_GT(sa.refined, px.size() / 4) << "round " << round;  // real matches, not only kept depths
+    // Real matches, not only kept depths. The stereo band (0.01 1/m) moves a depth of ~1.5 m by ~2 %, so
+    // far fewer pixels pass the cost-ratio test there than in the RGB-D band (H100: 56-106 of ~1,440).
+    EXPECT_GT(sa.refined, px.size() / (range < 0.02 ? 40 : 4)) << "round " << round;
     for (size_t i = 0; i < px.size(); ++i)
       EXPECT_TRUE(same_bits(a[i].depth, b[i].depth)) << "round " << round << " pixel " << i << ": " << a[i].depth
                                                      << " vs " << b[i].depth;
