@@ -19,7 +19,8 @@ namespace {
 Config tiny_config(size_t budget) {
   Config c = test::tiny_mapping_config();
   c.store.chunk_size = 0.5;
-  c.sampler.min_per_chunk = 5;
+  c.sampler.min_per_chunk_per_100k_px = 5 * 1e5 / (64 * 48);  // 5 on the 64x48 wall
+  c.sampler.min_per_chunk_floor = 0;
   c.prune.every = 0;  // counts must not change through pruning here
   c.residency.budget_gaussians = budget;
   return c;

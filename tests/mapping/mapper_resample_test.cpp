@@ -18,7 +18,8 @@ uint64_t sampled_after_steps(int resample_every, int steps) {
   Config c = test::tiny_mapping_config();
   c.mapper.device = "cpu";
   c.sampler.max_per_keyframe = 60;  // the first sampling leaves most of the detail to later ones
-  c.sampler.min_per_chunk = 1;
+  c.sampler.min_per_chunk_per_100k_px = 0;
+  c.sampler.min_per_chunk_floor = 0;
   c.sampler.resample_every = resample_every;
   const test::WallSequence seq(2);
   Mapper m(dir / "map", c, false);

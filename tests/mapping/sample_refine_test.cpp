@@ -32,7 +32,8 @@ TEST(SamplerRefine, GaussiansSitAtTheRefinedDepthsAndOnlyMeasuredPixelsAreAsked)
     for (int x = 0; x < 40; ++x) depth(x, y) = float(2 + 4 * U(rng));  // the right half has none
   const std::vector<Eigen::Vector3d> seeds{pose * cam.unproject(Eigen::Vector2d(60, 30), 3.0)};
   SamplerConfig c;
-  c.min_per_chunk = 1;
+  c.min_per_chunk_per_100k_px = 0;
+  c.min_per_chunk_floor = 0;
   c.fill_depth = 30;
   // Even columns move 25 % further, odd ones come back without depth (they keep the measured one).
   std::set<std::pair<int, int>> asked;

@@ -36,7 +36,8 @@ TEST(SamplerSeeds, MapPointsBecomeGaussiansAtTheirPositions) {
   seeds.push_back(pose * Eigen::Vector3d(0, 0, -3));    // behind the camera
   seeds.push_back(pose * Eigen::Vector3d(50, 0, 3));    // outside the image
   SamplerConfig c;
-  c.min_per_chunk = 1;
+  c.min_per_chunk_per_100k_px = 0;
+  c.min_per_chunk_floor = 0;
   std::mt19937_64 draws(1);
   SampleStats st;
   const auto batches =

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <unordered_set>
 
@@ -63,7 +64,8 @@ TEST(Sampler, AcceptanceRateFollowsTheProbability) {
   for (int y = 0; y < 100; ++y)
     for (int x = 0; x < 50; ++x) prob(x, y) = 0.3f;  // right half: never
   SamplerConfig c;
-  c.min_per_chunk = 1;
+  c.min_per_chunk_per_100k_px = 0;
+  c.min_per_chunk_floor = 0;
   std::mt19937_64 rng(7);
   SampleStats st;
   const Camera cam(100, 100, 80, 80, 49.5, 49.5);
@@ -82,7 +84,8 @@ TEST(Sampler, SameSeedSameGaussiansWhateverTheThreadsDo) {
   for (auto& d : depth.vec()) d = 1.f + 40.f * U(r);
   for (auto& p : prob.vec()) p = 0.5f * U(r);
   SamplerConfig c;
-  c.min_per_chunk = 1;
+  c.min_per_chunk_per_100k_px = 0;
+  c.min_per_chunk_floor = 0;
   auto run = [&](uint64_t seed) {
     std::mt19937_64 rng(seed);
     SampleStats st;
@@ -112,7 +115,8 @@ TEST(Sampler, PlacesGaussiansOnPixelRaysWithFootprintAndChunks) {
   for (auto& d : depth.vec()) d = U(r);
   depth(3, 3) = 0;  // no depth: skipped
   SamplerConfig c;
-  c.min_per_chunk = 1;
+  c.min_per_chunk_per_100k_px = 0;
+  c.min_per_chunk_floor = 0;
   c.density = 1.0;
   std::mt19937_64 rng(1);
   prob(3, 3) = 1.f;
@@ -146,12 +150,41 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
   ImageF img(60, 10, 3, 0.5f), depth(60, 10, 1, 5.f), prob(60, 10, 1, 1.f);
   for (int y = 0; y < 10; ++y) depth(0, y) = 40.f;  // a far column: its own chunk, 10 points
   SamplerConfig c;
-  c.min_per_chunk = 20;
+  c.min_per_chunk_per_100k_px = 20 * 1e5 / (60 * 10);  // 20 Gaussians on this image
+  c.min_per_chunk_floor = 0;
   std::mt19937_64 rng(3);
   SampleStats st;
   auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
   EXPECT_EQ(st.dropped_small_chunks, 10u);
   for (const auto& b : batches) EXPECT_GE(b.block.size(), 20u);
+}
+
+// The stray-chunk threshold follows the image size: the paper's 100 at KITTI's 1241x376, a quarter of it
+// at half the width and height, so a quarter-size image does not leave whole chunks empty; but not below
+// the floor, which keeps chunk files from holding a handful of Gaussians each.
+TEST(Sampler, TheLeastPerChunkFollowsThePixelCountDownToAFloor) {
+  SamplerConfig c;
+  EXPECT_EQ(c.min_per_chunk(1241 * 376), 100u);
+  EXPECT_EQ(c.min_per_chunk(2 * 1241 * 376), 200u);
+  EXPECT_EQ(c.min_per_chunk(620 * 188), 50u);  // 25 scaled, under the floor
+  EXPECT_EQ(c.min_per_chunk(310 * 94), 50u);
+  // A chunk of 10 points in a 60x10 image: dropped at the default floor, kept without one.
+  const Camera cam(60, 10, 50, 50, 29.5, 4.5);
+  ImageF img(60, 10, 3, 0.5f), depth(60, 10, 1, 5.f), prob(60, 10, 1, 1.f);
+  for (int y = 0; y < 10; ++y) depth(0, y) = 40.f;
+  std::mt19937_64 rng(3);
+  SampleStats st;
+  sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
+  EXPECT_EQ(st.dropped_small_chunks, 10u);
+  c.min_per_chunk_floor = 0;
+  EXPECT_EQ(c.min_per_chunk(310 * 94), 6u);
+  sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
+  EXPECT_EQ(st.dropped_small_chunks, 0u);
+  for (double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity(), 2e5}) {
+    SamplerConfig b;
+    b.min_per_chunk_per_100k_px = bad;
+    EXPECT_THROW(b.validate(), std::exception) << bad;
+  }
 }
 
 TEST(Sampler, SkipsPointsInExcludedChunksAndCapsTheRestEvenly) {
@@ -162,7 +195,8 @@ TEST(Sampler, SkipsPointsInExcludedChunksAndCapsTheRestEvenly) {
   for (int y = 0; y < 20; ++y)
     for (int x = 40; x < 80; ++x) depth(x, y) = 25.f;
   SamplerConfig c;
-  c.min_per_chunk = 50;
+  c.min_per_chunk_per_100k_px = 50 * 1e5 / (80 * 20);  // 50 Gaussians on this image
+  c.min_per_chunk_floor = 0;
   const ChunkId near = chunk_id_of(Eigen::Vector3d(0, 0, 5), 10.0), far = chunk_id_of(Eigen::Vector3d(0, 0, 25), 10.0);
   ASSERT_NE(near, far);
   std::mt19937_64 rng(11);
@@ -172,7 +206,7 @@ TEST(Sampler, SkipsPointsInExcludedChunksAndCapsTheRestEvenly) {
   EXPECT_EQ(st.excluded, 800u);  // every pixel of the far half
   ASSERT_FALSE(batches.empty());
   for (const auto& b : batches) EXPECT_NE(b.id, far);
-  // A cap of 300 thins both halves alike; neither chunk falls to min_per_chunk and vanishes.
+  // A cap of 300 thins both halves alike; neither chunk falls under the least per chunk and vanishes.
   SampleStats capped;
   auto thin = sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &capped, nullptr, 300);
   EXPECT_EQ(capped.kept, 300u);
@@ -195,7 +229,8 @@ TEST(Sampler, APointOutsideTheChunkIdRangeIsAnErrorOnTheCallersThread) {
   const Camera cam(64, 48, 50, 50, 31.5, 23.5);
   const ImageF img(64, 48, 3, 0.5f), depth(64, 48, 1, 6.f), prob(64, 48, 1, 1.f);
   SamplerConfig c;
-  c.min_per_chunk = 1;
+  c.min_per_chunk_per_100k_px = 0;
+  c.min_per_chunk_floor = 0;
   std::mt19937_64 rng(5);
   try {
     sample_gaussians(c, img, depth, prob, cam, SE3(), 1e-9, 0, 0, rng);

@@ -13,7 +13,8 @@ inline Config tiny_mapping_config() {
   c.store.chunk_size = 1.0;
   c.store.durable = false;
   c.keyframes.durable = false;
-  c.sampler.min_per_chunk = 10;
+  c.sampler.min_per_chunk_per_100k_px = 10 * 1e5 / (64 * 48);  // 10 Gaussians on the 64x48 wall
+  c.sampler.min_per_chunk_floor = 0;
   c.sampler.density = 4.0;  // tiny images: more samples per pixel of edge
   c.sampler.empty_floor = 0.1;
   c.mapper.iterations_per_keyframe = 12;

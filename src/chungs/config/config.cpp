@@ -140,7 +140,9 @@ void fields(V& v, SamplerConfig& c) {
   v("init_opacity", c.init_opacity, "");
   v("min_scale_px", c.min_scale_px, "footprint of a new Gaussian: clamp(1/sqrt(P), min, fraction * W) px");
   v("max_scale_fraction", c.max_scale_fraction, "");
-  v("min_per_chunk", c.min_per_chunk, "chunks receiving fewer new Gaussians get none");
+  v("min_per_chunk_per_100k_px", c.min_per_chunk_per_100k_px,
+    "chunks receiving fewer new Gaussians than this per 100 k pixels get none (the paper: 100 at 1241x376)");
+  v("min_per_chunk_floor", c.min_per_chunk_floor, "... nor fewer than this many (0: no floor)");
   v("max_per_keyframe", c.max_per_keyframe, "cap on new Gaussians per keyframe (0: none)");
   v("new_per_step", c.new_per_step,
     "new Gaussians per keyframe at most this many per 100 k pixels per step keyframes got lately (0: no cap)");

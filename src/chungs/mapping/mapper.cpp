@@ -343,7 +343,7 @@ void Mapper::resample(const KeyframeRecord& kf) {
   if (images->depth.empty()) return;
   // As many as the keyframe cap allows for this many steps.
   const double rate = config_.sampler.new_per_step;
-  const uint64_t cap = rate > 0 ? std::max<uint64_t>(config_.sampler.min_per_chunk,
+  const uint64_t cap = rate > 0 ? std::max<uint64_t>(config_.sampler.min_per_chunk(images->color.pixels()),
                                                      uint64_t(rate * (double(images->color.pixels()) / 1e5) *
                                                               double(config_.sampler.resample_every)))
                                 : 0;
@@ -357,7 +357,7 @@ uint64_t Mapper::new_gaussian_cap(const Image8& image) {
   const double rate = config_.sampler.new_per_step;
   if (!(rate > 0)) return 0;
   const double cap = rate * (double(image.pixels()) / 1e5) * std::max(steps_per_keyframe_, 1.0);
-  return std::max<uint64_t>(config_.sampler.min_per_chunk, uint64_t(cap));
+  return std::max<uint64_t>(config_.sampler.min_per_chunk(image.pixels()), uint64_t(cap));
 }
 
 StepStats Mapper::step() {

@@ -17,6 +17,8 @@ void SamplerConfig::validate() const {
   if (!(min_scale_px > 0)) fail("sampler: min_scale_px must be > 0, got ", min_scale_px);
   if (!(max_scale_fraction > 0)) fail("sampler: max_scale_fraction must be > 0, got ", max_scale_fraction);
   if (!(new_per_step >= 0) || !std::isfinite(new_per_step)) fail("sampler: new_per_step must be >= 0, got ", new_per_step);
+  if (!(min_per_chunk_per_100k_px >= 0) || !(min_per_chunk_per_100k_px <= 1e5))
+    fail("sampler: min_per_chunk_per_100k_px must be in [0, 100000], got ", min_per_chunk_per_100k_px);
   if (stride < 1) fail("sampler: stride must be >= 1, got ", stride);
   if (!(fill_depth >= 0)) fail("sampler: fill_depth must be >= 0, got ", fill_depth);
   if (resample_every < 0) fail("sampler: resample_every must be >= 0, got ", resample_every);
@@ -179,7 +181,8 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   {
     std::unordered_map<ChunkId, uint64_t> per_chunk;
     for (const Pick& pk : picks) ++per_chunk[pk.id];
-    const auto small = [&](const Pick& pk) { return per_chunk[pk.id] < config.min_per_chunk; };
+    const uint64_t least = config.min_per_chunk(image.pixels());
+    const auto small = [&](const Pick& pk) { return per_chunk[pk.id] < least; };
     const auto end = std::remove_if(picks.begin(), picks.end(), small);
     st.dropped_small_chunks = uint64_t(picks.end() - end);
     picks.erase(end, picks.end());
