@@ -47,9 +47,17 @@ int run_render(const RenderArgs& a) {
     const auto dataset = open_dataset_spec(a.dataset);
     // By default the resolution the map was made at, so scores match the mapper's evaluation.
     double f = a.resolution;
-    if (f == 0)
+    if (f == 0) {
       f = renderer.keyframes().empty() ? 1.0
                                        : double(renderer.mapping_camera().width) / dataset->info().camera.width;
+      // A dataset of smaller images than the map was made from (another size of the same scene) is
+      // drawn at its own size: no image is scaled up.
+      if (f > 1) {
+        log::info("the map was made at ", renderer.mapping_camera().width, " px wide, wider than the dataset's ",
+                  dataset->info().camera.width, " px images: rendering them at their own size");
+        f = 1;
+      }
+    }
     const auto poses = frame_poses(*dataset, a.dataset_poses);
     log::info("rendering ", a.dataset, " (", dataset->size(), " frames) at ", f, " of ",
               dataset->info().camera.width, "x", dataset->info().camera.height);

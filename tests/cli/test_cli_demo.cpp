@@ -125,3 +125,19 @@ TEST(CliRender, NeedsExactlyOnePoseSource) {
   EXPECT_NE(nomap.code, 0);
   EXPECT_NE(nomap.out.find("/nowhere/map"), std::string::npos) << nomap.out;
 }
+
+// A map drawn for a dataset of smaller images than it was made from (the same street at half the size)
+// renders them at their own size instead of refusing a resolution above 1 it chose itself.
+TEST(CliRender, ADatasetOfSmallerImagesIsDrawnAtItsOwnSize) {
+  chungs::test::TempDir d;
+  const std::string street = "synth-street:length=12,seed=3,width=";
+  auto made = run_cli("-q run --poses gt --device cpu --iterations 3 --final-iterations 0 --dataset " + street +
+                      "160,height=48 --out " + (d / "map").string());
+  ASSERT_EQ(made.code, 0) << made.out;
+  auto r = run_cli("-q render --json --stride 4 --map " + (d / "map").string() + " --dataset " + street +
+                   "80,height=24 --out " + (d / "r").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_GT(j["scored"].get<int>(), 0);
+  EXPECT_GT(j["mean_psnr"].get<double>(), 10.0);  // the street drawn, not an empty frame
+}
