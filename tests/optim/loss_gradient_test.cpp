@@ -30,6 +30,8 @@ double rel_error(double a, double b, double floor) {
 // Central differences of f over every element of x against the analytic gradient g.
 double max_fd_error(Image<double>& x, const Image<double>& g, const std::function<double()>& f, double h) {
   double gmax = 0, worst = 0;
+  size_t at = 0;
+  double fd_at = 0;
   for (double v : g.vec()) gmax = std::max(gmax, std::abs(v));
   for (size_t i = 0; i < x.size(); ++i) {
     const double x0 = x.data()[i];
@@ -38,9 +40,11 @@ double max_fd_error(Image<double>& x, const Image<double>& g, const std::functio
     x.data()[i] = x0 - h;
     const double fm = f();
     x.data()[i] = x0;
-    worst = std::max(worst, rel_error(g.data()[i], (fp - fm) / (2 * h), 1e-6 * gmax));
+    const double e = rel_error(g.data()[i], (fp - fm) / (2 * h), 1e-6 * gmax);
+    if (e > worst) worst = e, at = i, fd_at = (fp - fm) / (2 * h);
   }
-  std::printf("  %zu elements, max relative error %.2e\n", x.size(), worst);
+  std::printf("  %zu elements, max relative error %.2e (element %zu: analytic %.9g, central difference %.9g)\n",
+              x.size(), worst, at, g.data()[at], fd_at);
   return worst;
 }
 

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "chungs/common/ordered_sum.hpp"
 #include "chungs/optim/loss_check.hpp"
 
 namespace chungs {
@@ -20,14 +21,16 @@ double inverse_depth_l1(const Image<T>& pred_inv, const Image<T>& target_inv, co
   const uint8_t* m = mask ? mask->data() : nullptr;
   auto ok = [&](long long i) { return std::isfinite(t[i]) && t[i] > 0 && (!m || m[i] != 0); };
 
-  long long count = 0;
-  double sum = 0;
-#pragma omp parallel for reduction(+ : count, sum) schedule(static)
-  for (long long i = 0; i < n; ++i)
-    if (ok(i)) {
-      ++count;
-      sum += std::abs(double(p[i]) - double(t[i]));
-    }
+  struct Acc {
+    double sum = 0;
+    long long count = 0;
+    Acc& operator+=(const Acc& o) { return sum += o.sum, count += o.count, *this; }
+  };
+  const Acc total = ordered_sum<Acc>(n, [&](long long i, Acc& acc) {
+    if (ok(i)) acc.sum += std::abs(double(p[i]) - double(t[i])), ++acc.count;
+  });
+  const long long count = total.count;
+  const double sum = total.sum;
   if (valid) *valid = size_t(count);
   if (count == 0) return 0.0;
   if (grad) {

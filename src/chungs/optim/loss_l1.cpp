@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "chungs/common/ordered_sum.hpp"
 #include "chungs/optim/loss_check.hpp"
 
 namespace chungs {
@@ -16,13 +17,11 @@ double l1_loss(const Image<T>& pred, const Image<T>& target, Image<T>* grad, dou
   const T* t = target.data();
   T* g = grad ? grad->data() : nullptr;
   const T step = T(weight / double(n));
-  double sum = 0;
-#pragma omp parallel for reduction(+ : sum) schedule(static)
-  for (long long i = 0; i < n; ++i) {
+  const double sum = ordered_sum<double>(n, [&](long long i, double& acc) {
     const T d = p[i] - t[i];
-    sum += std::abs(double(d));
+    acc += std::abs(double(d));
     if (g) g[i] += d > 0 ? step : (d < 0 ? -step : T(0));
-  }
+  });
   return sum / double(n);
 }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <vector>
 
+#include "chungs/common/ordered_sum.hpp"
 #include "chungs/optim/loss_check.hpp"
 
 namespace chungs {
@@ -89,23 +90,21 @@ double ssim_loss_term(const Image<T>& pred, const Image<T>& target, Image<T>* gr
   blur_planes(in, mom, tmp, W, H, 5 * C);
 
   // SSIM map and, for the backward, dS/d(mu_x), dS/d(E[x^2]), dS/d(E[xy]) scaled by weight / n.
-  double sum = 0;
   if (grad) g.assign(3 * n, T(0));
   const T up = T(weight / double(n));
-#pragma omp parallel for reduction(+ : sum) schedule(static)
-  for (long long ii = 0; ii < (long long)n; ++ii) {
+  const double sum = ordered_sum<double>((long long)n, [&](long long ii, double& acc) {
     const size_t i = size_t(ii);
     const T mx = mom[i], my = mom[n + i], exx = mom[2 * n + i], eyy = mom[3 * n + i], exy = mom[4 * n + i];
     const T A1 = 2 * mx * my + T(kC1), A2 = 2 * (exy - mx * my) + T(kC2);
     const T B1 = mx * mx + my * my + T(kC1), B2 = (exx - mx * mx) + (eyy - my * my) + T(kC2);
     const T S = A1 * A2 / (B1 * B2);
-    sum += double(S);
+    acc += double(S);
     if (grad) {
       g[i] = up * S * (2 * my / A1 - 2 * my / A2 - 2 * mx / B1 + 2 * mx / B2);
       g[n + i] = up * (-S / B2);
       g[2 * n + i] = up * (2 * S / A2);
     }
-  }
+  });
   if (grad) {
     blur_planes(g, bg, tmp, W, H, 3 * C);
     for (int c = 0; c < C; ++c)
