@@ -48,6 +48,17 @@ TEST(Config, TyposAndBadValuesNameTheKeyAndLine) {
   expect_error("store:\n  chunk_size: ten\n", "store.chunk_size");
   expect_error("loss:\n  lambda_ssim: 3\n", "my.yaml");
   expect_error("store: [1, 2\n", "not valid YAML");
+  // A likely typo names the nearest key; a renamed key names what replaced it; a far-off word neither.
+  expect_error("sampler:\n  densty: 3\n", "unknown key 'sampler.densty'; did you mean 'sampler.density'?");
+  expect_error("samplr:\n  density: 3\n", "unknown section 'samplr'; did you mean 'sampler'?");
+  expect_error("sampler:\n  min_per_chunk: 100\n",
+               "unknown key 'sampler.min_per_chunk': it became sampler.min_per_chunk_per_100k_px");
+  try {
+    config_from_yaml("sampler:\n  zzzzzzzzzzzz: 1\n", "my.yaml");
+    FAIL() << "no error for an unknown key";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).find("did you mean"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Config, KeysAbsentFromTheFileKeepTheBaseValues) {

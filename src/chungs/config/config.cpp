@@ -2,7 +2,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 #include <utility>
 #include <vector>
@@ -262,6 +264,42 @@ std::vector<std::pair<std::string, int>> keys_of(const YAML::Node& map, const st
   return keys;
 }
 
+// Keys that were renamed or replaced: a file written for an older version names what to write now.
+const std::map<std::string, std::string>& renamed_keys() {
+  static const std::map<std::string, std::string> m = {
+      {"sampler.min_per_chunk",
+       "it became sampler.min_per_chunk_per_100k_px (21.43: the paper's 100 at 1241x376) with "
+       "sampler.min_per_chunk_floor (50)"},
+  };
+  return m;
+}
+
+size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// What to tell a user who wrote `prefix + name`: the key that replaced it, or the nearest known name
+// when it is a likely typo (at most a third of its letters differ); empty when neither.
+std::string hint_for(const std::string& prefix, const std::string& name, const std::set<std::string>& known) {
+  if (const auto it = renamed_keys().find(prefix + name); it != renamed_keys().end()) return ": " + it->second;
+  std::string best;
+  size_t best_d = name.size() / 3 + 1;
+  for (const std::string& k : known)
+    if (const size_t d = edit_distance(name, k); d < best_d) best = k, best_d = d;
+  return best.empty() ? std::string() : "; did you mean '" + prefix + best + "'?";
+}
+
 struct Loader {
   YAML::Node root;
   std::string source;
@@ -297,7 +335,8 @@ struct Loader {
     const auto keys = keys_of(node, source, section_name + ".");
     fields(*this, s);
     for (const auto& [k, line] : keys)
-      if (!seen_keys.count(k)) fail(source, ":", line, ": unknown key '", name, ".", k, "'");
+      if (!seen_keys.count(k))
+        fail(source, ":", line, ": unknown key '", name, ".", k, "'", hint_for(section_name + ".", k, seen_keys));
   }
 };
 
@@ -336,7 +375,8 @@ Config config_from_yaml(const std::string& text, const std::string& source, cons
   const auto sections_given = keys_of(l.root, source, "");
   sections(l, c);
   for (const auto& [k, line] : sections_given)
-    if (!l.seen_sections.count(k)) fail(source, ":", line, ": unknown section '", k, "'");
+    if (!l.seen_sections.count(k))
+      fail(source, ":", line, ": unknown section '", k, "'", hint_for("", k, l.seen_sections));
   try {
     c.validate();
     validate_sections_without_checks(c);
