@@ -9,6 +9,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/config/presets.hpp"
 #include "chungs/pipeline/ply_export.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/synth/room.hpp"
@@ -16,7 +17,6 @@
 #include "command.hpp"
 #include "dataset_spec.hpp"
 #include "flag_checks.hpp"
-#include "presets.hpp"
 
 namespace chungs::app {
 namespace {

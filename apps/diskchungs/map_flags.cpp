@@ -2,11 +2,11 @@
 
 #include <cmath>
 
+#include "chungs/config/presets.hpp"
 #include "chungs/datasets/mono_view.hpp"
 #include "chungs/depth/learned_depth.hpp"
 #include "dataset_spec.hpp"
 #include "flag_checks.hpp"
-#include "presets.hpp"
 
 namespace chungs::app {
 

@@ -16,6 +16,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/config/config.hpp"
+#include "chungs/config/presets.hpp"
 #include "chungs/datasets/rosbag_images.hpp"
 #include "chungs/depth/depth_source.hpp"
 #include "chungs/mapping/mapper.hpp"
@@ -29,7 +30,6 @@
 #include "chungs/store/chunk_id.hpp"
 #include "chungs/store/chunk_store.hpp"
 #include "chungs/tracking/visual_tracker.hpp"
-#include "presets.hpp"
 
 namespace chungs::live {
 
@@ -259,7 +259,7 @@ LiveMapper::LiveMapper(const Settings& s) : impl_(std::make_unique<Impl>()) {
   m.settings = s;
   if (s.preset != "outdoor" && s.preset != "indoor")
     fail("preset must be outdoor or indoor, got '", s.preset, "'");
-  app::apply_preset(m.config, s.preset, "");
+  apply_preset(m.config, s.preset, "");
   if (!s.config_yaml.empty()) m.config = config_from_yaml(s.config_yaml, "ROS parameters", m.config);
   m.config.mapper.device = s.device;
   m.config.mapper.validate();

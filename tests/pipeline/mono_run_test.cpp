@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include "chungs/common/log.hpp"
+#include "chungs/config/presets.hpp"
 #include "chungs/datasets/mono_view.hpp"
 #include "chungs/pipeline/multiview_keyframes.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
@@ -33,9 +34,7 @@ synth::StreetDatasetOptions street_options(bool depth) {
 // The defaults with the outdoor preset `run` picks for a street, at test size.
 Config street_config() {
   Config c;
-  c.loss = LossConfig::kitti();
-  c.adam.lr_position = AdamConfig::kitti().lr_position;
-  c.sampler.fill_depth = 80.0;
+  apply_preset(c, "outdoor", "");
   c.mapper.device = "cpu";
   c.mapper.iterations_per_keyframe = 10;
   c.mapper.final_iterations = 50;

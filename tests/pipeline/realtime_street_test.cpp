@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "chungs/common/log.hpp"
+#include "chungs/config/presets.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/synth/street_dataset.hpp"
 #include "test_support.hpp"
@@ -33,9 +34,7 @@ Cell map_street(const std::string& pacing, double speed, size_t budget) {
   o.dataset = "synth-street:length=200,width=310,height=94,seed=7";
   o.out = dir / "map";
   Config& c = o.config;  // the defaults, with the outdoor preset `run` picks for a street
-  c.loss = LossConfig::kitti();
-  c.adam.lr_position = AdamConfig::kitti().lr_position;
-  c.sampler.fill_depth = 80.0;
+  apply_preset(c, "auto", o.dataset);
   c.mapper.device = "cpu";
   c.mapper.pacing = pacing;
   c.mapper.speed = speed;

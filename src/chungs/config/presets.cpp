@@ -1,8 +1,8 @@
-#include "presets.hpp"
+#include "chungs/config/presets.hpp"
 
 #include "chungs/common/error.hpp"
 
-namespace chungs::app {
+namespace chungs {
 
 void apply_preset(Config& c, const std::string& preset, const std::string& dataset) {
   std::string p = preset;
@@ -21,4 +21,4 @@ void apply_preset(Config& c, const std::string& preset, const std::string& datas
   }
 }
 
-}  // namespace chungs::app
+}  // namespace chungs
