@@ -122,5 +122,31 @@ TEST(SparseAdam, RejectsMismatchedInput) {
                Error);
 }
 
+TEST(AdamRates, SmallImagesGetFasterOpacityColourAndScaleRates) {
+  // Issue 20: at 310x94 (a quarter of the reference's pixels) the three rates double; positions,
+  // higher SH bands and rotations keep theirs; at the reference size and above nothing changes.
+  const AdamConfig c;
+  EXPECT_DOUBLE_EQ(c.small_image_factor(620, 188), 1.0);
+  EXPECT_DOUBLE_EQ(c.small_image_factor(1241, 376), 1.0);
+  EXPECT_NEAR(c.small_image_factor(310, 94), 2.0, 1e-12);
+  EXPECT_DOUBLE_EQ(c.small_image_factor(64, 48), 4.0);  // at most 4x
+  const AdamConfig s = c.for_image(310, 94);
+  EXPECT_FLOAT_EQ(s.lr_opacity, 2 * c.lr_opacity);
+  EXPECT_FLOAT_EQ(s.lr_sh_dc, 2 * c.lr_sh_dc);
+  EXPECT_FLOAT_EQ(s.lr_scale, 2 * c.lr_scale);
+  EXPECT_EQ(s.lr_position, c.lr_position);
+  EXPECT_EQ(s.lr_sh_rest, c.lr_sh_rest);
+  EXPECT_EQ(s.lr_rotation, c.lr_rotation);
+  AdamConfig off;
+  off.small_image_reference_px = 0;
+  EXPECT_EQ(off.for_image(64, 48).lr_opacity, off.lr_opacity);
+  EXPECT_THROW(c.small_image_factor(0, 48), Error);
+  for (double bad : {-1.0, double(NAN), double(INFINITY)}) {
+    AdamConfig b;
+    b.small_image_reference_px = bad;
+    EXPECT_THROW(b.validate(), Error) << bad;
+  }
+}
+
 }  // namespace
 }  // namespace chungs

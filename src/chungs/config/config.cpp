@@ -87,6 +87,8 @@ void fields(V& v, AdamConfig& c) {
   v("beta1", c.beta1, "");
   v("beta2", c.beta2, "");
   v("eps", c.eps, "");
+  v("small_image_reference_px", c.small_image_reference_px,
+    "below this many pixels, opacity, colour and scale rates x sqrt(reference / pixels), at most 4 (0: off)");
 }
 template <class V>
 void fields(V& v, PruneConfig& c) {

@@ -459,7 +459,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
                               pixel_mask ? &*pixel_mask : nullptr};
     const LossTerms terms =
         backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
-                       config_.adam, prune ? &config_.prune : nullptr, to_prune_);
+                       config_.adam.for_image(kf.camera.width, kf.camera.height), prune ? &config_.prune : nullptr,
+                       to_prune_);
     step_times_.backend_ms += ms_since(t1);
     t2 = clock::now();
     if (!std::isfinite(terms.total) && nonfinite_losses_++ == 0)

@@ -22,6 +22,24 @@ void AdamConfig::validate() const {
   for (auto [v, name] : {std::pair{beta1, "beta1"}, {beta2, "beta2"}})
     if (!(v >= 0 && v < 1)) fail("Adam config: ", name, " must be in [0, 1), got ", v);
   if (!(eps > 0)) fail("Adam config: eps must be > 0, got ", eps);
+  if (!(small_image_reference_px >= 0) || !std::isfinite(small_image_reference_px))
+    fail("Adam config: small_image_reference_px must be >= 0 (0: off), got ", small_image_reference_px);
+}
+
+double AdamConfig::small_image_factor(int width, int height) const {
+  if (width <= 0 || height <= 0) fail("Adam config: image size must be positive, got ", width, "x", height);
+  const double pixels = double(width) * double(height);
+  if (small_image_reference_px <= 0 || pixels >= small_image_reference_px) return 1.0;
+  return std::min(4.0, std::sqrt(small_image_reference_px / pixels));
+}
+
+AdamConfig AdamConfig::for_image(int width, int height) const {
+  const double f = small_image_factor(width, height);
+  AdamConfig c = *this;
+  c.lr_opacity = float(lr_opacity * f);
+  c.lr_sh_dc = float(lr_sh_dc * f);
+  c.lr_scale = float(lr_scale * f);
+  return c;
 }
 
 AdamState adam_state_of(GaussianBlock& b) {

@@ -28,6 +28,12 @@ struct AdamConfig {
   float lr_rotation = 0.002f;  // on the raw quaternion
   float beta1 = 0.9f, beta2 = 0.999f;
   float eps = 1e-15f;  // as in 3D Gaussian Splatting
+  // The rates above hold for images of at least this many pixels (620x188). On smaller images the
+  // rates of opacity, colour (degree 0) and scale are multiplied by sqrt(reference / pixels), at most
+  // 4x: a 310x94 map at 10 steps per keyframe scored 2.5 dB under 620x188 with the same keyframes and
+  // steps, and twice these rates gave it +0.56..+0.7 dB on two streets, where at 620x188 they gave
+  // nothing (bench/README.md, issue 20). 0: the rates as given at any size.
+  double small_image_reference_px = 620.0 * 188.0;
 
   static AdamConfig kitti() { return {}; }
   static AdamConfig indoor() {
@@ -36,6 +42,10 @@ struct AdamConfig {
     return c;
   }
   void validate() const;  // throws Error naming the first field out of range
+  // The factor on opacity, colour and scale rates for images of that size (1 at or above the reference).
+  double small_image_factor(int width, int height) const;
+  // This configuration with those rates scaled for images of that size.
+  AdamConfig for_image(int width, int height) const;
 };
 
 // The optimiser state arrays of the pool, per slot, in the GaussianBlock layout.

@@ -429,6 +429,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                         {"chunk_size_m", cfg.store.chunk_size},
                         {"lambda_depth", cfg.loss.lambda_depth},
                         {"lr_position", cfg.adam.lr_position},
+                        {"lr_small_image_factor", cfg.adam.small_image_factor(width, height)},
                         {"sampler_density", cfg.sampler.density},
                         {"seed", mc.seed}};
   report["device"] = mapper.device();
