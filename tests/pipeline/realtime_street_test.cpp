@@ -56,13 +56,14 @@ TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFlo
   const Cell fixed_tiny = map_street("fixed", 1, 3000);
   for (const Cell* c : {&fixed, &fixed_small, &fast, &fast_small, &fixed_tiny})
     std::printf("total %llu, steps/kf %.1f (min after 1st minute %lld), dropped %llu, views over budget %llu, "
-                "held-out %.2f dB, chunk loads %llu in %llu steps, saves %llu\n",
+                "held-out %.2f dB, chunk loads %llu (waited %llu) in %llu steps, saves %llu\n",
                 (unsigned long long)c->total(), c->pacing()["steps_per_keyframe_mean"].get<double>(),
                 (long long)c->pacing()["steps_per_keyframe_min_after_first_minute"].get<int64_t>(),
                 (unsigned long long)c->pacing()["dropped_keyframes"].get<uint64_t>(),
                 (unsigned long long)c->pacing()["views_over_budget"].get<uint64_t>(),
                 c->report["held_out"]["mean_psnr"].get<double>(),
                 (unsigned long long)c->report["chunk_io"]["loads"].get<uint64_t>(),
+                (unsigned long long)c->report["chunk_io"]["waited_loads"].get<uint64_t>(),
                 (unsigned long long)c->report["iterations"].get<uint64_t>(),
                 (unsigned long long)c->report["chunk_io"]["saves"].get<uint64_t>());
   for (const Cell* c : {&fixed_small, &fast_small, &fixed_tiny})
