@@ -297,8 +297,11 @@ std::string hint_for(const std::string& prefix, const std::string& name, const s
   if (const auto it = renamed_keys().find(prefix + name); it != renamed_keys().end()) return ": " + it->second;
   std::string best;
   size_t best_d = name.size() / 3 + 1;
-  for (const std::string& k : known)
+  for (const std::string& k : known) {
+    // The distance is at least the difference in length: a long word is never compared in full.
+    if ((name.size() > k.size() ? name.size() - k.size() : k.size() - name.size()) >= best_d) continue;
     if (const size_t d = edit_distance(name, k); d < best_d) best = k, best_d = d;
+  }
   return best.empty() ? std::string() : "; did you mean '" + prefix + best + "'?";
 }
 
