@@ -12,6 +12,7 @@ namespace {
 TEST(KeyframeSelector, OnTheGridPicksOnlyInTheLatestKeyframesCell) {
   KeyframeSelectorConfig c;
   c.around_latest = false;
+  c.cell_size = 200;
   KeyframeSelector s(c);
   s.add(0, {10, 0, 5});
   s.add(1, {150, 0, 20});
@@ -26,7 +27,9 @@ TEST(KeyframeSelector, OnTheGridPicksOnlyInTheLatestKeyframesCell) {
 }
 
 TEST(KeyframeSelector, AroundTheLatestKeyframeTheCandidatesCrossTheGridBorder) {
-  KeyframeSelector s;  // the default
+  KeyframeSelectorConfig c;
+  c.cell_size = 200;  // the paper's
+  KeyframeSelector s(c);
   s.add(0, {-5, 0, 0});
   s.add(1, {120, 0, 3});   // 101.0 m from the latest: out
   s.add(2, {150, 0, 20});  // the grid's other cell, 51 m away
@@ -70,6 +73,24 @@ TEST(KeyframeSelector, ACellPickRangesBeyondTheWindowAndSaysWhichAreInIt) {
   for (int i = 0; i < 50; ++i) EXPECT_GE(s.pick(rng, PickScope::window), 4u);
   s.add(6, {60, 0, 0});
   EXPECT_TRUE(s.in_window(0)) << "no window: every keyframe is in";
+}
+
+TEST(KeyframeSelector, UnderAWindowTheCellShrinksToTheBudgetCell) {
+  KeyframeSelector s;  // the defaults: a 600 m cell, 200 m under a window
+  const double at[] = {0, 150, 250, 290, 300};
+  for (uint32_t i = 0; i < 5; ++i) s.add(i, {at[i], 0, 0});
+  EXPECT_EQ(s.candidates().size(), 5u) << "300 m from the latest is still in a 600 m cell";
+  s.restrict_to({3});
+  EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{3, 4}));
+  std::mt19937_64 rng(5);
+  std::map<uint32_t, int> seen;
+  for (int i = 0; i < 200; ++i) ++seen[s.pick(rng, PickScope::cell)];
+  // Beyond the window, only what lies within 100 m of the latest keyframe.
+  EXPECT_EQ(seen.size(), 3u);
+  EXPECT_EQ(seen.count(0) + seen.count(1), 0u);
+  EXPECT_GT(seen[2], 0);
+  s.add(5, {310, 0, 0});
+  EXPECT_EQ(s.candidates().size(), 5u) << "the next keyframe has no window: the 600 m cell again (0 is 310 m away)";
 }
 
 TEST(KeyframeSelector, SpendsUsesThenRefillsWithALossBonus) {

@@ -13,8 +13,9 @@ namespace chungs {
 namespace {
 
 double held_out_psnr(int steps_per_keyframe) {
-  // Of the seeds tried (1, 2, 3, 7), the one where the old rule's loss shows most at this length.
-  const nlohmann::json report = test::map_test_street(60, 160, 48, 7, [&](Config& c) {
+  // 310x94: at 160x48 (4x the rates of small images) 60 steps scored within -0.24..+0.72 dB of 10 on 60
+  // and 120 m streets of seeds 1, 2, 3 and 7, one thread each; at 310x94 +1.66..+1.91 dB (bench/README.md).
+  const nlohmann::json report = test::map_test_street(60, 310, 94, 7, [&](Config& c) {
     apply_preset(c, "outdoor", "");  // the defaults, with the preset `run` picks for a street
     c.mapper.iterations_per_keyframe = steps_per_keyframe;
   });
@@ -24,10 +25,9 @@ double held_out_psnr(int steps_per_keyframe) {
 TEST(StepsQuality, SixtyStepsPerKeyframeScoreBetterThanTen) {
   const double ten = held_out_psnr(10), sixty = held_out_psnr(60);
   std::printf("held-out PSNR: 10 steps/kf %.2f dB, 60 steps/kf %.2f dB (%+.2f)\n", ten, sixty, sixty - ten);
-  // Runs of the same settings differ by up to ~0.7 dB here (the 10-step map most). With the chunk
-  // threshold's floor of 50 (at 160x48), gains at 2 W were +0.39 to +1.11 dB over five runs, and at the
-  // paper's 0.5 W -0.53: the longer run must score at least as well, as issue 20 asks.
-  EXPECT_GE(sixty, ten);
+  // Through the CLI, one thread: 22.41 and 24.25 dB (+1.84). Runs on several threads differ by the order
+  // of their sums, by up to ~0.7 dB on such short streets; the longer run must still gain half a dB.
+  EXPECT_GE(sixty, ten + 0.5);
 }
 
 }  // namespace

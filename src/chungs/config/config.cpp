@@ -175,7 +175,8 @@ void fields(V& v, MultiviewDepthConfig& c) {
 }
 template <class V>
 void fields(V& v, KeyframeSelectorConfig& c) {
-  v("cell_size", c.cell_size, "metres, keyframe grid cell");
+  v("cell_size", c.cell_size, "metres, keyframe cell (the paper: 200)");
+  v("budget_cell_size", c.budget_cell_size, "metres, the cell while the budget narrows training to a window");
   v("around_latest", c.around_latest,
     "candidates within cell_size / 2 of the latest keyframe instead of its grid cell");
   v("new_uses", c.new_uses, "remaining uses of a new keyframe");

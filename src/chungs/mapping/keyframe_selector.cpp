@@ -8,7 +8,10 @@
 namespace chungs {
 
 void KeyframeSelectorConfig::validate() const {
-  if (!(cell_size > 0)) fail("keyframe selector: cell_size must be > 0, got ", cell_size);
+  if (!(cell_size > 0 && std::isfinite(cell_size)))
+    fail("keyframe selector: cell_size must be a finite number of metres > 0, got ", cell_size);
+  if (!(budget_cell_size > 0 && std::isfinite(budget_cell_size)))
+    fail("keyframe selector: budget_cell_size must be a finite number of metres > 0, got ", budget_cell_size);
   if (new_uses < 1) fail("keyframe selector: new_uses must be >= 1, got ", new_uses);
   if (!(top_loss_fraction >= 0 && top_loss_fraction <= 1))
     fail("keyframe selector: top_loss_fraction must be in [0, 1], got ", top_loss_fraction);
@@ -20,9 +23,8 @@ void KeyframeSelectorConfig::validate() const {
 
 KeyframeSelector::KeyframeSelector(const KeyframeSelectorConfig& config) : config_(config) { config_.validate(); }
 
-KeyframeSelector::Cell KeyframeSelector::cell_of(const Eigen::Vector3d& p) const {
-  return {int64_t(std::floor(p.x() / config_.cell_size)), int64_t(std::floor(p.y() / config_.cell_size)),
-          int64_t(std::floor(p.z() / config_.cell_size))};
+KeyframeSelector::Cell KeyframeSelector::cell_of(const Eigen::Vector3d& p, double size) const {
+  return {int64_t(std::floor(p.x() / size)), int64_t(std::floor(p.y() / size)), int64_t(std::floor(p.z() / size))};
 }
 
 void KeyframeSelector::add(uint32_t id, const Eigen::Vector3d& position, int uses, double last_loss) {
@@ -46,11 +48,13 @@ std::vector<uint32_t> KeyframeSelector::in_cell(PickScope scope) const {
   std::vector<uint32_t> out;
   if (keyframes_.empty()) return out;
   const Eigen::Vector3d& here = keyframes_.at(latest_).position;
-  const Cell c = cell_of(here);
-  const double r2 = 0.25 * config_.cell_size * config_.cell_size;
+  const double size = current_cell_size();
+  const Cell c = cell_of(here, size);
+  const double r2 = 0.25 * size * size;
   for (const auto& [id, k] : keyframes_) {
-    const bool near = config_.around_latest ? (k.position - here).squaredNorm() <= r2 : cell_of(k.position) == c;
-    if (near && (scope == PickScope::cell || in_window(id))) out.push_back(id);
+    const bool near =
+        config_.around_latest ? (k.position - here).squaredNorm() <= r2 : cell_of(k.position, size) == c;
+    if (window_.empty() ? near : (in_window(id) || (near && scope == PickScope::cell))) out.push_back(id);
   }
   std::sort(out.begin(), out.end());
   return out;
