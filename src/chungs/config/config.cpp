@@ -153,7 +153,7 @@ void fields(V& v, SamplerConfig& c) {
   v("stride", c.stride, "sample every n-th pixel per axis");
   v("fill_depth", c.fill_depth, "metres given to sampled pixels without depth (sky); 0: skip them");
   v("resample_every", c.resample_every,
-    "steps between samplings of the keyframe just trained on where its render lacks detail (0: only at arrival)");
+    "steps without sampling after which the keyframe just trained on is sampled again (0: only at arrival)");
   v("map_point_seeds", c.map_point_seeds,
     "--poses track: the tracker's map points first seen by a keyframe become Gaussians of it too");
 }

@@ -88,7 +88,7 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     resumed_state_ = read_json_file(file);
     validate_run_state(resumed_state_, file);
     iterations_ = resumed_state_.value("iterations", uint64_t(0));
-    steps_at_last_keyframe_ = iterations_;
+    steps_at_last_keyframe_ = steps_at_last_sampling_ = iterations_;
     try {
       if (resumed_state_.contains("keyframe_chunks"))
         keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
@@ -290,7 +290,7 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
     const ImageF none = depth ? ImageF() : ImageF(color.width(), color.height(), 1, 0.0f);
     stats = sample_view(id, color, depth ? *depth : none, camera, pose, new_gaussian_cap(color), seeds);
   }
-  steps_at_last_keyframe_ = iterations_;
+  steps_at_last_keyframe_ = steps_at_last_sampling_ = iterations_;
   KeyframeRecord rec;
   rec.id = id;
   rec.frame = frame;
@@ -490,8 +490,13 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
     throw;
   }
   residency_->unpin(chunks);
-  if (!pixel_mask && config_.sampler.resample_every > 0 && iterations_ % uint64_t(config_.sampler.resample_every) == 0)
+  // Only once the sampler has been idle that long: keyframes arriving at least that often are sampled
+  // on arrival and their steps add nothing, so fast intakes keep their maps and budgets as they were.
+  if (!pixel_mask && config_.sampler.resample_every > 0 &&
+      iterations_ - steps_at_last_sampling_ >= uint64_t(config_.sampler.resample_every)) {
+    steps_at_last_sampling_ = iterations_;
     resample(kf);
+  }
   // A partial step's loss counts pixels it could not explain: not a measure of the keyframe.
   if (!pixel_mask) selector_.report_loss(kf.id, st.loss);
   step_times_.bookkeeping_ms += ms_since(t2);

@@ -50,9 +50,11 @@ struct SamplerConfig {
   // Pixels without depth (sky, beyond the stereo range) get this depth in metres (0: skipped), so
   // the far field is drawn instead of showing the background.
   double fill_depth = 0;
-  // Every this many optimisation steps (0: never) the keyframe just trained on is sampled again where
-  // its render still lacks the image's detail, so a place trained longer gains Gaussians as pruning
-  // removes others, instead of being sampled only once, when its keyframe arrived.
+  // Once this many optimisation steps have passed without sampling (0: never), the keyframe just
+  // trained on is sampled again where its render still lacks the image's detail, so a place trained
+  // longer can gain Gaussians as pruning removes others. Counted from the last sampling, arrivals
+  // included: an intake delivering a keyframe at least this often is sampled only on arrival. Off: on
+  // the 2 km street with the 600 m cell it gave nothing at 100-300 steps (bench/README, issue 20).
   int resample_every = 0;
   // The tracker's sparse map points seen by a keyframe (--poses track) also become Gaussians of it,
   // beside the drawn pixels, at the points' positions (the paper's "sparse point cloud ... provides one
