@@ -157,6 +157,28 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
   auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
   EXPECT_EQ(st.dropped_small_chunks, 10u);
   for (const auto& b : batches) EXPECT_GE(b.block.size(), 20u);
+  // Once the far column's chunk holds Gaussians, its ten picks are kept: the rule is against new
+  // chunks of a few stray points, not against a place that enters the view a few pixels at a time.
+  std::unordered_set<ChunkId> established;
+  for (int k = 0; k < 2; ++k) {
+    std::mt19937_64 again(3);
+    SampleStats with;
+    auto kept = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, again, &with, nullptr, 0, nullptr,
+                                 nullptr, &established);
+    if (k == 0) {  // nothing established: the same as without the set
+      EXPECT_EQ(with.dropped_small_chunks, 10u);
+      // Establish every chunk the column's points fall in: the unfiltered draw's chunks, found by a
+      // run without the rule.
+      SamplerConfig all = c;
+      all.min_per_chunk_per_100k_px = 0;
+      std::mt19937_64 r3(3);
+      for (const auto& b : sample_gaussians(all, img, depth, prob, cam, SE3(), 4.0, 0, 0, r3)) established.insert(b.id);
+      EXPECT_GT(established.size(), batches.size());
+    } else {
+      EXPECT_EQ(with.dropped_small_chunks, 0u);
+      EXPECT_EQ(with.kept, st.kept + 10);
+    }
+  }
 }
 
 // The stray-chunk threshold follows the image size: the paper's 100 at KITTI's 1241x376, a quarter of it

@@ -228,10 +228,11 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
   const auto t2 = clock::now();
   // What the render lacks only because chunks stayed on disk is not sampled again; nor is any
   // other chunk of the map the render did not draw (beyond the far plane).
-  std::unordered_set<ChunkId> exclude;
+  std::unordered_set<ChunkId> exclude, established;
   for (const auto& [chunk, count] : residency_->catalogue())
     if (count > 0) exclude.insert(chunk);
-  for (ChunkId chunk : shown) exclude.erase(chunk);
+  for (ChunkId chunk : shown)
+    if (exclude.erase(chunk)) established.insert(chunk);
   RefineDepths refine;
   if (refine_range_ > 0)
     refine = [&](std::vector<PixelDepth>& pixels) {
@@ -239,7 +240,7 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
                             device_ == "cuda", pixels, refine_totals_);
     };
   auto batches = sample_gaussians(config_.sampler, target, depth, prob, camera, pose, store_->chunk_size(), id,
-                                  uint32_t(iterations_), rng_, &stats, &exclude, cap, seeds, &refine);
+                                  uint32_t(iterations_), rng_, &stats, &exclude, cap, seeds, &refine, &established);
   keyframe_times_.sample_ms += ms_since(t2);
   const auto t3 = clock::now();
   for (auto& b : batches) {

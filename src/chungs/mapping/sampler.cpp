@@ -65,7 +65,8 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
                                          std::mt19937_64& rng, SampleStats* stats,
                                          const std::unordered_set<ChunkId>* exclude, uint64_t max_new,
-                                         const std::vector<Eigen::Vector3d>* seeds, const RefineDepths* refine) {
+                                         const std::vector<Eigen::Vector3d>* seeds, const RefineDepths* refine,
+                                         const std::unordered_set<ChunkId>* established) {
   config.validate();
   if (!depth.same_size(image) || !probability.same_size(image) || depth.channels() != 1)
     fail("sampler: image ", image.width(), "x", image.height(), ", depth ", depth.width(), "x", depth.height(),
@@ -182,7 +183,11 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
     std::unordered_map<ChunkId, uint64_t> per_chunk;
     for (const Pick& pk : picks) ++per_chunk[pk.id];
     const uint64_t least = config.min_per_chunk(image.pixels());
-    const auto small = [&](const Pick& pk) { return per_chunk[pk.id] < least; };
+    // A place that enters the view a few pixels at a time (a turn's side, the far end of the street)
+    // gives each keyframe only a few picks in its chunk: once the chunk exists, they are kept.
+    const auto small = [&](const Pick& pk) {
+      return per_chunk[pk.id] < least && !(established && established->count(pk.id));
+    };
     const auto end = std::remove_if(picks.begin(), picks.end(), small);
     st.dropped_small_chunks = uint64_t(picks.end() - end);
     picks.erase(end, picks.end());

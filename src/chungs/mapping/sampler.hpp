@@ -28,8 +28,8 @@ struct SamplerConfig {
   double init_opacity = 0.07;      // opacity of a new Gaussian (paper: 0.07)
   double min_scale_px = 1.0;       // footprint clamp, pixels: [min, max_scale_fraction * W]
   double max_scale_fraction = 0.1;
-  // Chunks receiving fewer new Gaussians than this per 100 k pixels of the image get none (stray
-  // points would make chunk files of a few Gaussians). The paper's 100 at 1241x376 is 21.43 per 100 k
+  // New chunks receiving fewer new Gaussians than this per 100 k pixels of the image get none (stray
+  // points would make chunk files of a few Gaussians); a chunk the map already holds keeps any number. The paper's 100 at 1241x376 is 21.43 per 100 k
   // pixels; a count fixed in Gaussians emptied whole chunks at lower resolutions (310x94: 97 of the
   // 300 m street's ~400 chunks got any, 3 dB below 620x188).
   double min_per_chunk_per_100k_px = 21.43;
@@ -98,14 +98,16 @@ using RefineDepths = std::function<void(std::vector<PixelDepth>&)>;
 // the image is taken as well, without a draw, at its own position, coloured by its pixel and sized
 // like a drawn pixel's Gaussian at its depth (its acceptance probability, at least kSeedMinProbability).
 // refine (may be null): see RefineDepths; a depth it returns that is not positive and finite keeps the
-// measured one.
+// measured one. established (may be null): chunks the map already holds Gaussians in; the
+// min_per_chunk rule, meant against new chunks for a few stray points, does not apply to them.
 std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
                                          std::mt19937_64& rng, SampleStats* stats = nullptr,
                                          const std::unordered_set<ChunkId>* exclude = nullptr,
                                          uint64_t max_new = 0, const std::vector<Eigen::Vector3d>* seeds = nullptr,
-                                         const RefineDepths* refine = nullptr);
+                                         const RefineDepths* refine = nullptr,
+                                         const std::unordered_set<ChunkId>* established = nullptr);
 // A seed where the render already shows the image's detail (probability 0) is sized as a pixel drawn
 // with this probability (10 pixels across), not as the sampler's largest footprint.
 constexpr double kSeedMinProbability = 0.01;
