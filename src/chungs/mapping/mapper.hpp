@@ -176,7 +176,8 @@ class Mapper {
   std::vector<KeyframeRecord> keyframes_;
   std::mt19937_64 rng_;
   uint64_t iterations_ = 0, pruned_total_ = 0, sampled_total_ = 0;
-  uint64_t steps_at_last_keyframe_ = 0, steps_at_last_sampling_ = 0, views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0;
+  uint64_t steps_at_last_keyframe_ = 0, steps_at_last_sampling_ = 0;
+  uint64_t views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0;
   WindowStats window_stats_;
   StepTimes step_times_;
   KeyframeTimes keyframe_times_;

@@ -29,9 +29,10 @@ struct SamplerConfig {
   double min_scale_px = 1.0;       // footprint clamp, pixels: [min, max_scale_fraction * W]
   double max_scale_fraction = 0.1;
   // New chunks receiving fewer new Gaussians than this per 100 k pixels of the image get none (stray
-  // points would make chunk files of a few Gaussians); a chunk the map already holds keeps any number. The paper's 100 at 1241x376 is 21.43 per 100 k
-  // pixels; a count fixed in Gaussians emptied whole chunks at lower resolutions (310x94: 97 of the
-  // 300 m street's ~400 chunks got any, 3 dB below 620x188).
+  // points would make chunk files of a few Gaussians); a chunk the map already holds keeps any number.
+  // The paper's 100 at 1241x376 is 21.43 per 100 k pixels; a count fixed in Gaussians emptied whole
+  // chunks at lower resolutions (310x94: 97 of the 300 m street's ~400 chunks got any, 3 dB below
+  // 620x188).
   double min_per_chunk_per_100k_px = 21.43;
   // ... but never fewer than this many. Below it chunk files hold a few Gaussians each (310x94: 1,387
   // chunks for 36 k Gaussians at 6, 407 at 25), and under a budget the steps wait on many more chunk loads
