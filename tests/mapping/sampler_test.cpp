@@ -157,6 +157,27 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
   auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
   EXPECT_EQ(st.dropped_small_chunks, 10u);
   for (const auto& b : batches) EXPECT_GE(b.block.size(), 20u);
+  {
+    // Asked for, the held-back picks come back built like the others: the far column's ten points.
+    std::mt19937_64 same(3);
+    std::vector<ChunkBatch> strays;
+    SampleStats s2;
+    const auto kept = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 2, 9, same, &s2, nullptr, 0, nullptr,
+                                       nullptr, nullptr, &strays);
+    EXPECT_EQ(s2.kept, st.kept);
+    EXPECT_EQ(kept.size(), batches.size());
+    size_t n = 0;
+    for (const auto& b : strays) {
+      EXPECT_LT(b.block.size(), 20u);
+      for (size_t i = 0; i < b.block.size(); ++i) {
+        EXPECT_NEAR(b.block.params.mean[3 * i + 2], 40.f, 1e-3);  // the far column's depth
+        EXPECT_EQ(b.block.created_by_keyframe[i], 2u);
+        EXPECT_EQ(b.block.created_at_step[i], 9u);
+      }
+      n += b.block.size();
+    }
+    EXPECT_EQ(n, 10u);
+  }
   // Once the far column's chunk holds Gaussians, its ten picks are kept: the rule is against new
   // chunks of a few stray points, not against a place that enters the view a few pixels at a time.
   std::unordered_set<ChunkId> established;

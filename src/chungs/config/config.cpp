@@ -147,6 +147,8 @@ void fields(V& v, SamplerConfig& c) {
   v("min_per_chunk_per_100k_px", c.min_per_chunk_per_100k_px,
     "chunks receiving fewer new Gaussians than this per 100 k pixels get none (the paper: 100 at 1241x376)");
   v("min_per_chunk_floor", c.min_per_chunk_floor, "... nor fewer than this many (0: no floor)");
+  v("stray_wait_keyframes", c.stray_wait_keyframes,
+    "keyframes a new chunk's too few picks wait for more in the same chunk (0: dropped at once)");
   v("max_per_keyframe", c.max_per_keyframe, "cap on new Gaussians per keyframe (0: none)");
   v("new_per_step", c.new_per_step,
     "new Gaussians per keyframe at most this many per 100 k pixels per step keyframes got lately (0: no cap)");

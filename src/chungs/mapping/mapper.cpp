@@ -233,24 +233,54 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
     if (count > 0) exclude.insert(chunk);
   for (ChunkId chunk : shown)
     if (exclude.erase(chunk)) established.insert(chunk);
+  const bool pooling = config_.sampler.stray_wait_keyframes > 0;
+  std::vector<ChunkBatch> strays;
   RefineDepths refine;
   if (refine_range_ > 0)
     refine = [&](std::vector<PixelDepth>& pixels) {
       refine_sampled_depths(camera, pose, id, keyframes_, *keyframe_store_, config_.multiview, refine_range_,
                             device_ == "cuda", pixels, refine_totals_);
     };
+  // With the pool, the cap is applied below to the sampler's picks and the pool's new chunks together.
   auto batches = sample_gaussians(config_.sampler, target, depth, prob, camera, pose, store_->chunk_size(), id,
-                                  uint32_t(iterations_), rng_, &stats, &exclude, cap, seeds, &refine, &established);
+                                  uint32_t(iterations_), rng_, &stats, &exclude, pooling ? 0 : cap, seeds, &refine,
+                                  &established, pooling ? &strays : nullptr);
   keyframe_times_.sample_ms += ms_since(t2);
   const auto t3 = clock::now();
-  for (auto& b : batches) {
-    const PinResult res = residency_->add(b.id, b.block);
-    if (!res.ok)
-      stats.kept -= b.block.size();
-    else
-      keyframe_chunks_.add(id, b.id);
+  const auto add = [&](std::vector<ChunkBatch>& bs) {
+    for (auto& b : bs) {
+      const PinResult res = residency_->add(b.id, b.block);
+      if (!res.ok)
+        stats.kept -= b.block.size();
+      else
+        keyframe_chunks_.add(id, b.id);
+    }
+  };
+  if (pooling) {
+    // A chunk exists once the map holds it or this keyframe's picks make it.
+    std::unordered_set<ChunkId> made;
+    for (const ChunkBatch& b : batches) made.insert(b.id);
+    const auto exists = [&](ChunkId c) {
+      const auto it = residency_->catalogue().find(c);
+      return made.count(c) || (it != residency_->catalogue().end() && it->second > 0);
+    };
+    auto released = stray_pool_.add(id, std::move(strays), config_.sampler.min_per_chunk(color.pixels()),
+                                    config_.sampler.stray_wait_keyframes, uint32_t(iterations_), exists);
+    for (const ChunkBatch& b : released) stats.released_strays += b.block.size();
+    const uint64_t limit = config_.sampler.max_per_keyframe && (cap == 0 || config_.sampler.max_per_keyframe < cap)
+                               ? config_.sampler.max_per_keyframe
+                               : cap;
+    batches.insert(batches.end(), std::make_move_iterator(released.begin()), std::make_move_iterator(released.end()));
+    // Both lose the same share, as the sampler's own cap thins every chunk alike.
+    if (limit) stats.capped += keep_random_subset(batches, limit, rng_);
+    stats.kept = 0;
+    for (const ChunkBatch& b : batches) stats.kept += b.block.size();
+    stats.chunks = batches.size();
   }
+  add(batches);
   sampled_total_ += stats.kept;
+  strays_held_back_ += stats.dropped_small_chunks;
+  strays_released_ += stats.released_strays;
   keyframe_times_.add_ms += ms_since(t3);
   return stats;
 }

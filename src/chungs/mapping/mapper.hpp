@@ -23,6 +23,7 @@
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/sample_refine.hpp"
 #include "chungs/mapping/sampler.hpp"
+#include "chungs/mapping/stray_pool.hpp"
 #include "chungs/mapping/view_coverage.hpp"
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
@@ -101,6 +102,10 @@ class Mapper {
   double optimiser_io_wait_ms() const;
   uint64_t pruned_total() const { return pruned_total_; }
   uint64_t sampled_total() const { return sampled_total_; }  // Gaussians the sampler added (this process)
+  // Picks the stray-chunk rule held back, those later made into chunks, those dropped (this process).
+  uint64_t strays_held_back() const { return strays_held_back_; }
+  uint64_t strays_released() const { return strays_released_; }
+  uint64_t strays_forgotten() const { return stray_pool_.forgotten(); }
   // Steps since the latest keyframe was added.
   uint64_t steps_since_keyframe() const { return iterations_ - steps_at_last_keyframe_; }
   // Keyframes given a depth map without one valid pixel (nothing could be sampled from them).
@@ -176,6 +181,7 @@ class Mapper {
   std::vector<KeyframeRecord> keyframes_;
   std::mt19937_64 rng_;
   uint64_t iterations_ = 0, pruned_total_ = 0, sampled_total_ = 0;
+  uint64_t strays_held_back_ = 0, strays_released_ = 0;
   uint64_t steps_at_last_keyframe_ = 0, steps_at_last_sampling_ = 0;
   uint64_t views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0;
   WindowStats window_stats_;
@@ -196,6 +202,7 @@ class Mapper {
   void remove_keyframes_after_checkpoint();
   std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
+  StrayPool stray_pool_;  // not saved: a resumed run starts it empty
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views
   std::unordered_map<uint32_t, ViewCoverage> coverage_;             // of the cell's views (partial steps)
   bool loop_batch_allowed_ = true;

@@ -22,6 +22,8 @@ void SamplerConfig::validate() const {
   if (stride < 1) fail("sampler: stride must be >= 1, got ", stride);
   if (!(fill_depth >= 0)) fail("sampler: fill_depth must be >= 0, got ", fill_depth);
   if (resample_every < 0) fail("sampler: resample_every must be >= 0, got ", resample_every);
+  if (stray_wait_keyframes < 0)
+    fail("sampler: stray_wait_keyframes must be >= 0, got ", stray_wait_keyframes);
 }
 
 namespace {
@@ -36,9 +38,57 @@ inline double counter_uniform(uint64_t key, uint64_t i) {
   return double(z >> 11) * 0x1.0p-53;
 }
 
+struct Pick {
+  int x, y;
+  float p, z;
+  bool filled;  // z is the fill depth, not a measurement
+  Eigen::Vector3d pw;
+  ChunkId id;
+};
+
 }  // namespace
 
 float sh_dc_of_colour(float c) { return (c - 0.5f) / 0.28209479177387814f; }
+
+namespace {
+
+// One Gaussian per pick, grouped by chunk in ascending id order.
+std::vector<ChunkBatch> build_batches(const SamplerConfig& config, const ImageF& image, const Camera& camera, int s,
+                                      uint32_t keyframe_id, uint32_t step, const std::vector<Pick>& picks) {
+  const double max_px = config.max_scale_fraction * image.width();
+  const int ch = image.channels();
+  // Each chunk's block is sized once (growing it a Gaussian at a time cost more than the draws).
+  std::map<ChunkId, GaussianBlock> by_chunk;
+  {
+    std::unordered_map<ChunkId, size_t> counts;
+    for (const Pick& pk : picks) ++counts[pk.id];
+    for (const auto& [id, n] : counts) by_chunk[id].resize(n);
+  }
+  std::unordered_map<ChunkId, std::pair<GaussianBlock*, size_t>> cursor;
+  for (auto& [id, b] : by_chunk) cursor[id] = {&b, 0};
+  for (const Pick& pk : picks) {
+    const double z = pk.z;
+    auto& [bp, i] = cursor[pk.id];
+    GaussianBlock& b = *bp;
+    auto& q = b.params;
+    for (int k = 0; k < 3; ++k) q.mean[3 * i + k] = float(pk.pw[k]);
+    const double px = std::clamp(double(s) / std::sqrt(double(pk.p)), config.min_scale_px, max_px);
+    const float ls = float(std::log(px * z / camera.fx));
+    for (int k = 0; k < 3; ++k) q.log_scale[3 * i + k] = ls;
+    q.rotation[4 * i] = 1;
+    q.opacity[i] = float(std::log(config.init_opacity / (1 - config.init_opacity)));
+    for (int c = 0; c < 3; ++c) q.sh[48 * i + c] = sh_dc_of_colour(image(pk.x, pk.y, ch == 1 ? 0 : c));
+    b.created_by_keyframe[i] = keyframe_id;
+    b.created_at_step[i] = step;
+    b.lr_position_factor[i] = 1.f;
+    ++i;
+  }
+  std::vector<ChunkBatch> out;
+  for (auto& [id, block] : by_chunk) out.push_back({id, std::move(block)});
+  return out;
+}
+
+}  // namespace
 
 ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, const ImageF* render,
                             const ImageF* render_alpha) {
@@ -66,20 +116,14 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
                                          std::mt19937_64& rng, SampleStats* stats,
                                          const std::unordered_set<ChunkId>* exclude, uint64_t max_new,
                                          const std::vector<Eigen::Vector3d>* seeds, const RefineDepths* refine,
-                                         const std::unordered_set<ChunkId>* established) {
+                                         const std::unordered_set<ChunkId>* established,
+                                         std::vector<ChunkBatch>* strays) {
   config.validate();
   if (!depth.same_size(image) || !probability.same_size(image) || depth.channels() != 1)
     fail("sampler: image ", image.width(), "x", image.height(), ", depth ", depth.width(), "x", depth.height(),
          " and probability ", probability.width(), "x", probability.height(), " must have the same size");
   SampleStats st;
   if (config.max_per_keyframe && (max_new == 0 || config.max_per_keyframe < max_new)) max_new = config.max_per_keyframe;
-  struct Pick {
-    int x, y;
-    float p, z;
-    bool filled;  // z is the fill depth, not a measurement
-    Eigen::Vector3d pw;
-    ChunkId id;
-  };
   // The accept/reject draws come from a counter-based stream keyed by one draw of `rng`, so bands of
   // rows run on several threads and give the same picks whatever their number (in row order).
   const uint64_t key = rng();
@@ -177,6 +221,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
       ++st.seeds;
     }
   }
+  std::vector<Pick> stray;
   // Stray points (chunks that would get only a few) go before the cap, so a cap thins every chunk
   // alike instead of pushing them all under the threshold.
   {
@@ -188,8 +233,9 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
     const auto small = [&](const Pick& pk) {
       return per_chunk[pk.id] < least && !(established && established->count(pk.id));
     };
-    const auto end = std::remove_if(picks.begin(), picks.end(), small);
+    const auto end = std::stable_partition(picks.begin(), picks.end(), [&](const Pick& pk) { return !small(pk); });
     st.dropped_small_chunks = uint64_t(picks.end() - end);
+    stray.assign(end, picks.end());
     picks.erase(end, picks.end());
   }
   if (max_new && picks.size() > max_new) {
@@ -197,42 +243,35 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
     st.capped = picks.size() - max_new;
     picks.resize(max_new);
   }
-  const double max_px = config.max_scale_fraction * image.width();
-  const int ch = image.channels();
-  // Each chunk's block is sized once (growing it a Gaussian at a time cost more than the draws).
-  std::map<ChunkId, GaussianBlock> by_chunk;
-  {
-    std::unordered_map<ChunkId, size_t> counts;
-    for (const Pick& pk : picks) ++counts[pk.id];
-    for (const auto& [id, n] : counts) by_chunk[id].resize(n);
-  }
-  std::unordered_map<ChunkId, std::pair<GaussianBlock*, size_t>> cursor;
-  for (auto& [id, b] : by_chunk) cursor[id] = {&b, 0};
-  for (const Pick& pk : picks) {
-    const double z = pk.z;
-    auto& [bp, i] = cursor[pk.id];
-    GaussianBlock& b = *bp;
-    auto& q = b.params;
-    for (int k = 0; k < 3; ++k) q.mean[3 * i + k] = float(pk.pw[k]);
-    const double px = std::clamp(double(s) / std::sqrt(double(pk.p)), config.min_scale_px, max_px);
-    const float ls = float(std::log(px * z / camera.fx));
-    for (int k = 0; k < 3; ++k) q.log_scale[3 * i + k] = ls;
-    q.rotation[4 * i] = 1;
-    q.opacity[i] = float(std::log(config.init_opacity / (1 - config.init_opacity)));
-    for (int c = 0; c < 3; ++c) q.sh[48 * i + c] = sh_dc_of_colour(image(pk.x, pk.y, ch == 1 ? 0 : c));
-    b.created_by_keyframe[i] = keyframe_id;
-    b.created_at_step[i] = step;
-    b.lr_position_factor[i] = 1.f;
-    ++i;
-  }
-  std::vector<ChunkBatch> out;
-  for (auto& [id, block] : by_chunk) {
-    st.kept += block.size();
-    out.push_back({id, std::move(block)});
-  }
+  std::vector<ChunkBatch> out = build_batches(config, image, camera, s, keyframe_id, step, picks);
+  for (const ChunkBatch& b : out) st.kept += b.block.size();
   st.chunks = out.size();
+  if (strays) *strays = build_batches(config, image, camera, s, keyframe_id, step, stray);
   if (stats) *stats = st;
   return out;
+}
+
+uint64_t keep_random_subset(std::vector<ChunkBatch>& batches, uint64_t n, std::mt19937_64& rng) {
+  uint64_t total = 0;
+  for (const ChunkBatch& b : batches) total += b.block.size();
+  if (total <= n) return 0;
+  // Which of the `total` go, by their place in the batches' concatenation.
+  std::vector<uint32_t> order(total);
+  for (uint64_t i = 0; i < total; ++i) order[i] = uint32_t(i);
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<uint8_t> keep(total, 0);
+  for (uint64_t i = 0; i < n; ++i) keep[order[i]] = 1;
+  std::vector<ChunkBatch> out;
+  uint64_t at = 0;
+  for (ChunkBatch& b : batches) {
+    ChunkBatch kept{b.id, {}};
+    for (size_t i = 0; i < b.block.size(); ++i)
+      if (keep[at + i]) kept.block.append(b.block, i);
+    at += b.block.size();
+    if (kept.block.size()) out.push_back(std::move(kept));
+  }
+  batches = std::move(out);
+  return total - n;
 }
 
 }  // namespace chungs

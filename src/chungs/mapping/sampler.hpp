@@ -38,6 +38,11 @@ struct SamplerConfig {
   // chunks for 36 k Gaussians at 6, 407 at 25), and under a budget the steps wait on many more chunk loads
   // (at 25, the RealtimeStreet test's budgeted real-time cell waited on 109 loads in 350 steps).
   uint64_t min_per_chunk_floor = 50;
+  // A new chunk's picks held back by that rule wait this many keyframes (0: dropped at once) for
+  // later keyframes' picks in the same chunk; the chunk is made once they reach the threshold together.
+  // Dropped at once, the far end of the street and the side a turn reveals, which enter the view a
+  // few pixels per keyframe, were never sampled.
+  int stray_wait_keyframes = 20;
   // The threshold in Gaussians for an image of `pixels` pixels.
   uint64_t min_per_chunk(size_t pixels) const {
     return std::max(min_per_chunk_floor, uint64_t(std::llround(min_per_chunk_per_100k_px * double(pixels) / 1e5)));
@@ -68,7 +73,8 @@ struct SampleStats {
   uint64_t candidates = 0;  // pixels accepted by the Bernoulli draw
   uint64_t no_depth = 0;    // ... without valid depth
   uint64_t kept = 0;        // Gaussians returned
-  uint64_t dropped_small_chunks = 0;
+  uint64_t dropped_small_chunks = 0;  // ... in new chunks that got too few (held back)
+  uint64_t released_strays = 0;       // held back earlier, now in a chunk of their own (in kept)
   uint64_t excluded = 0;  // ... whose point lies in a chunk the render left out (held on disk)
   uint64_t capped = 0;    // ... beyond the cap on new Gaussians
   uint64_t seeds = 0;     // map points in view taken as Gaussians (before the chunk and cap rules)
@@ -101,6 +107,7 @@ using RefineDepths = std::function<void(std::vector<PixelDepth>&)>;
 // refine (may be null): see RefineDepths; a depth it returns that is not positive and finite keeps the
 // measured one. established (may be null): chunks the map already holds Gaussians in; the
 // min_per_chunk rule, meant against new chunks for a few stray points, does not apply to them.
+// strays (may be null): receives the picks that rule held back, built like the others, by chunk.
 std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
                                          double chunk_size, uint32_t keyframe_id, uint32_t step,
@@ -108,7 +115,12 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
                                          const std::unordered_set<ChunkId>* exclude = nullptr,
                                          uint64_t max_new = 0, const std::vector<Eigen::Vector3d>* seeds = nullptr,
                                          const RefineDepths* refine = nullptr,
-                                         const std::unordered_set<ChunkId>* established = nullptr);
+                                         const std::unordered_set<ChunkId>* established = nullptr,
+                                         std::vector<ChunkBatch>* strays = nullptr);
+// Keeps a uniform random subset of `n` of the batches' Gaussians (all when they are fewer), dropping
+// batches left empty; returns how many went.
+uint64_t keep_random_subset(std::vector<ChunkBatch>& batches, uint64_t n, std::mt19937_64& rng);
+
 // A seed where the render already shows the image's detail (probability 0) is sized as a pixel drawn
 // with this probability (10 pixels across), not as the sampler's largest footprint.
 constexpr double kSeedMinProbability = 0.01;

@@ -509,6 +509,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                          {"budget", mapper.budget()},
                          {"chunks", mapper.chunk_count()},
                          {"pruned", mapper.pruned_total()}};
+  // New chunks' picks too few for a chunk file: held back, then made into chunks or forgotten.
+  report["gaussians"]["stray_picks"] = {{"held_back", mapper.strays_held_back()},
+                                        {"made_into_chunks", mapper.strays_released()},
+                                        {"forgotten", mapper.strays_forgotten()}};
   double peak_rss = 0;
   for (const auto& t : timeline) peak_rss = std::max(peak_rss, t.rss_mb);
   const DiskUsage du = disk_usage(o.out);
