@@ -50,10 +50,37 @@ TEST(MapperStrayPool, ChunksTooSmallForOneKeyframeAreMadeFromSeveral) {
   EXPECT_GE(dropped.sampled, least * dropped.chunks);
 }
 
-TEST(MapperStrayPool, ANegativeWaitIsRefused) {
-  SamplerConfig s;
-  s.stray_wait_keyframes = -1;
-  EXPECT_THROW(s.validate(), std::exception);
+// A loop correction moves the poses that placed the waiting picks: they are forgotten, not made later
+// at the old places.
+TEST(MapperStrayPool, ALoopCorrectionForgetsTheWaitingPicks) {
+  log::set_level(log::Level::Error);
+  test::TempDir dir;
+  Config c = test::tiny_mapping_config();
+  c.mapper.device = "cpu";
+  c.sampler.min_per_chunk_per_100k_px = 0;
+  c.sampler.min_per_chunk_floor = 100000;  // nothing is ever made: every pick waits
+  c.sampler.stray_wait_keyframes = 50;
+  const test::WallSequence seq(2);
+  Mapper m(dir / "map", c, false);
+  for (int k = 0; k < 2; ++k) {
+    const Frame f = seq.frame(size_t(k));
+    m.add_keyframe(uint64_t(k), f.timestamp, f.left, f.depth, f.camera, *f.gt_pose);
+  }
+  ASSERT_GT(m.strays_held_back(), 0u);
+  EXPECT_EQ(m.strays_forgotten(), 0u);
+  SE3 moved = m.keyframes()[1].pose;
+  moved.t.x() += 0.05;
+  m.correct_poses({{m.keyframes()[1].id, moved}}, {}, 0);
+  EXPECT_EQ(m.strays_forgotten(), m.strays_held_back());
+  EXPECT_EQ(m.sampled_total(), 0u);
+}
+
+TEST(MapperStrayPool, AWaitOutsideItsRangeIsRefused) {
+  for (int bad : {-1, 1001}) {
+    SamplerConfig s;
+    s.stray_wait_keyframes = bad;
+    EXPECT_THROW(s.validate(), std::exception) << bad;
+  }
 }
 
 }  // namespace

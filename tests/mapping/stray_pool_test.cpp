@@ -82,6 +82,9 @@ TEST(StrayPool, AChunkTheMapMadeMeanwhileTakesItsWaitingPicks) {
   EXPECT_EQ(out[0].id, 3u);
   EXPECT_EQ(out[0].block.size(), 10u);
   EXPECT_EQ(pool.gaussians(), 30u);
+  pool.forget_all();  // a loop correction moved the poses that placed them
+  EXPECT_EQ(pool.chunks(), 0u);
+  EXPECT_EQ(pool.forgotten(), 30u);
 }
 
 TEST(Sampler, ARandomSubsetThinsEveryBatchAlike) {

@@ -60,6 +60,7 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
     const KeyframeUsage u = selector_.usage(latest.id);
     selector_.add(latest.id, latest.pose.t, u.uses, u.last_loss);
     view_chunks_.clear();  // the views moved
+    stray_pool_.forget_all();  // its waiting picks were placed by poses that moved
     coverage_.clear();
     update_training_window();
   }

@@ -22,8 +22,9 @@ void SamplerConfig::validate() const {
   if (stride < 1) fail("sampler: stride must be >= 1, got ", stride);
   if (!(fill_depth >= 0)) fail("sampler: fill_depth must be >= 0, got ", fill_depth);
   if (resample_every < 0) fail("sampler: resample_every must be >= 0, got ", resample_every);
-  if (stray_wait_keyframes < 0)
-    fail("sampler: stray_wait_keyframes must be >= 0, got ", stray_wait_keyframes);
+  // The pool holds up to this many keyframes' held-back picks in host memory, outside the budget.
+  if (stray_wait_keyframes < 0 || stray_wait_keyframes > 1000)
+    fail("sampler: stray_wait_keyframes must be in [0, 1000], got ", stray_wait_keyframes);
 }
 
 namespace {

@@ -32,6 +32,11 @@ std::vector<ChunkBatch> StrayPool::add(uint32_t keyframe, std::vector<ChunkBatch
   return out;
 }
 
+void StrayPool::forget_all() {
+  forgotten_ += gaussians();
+  entries_.clear();
+}
+
 uint64_t StrayPool::gaussians() const {
   uint64_t n = 0;
   for (const auto& [id, e] : entries_) n += e.block.size();

@@ -19,6 +19,7 @@ class StrayPool {
   // starts there.
   std::vector<ChunkBatch> add(uint32_t keyframe, std::vector<ChunkBatch> strays, uint64_t least, int wait,
                               uint32_t step, const std::function<bool(ChunkId)>& exists);
+  void forget_all();  // counted as forgotten
   size_t chunks() const { return entries_.size(); }
   uint64_t gaussians() const;
   uint64_t forgotten() const { return forgotten_; }  // Gaussians dropped after waiting in vain
