@@ -78,8 +78,11 @@ const Command cmd{
           const std::string lp = h["mean_lpips"].is_number()
                                      ? cat("LPIPS ", lpips)
                                      : cat("LPIPS: not available (", h["lpips_unavailable"].get<std::string>(), ")");
-          std::printf("held-out PSNR %.3f dB  SSIM %.4f  %s  (%zu frames)", h["mean_psnr"].get<double>(),
-                      h["mean_ssim"].get<double>(), lp.c_str(), h["count"].get<size_t>());
+          if (h.contains("none"))
+            std::printf("held-out: none (%s)", h["none"].get<std::string>().c_str());
+          else
+            std::printf("held-out PSNR %.3f dB  SSIM %.4f  %s  (%zu frames)", h["mean_psnr"].get<double>(),
+                        h["mean_ssim"].get<double>(), lp.c_str(), h["count"].get<size_t>());
           if (r.contains("keyframes_eval"))
             std::printf("; keyframes PSNR %.3f dB", r["keyframes_eval"]["mean_psnr"].get<double>());
           std::printf("; ");

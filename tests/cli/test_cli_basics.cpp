@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "cli/cli_support.hpp"
@@ -56,4 +57,20 @@ TEST(Cli, AnUnknownKindOfACommandIsNamedWithTheKindsThereAre) {
     EXPECT_NE(r.out.find(expected), std::string::npos) << r.out;
     EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
   }
+}
+
+// Four frames hold none out (every 8th is): the run says so, and prints no 0 dB score.
+TEST(Cli, ARunWithoutHeldOutFramesSaysSoInsteadOfAScore) {
+  chungs::test::TempDir dir;
+  auto r = run_cli("run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --max-frames 4 "
+                   "--iterations 1 --final-iterations 0 --out " + (dir / "map").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("held-out: none (every 8th frame is held out and the run has 4 frames)"), std::string::npos)
+      << r.out;
+  EXPECT_EQ(r.out.find("held-out PSNR 0.000"), std::string::npos) << r.out;
+  std::ifstream f(dir / "map" / "report.json");
+  const auto j = nlohmann::json::parse(f, nullptr, false);
+  ASSERT_TRUE(j.contains("held_out")) << r.out;
+  EXPECT_EQ(j["held_out"]["count"].get<size_t>(), 0u);
+  EXPECT_TRUE(j["held_out"].contains("none"));
 }

@@ -579,11 +579,21 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         score_views(mapper, *dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders, &lpips);
     const ViewSetScore k = score_views(mapper, *dataset, poses, kfs, mc.resolution, rd, "keyframe", 4, &lpips);
     report["held_out"] = h.to_json(true);
+    // A mean over no view is no score: say why there is none instead of printing 0 dB.
+    if (held.empty())
+      report["held_out"]["none"] = mc.holdout_every > 0
+                                       ? cat("every ", mc.holdout_every, "th frame is held out and the run has ",
+                                             done, " frames")
+                                       : std::string("mapper.holdout_every is 0: no frame is held out");
     report["keyframes_eval"] = k.to_json(false);
     report["time"]["evaluation_s"] = since(te);
-    log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, ", ",
-              h.mean_lpips ? cat("LPIPS ", *h.mean_lpips) : "LPIPS not available (" + h.lpips_unavailable + ")",
-              " over ", h.views.size(), " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
+    if (held.empty())
+      log::info("no held-out score (", report["held_out"]["none"].get<std::string>(), "); keyframes PSNR ",
+                k.mean_psnr, " dB, SSIM ", k.mean_ssim);
+    else
+      log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, ", ",
+                h.mean_lpips ? cat("LPIPS ", *h.mean_lpips) : "LPIPS not available (" + h.lpips_unavailable + ")",
+                " over ", h.views.size(), " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
   }
   write_text(o.out / "timeline.csv", timeline_csv(timeline));
   write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());
