@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <initializer_list>
 #include <random>
+#include <utility>
 
 namespace chungs {
 namespace {
@@ -19,6 +21,13 @@ ChunkBatch batch(ChunkId id, size_t n, uint32_t kf, std::mt19937& rng) {
     b.block.created_at_step[i] = 0;
   }
   return b;
+}
+
+// Batches of the given chunks and sizes, all from keyframe `kf`.
+std::vector<ChunkBatch> batches(std::initializer_list<std::pair<ChunkId, size_t>> sizes, uint32_t kf, std::mt19937& rng) {
+  std::vector<ChunkBatch> out;
+  for (const auto& [id, n] : sizes) out.push_back(batch(id, n, kf, rng));
+  return out;
 }
 
 const auto none = [](ChunkId) { return false; };
@@ -52,9 +61,7 @@ TEST(StrayPool, AChunkIsMadeOnceSeveralKeyframesPicksReachTheThreshold) {
 TEST(StrayPool, PicksThatWaitInVainAreForgottenSoThePoolStaysBounded) {
   std::mt19937 rng(6);
   StrayPool pool;
-  std::vector<ChunkBatch> a;
-  a.push_back(batch(3, 10, 4, rng));
-  pool.add(4, std::move(a), 50, 3, 0, none);
+  pool.add(4, batches({{3, 10}}, 4, rng), 50, 3, 0, none);
   EXPECT_EQ(pool.gaussians(), 10u);
   EXPECT_TRUE(pool.add(6, {}, 50, 3, 0, none).empty());
   EXPECT_EQ(pool.chunks(), 1u);  // two keyframes without picks: still waiting
@@ -63,9 +70,7 @@ TEST(StrayPool, PicksThatWaitInVainAreForgottenSoThePoolStaysBounded) {
   EXPECT_EQ(pool.forgotten(), 10u);
   // Hundreds of keyframes each leaving a few picks in a chunk of its own hold at most `wait` keyframes' worth.
   for (uint32_t kf = 10; kf < 400; ++kf) {
-    std::vector<ChunkBatch> s;
-    s.push_back(batch(ChunkId(1000 + kf), 4, kf, rng));
-    EXPECT_TRUE(pool.add(kf, std::move(s), 50, 3, 0, none).empty());
+    EXPECT_TRUE(pool.add(kf, batches({{ChunkId(1000 + kf), 4}}, kf, rng), 50, 3, 0, none).empty());
     EXPECT_LE(pool.chunks(), 3u);
   }
 }
@@ -73,10 +78,7 @@ TEST(StrayPool, PicksThatWaitInVainAreForgottenSoThePoolStaysBounded) {
 TEST(StrayPool, AChunkTheMapMadeMeanwhileTakesItsWaitingPicks) {
   std::mt19937 rng(7);
   StrayPool pool;
-  std::vector<ChunkBatch> a;
-  a.push_back(batch(2, 30, 0, rng));
-  a.push_back(batch(3, 10, 0, rng));
-  pool.add(0, std::move(a), 50, 10, 0, none);
+  pool.add(0, batches({{2, 30}, {3, 10}}, 0, rng), 50, 10, 0, none);
   const auto out = pool.add(1, {}, 50, 10, 0, [](ChunkId id) { return id == 3; });
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].id, 3u);
