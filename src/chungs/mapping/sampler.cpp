@@ -124,7 +124,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
     fail("sampler: image ", image.width(), "x", image.height(), ", depth ", depth.width(), "x", depth.height(),
          " and probability ", probability.width(), "x", probability.height(), " must have the same size");
   SampleStats st;
-  if (config.max_per_keyframe && (max_new == 0 || config.max_per_keyframe < max_new)) max_new = config.max_per_keyframe;
+  max_new = config.new_gaussian_limit(max_new);
   // The accept/reject draws come from a counter-based stream keyed by one draw of `rng`, so bands of
   // rows run on several threads and give the same picks whatever their number (in row order).
   const uint64_t key = rng();

@@ -48,6 +48,10 @@ struct SamplerConfig {
     return std::max(min_per_chunk_floor, uint64_t(std::llround(min_per_chunk_per_100k_px * double(pixels) / 1e5)));
   }
   uint64_t max_per_keyframe = 0;   // 0: no cap; else a uniform random subset of this size
+  // The cap on a keyframe's new Gaussians given the mapper's (0: none): the smaller of the two set.
+  uint64_t new_gaussian_limit(uint64_t cap) const {
+    return max_per_keyframe && (cap == 0 || max_per_keyframe < cap) ? max_per_keyframe : cap;
+  }
   // The mapper caps a keyframe's new Gaussians at this many per 100 k pixels per optimisation step
   // that keyframes got lately (0: no cap): with few steps per keyframe (a fast intake) new
   // Gaussians would pile up untrained.

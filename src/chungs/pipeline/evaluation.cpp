@@ -1,12 +1,15 @@
 #include "chungs/pipeline/evaluation.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 
+#include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/image/image_io.hpp"
 #include "chungs/pipeline/frame_source.hpp"
+#include "chungs/pipeline/run_pipeline.hpp"
 
 namespace chungs {
 
@@ -23,6 +26,38 @@ nlohmann::json ViewSetScore::to_json(bool per_view) const {
     j["views"] = a;
   }
   return j;
+}
+
+void score_run(Mapper& mapper, const Dataset& dataset, const std::vector<std::optional<SE3>>& poses, size_t frames,
+               const MapperConfig& mc, const std::filesystem::path& out, const LpipsSetting& lpips,
+               nlohmann::json& report) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<size_t> held, kfs;
+  for (size_t i = 0; i < frames; ++i)
+    if (is_held_out(i, mc.holdout_every)) held.push_back(i);
+  if (mc.eval_keyframe_stride > 0)
+    for (size_t k = 0; k < mapper.keyframes().size(); k += size_t(mc.eval_keyframe_stride))
+      kfs.push_back(mapper.keyframes()[k].frame);
+  const std::filesystem::path rd = out / "renders";
+  const ViewSetScore h =
+      score_views(mapper, dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders, &lpips);
+  const ViewSetScore k = score_views(mapper, dataset, poses, kfs, mc.resolution, rd, "keyframe", 4, &lpips);
+  report["held_out"] = h.to_json(true);
+  report["keyframes_eval"] = k.to_json(false);
+  report["time"]["evaluation_s"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (held.empty()) {
+    const std::string why = mc.holdout_every > 0
+                                ? cat("every ", mc.holdout_every, "th frame is held out and the run has ", frames,
+                                      " frames")
+                                : std::string("mapper.holdout_every is 0: no frame is held out");
+    report["held_out"]["none"] = why;
+    log::info("no held-out score (", why, "); keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
+  } else {
+    log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, ", ",
+              h.mean_lpips ? cat("LPIPS ", *h.mean_lpips) : "LPIPS not available (" + h.lpips_unavailable + ")",
+              " over ", h.views.size(), " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
+  }
 }
 
 Image8 stack_vertically(const ImageF& top, const ImageF& bottom) {

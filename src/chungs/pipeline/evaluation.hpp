@@ -35,6 +35,14 @@ ViewSetScore score_views(Mapper& mapper, const Dataset& dataset, const std::vect
                          const std::filesystem::path& render_dir, const std::string& prefix, int max_saved,
                          const LpipsSetting* lpips = nullptr);
 
+// Scores a finished run of `frames` frames: its held-out frames (run_pipeline.hpp's is_held_out) and
+// every mc.eval_keyframe_stride-th keyframe, renders under out/renders. Sets report's "held_out" (with
+// "none" saying why when no frame is held out, instead of a mean over nothing), "keyframes_eval" and
+// time.evaluation_s, and logs the scores.
+void score_run(Mapper& mapper, const Dataset& dataset, const std::vector<std::optional<SE3>>& poses, size_t frames,
+               const MapperConfig& mc, const std::filesystem::path& out, const LpipsSetting& lpips,
+               nlohmann::json& report);
+
 // Render above reference, 8-bit RGB.
 Image8 stack_vertically(const ImageF& top, const ImageF& bottom);
 

@@ -566,35 +566,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                            {"barrier_ms", kio.barrier_ms},
                            {"bytes_read", kio.bytes_read},
                            {"bytes_written", kio.bytes_written}};
-  if (o.evaluate) {
-    const auto te = Clock::now();
-    std::vector<size_t> held, kfs;
-    for (size_t i = 0; i < done; ++i)
-      if (is_held_out(i, mc.holdout_every)) held.push_back(i);
-    if (mc.eval_keyframe_stride > 0)
-      for (size_t k = 0; k < mapper.keyframes().size(); k += size_t(mc.eval_keyframe_stride))
-        kfs.push_back(mapper.keyframes()[k].frame);
-    const fs::path rd = o.out / "renders";
-    const ViewSetScore h =
-        score_views(mapper, *dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders, &lpips);
-    const ViewSetScore k = score_views(mapper, *dataset, poses, kfs, mc.resolution, rd, "keyframe", 4, &lpips);
-    report["held_out"] = h.to_json(true);
-    // A mean over no view is no score: say why there is none instead of printing 0 dB.
-    if (held.empty())
-      report["held_out"]["none"] = mc.holdout_every > 0
-                                       ? cat("every ", mc.holdout_every, "th frame is held out and the run has ",
-                                             done, " frames")
-                                       : std::string("mapper.holdout_every is 0: no frame is held out");
-    report["keyframes_eval"] = k.to_json(false);
-    report["time"]["evaluation_s"] = since(te);
-    if (held.empty())
-      log::info("no held-out score (", report["held_out"]["none"].get<std::string>(), "); keyframes PSNR ",
-                k.mean_psnr, " dB, SSIM ", k.mean_ssim);
-    else
-      log::info("held-out PSNR ", h.mean_psnr, " dB, SSIM ", h.mean_ssim, ", ",
-                h.mean_lpips ? cat("LPIPS ", *h.mean_lpips) : "LPIPS not available (" + h.lpips_unavailable + ")",
-                " over ", h.views.size(), " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
-  }
+  if (o.evaluate) score_run(mapper, *dataset, poses, done, mc, o.out, lpips, report);
   write_text(o.out / "timeline.csv", timeline_csv(timeline));
   write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());
   write_json(o.out / "report.json", report);
