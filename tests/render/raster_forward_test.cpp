@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "chungs/common/error.hpp"
 #include "chungs/render/cpu/rasterizer.hpp"
 #include "random_scene.hpp"
 #include "reference_render.hpp"
@@ -54,6 +55,25 @@ TEST(RasterForward, MatchesBruteForceReferenceAcrossTilesAndBorders) {
   }
 }
 
+TEST(RasterConfig, TheLowPassKeepsItsAngleOnSmallImages) {
+  // Issue 20: 0.3 px^2 at 620x188 and above; at 310x94 (a quarter of the pixels) a quarter of it, the
+  // same solid angle; at most 16x smaller; as given with a reference of 0.
+  const RasterConfig c;
+  EXPECT_DOUBLE_EQ(c.low_pass_for(620, 188), 0.3);
+  EXPECT_DOUBLE_EQ(c.low_pass_for(1241, 376), 0.3);
+  EXPECT_NEAR(c.low_pass_for(310, 94), 0.075, 1e-15);
+  EXPECT_NEAR(c.low_pass_for(40, 30), 0.3 / 16, 1e-15);
+  RasterConfig off;
+  off.small_image_reference_px = 0;
+  EXPECT_DOUBLE_EQ(off.low_pass_for(40, 30), 0.3);
+  EXPECT_THROW(c.low_pass_for(0, 30), Error);
+  for (double bad : {-1.0, double(NAN), double(INFINITY)}) {
+    RasterConfig b;
+    b.small_image_reference_px = bad;
+    EXPECT_THROW(b.validate(), Error) << bad;
+  }
+}
+
 TEST(RasterForward, SingleGaussianFollowsClosedFormAtIntegerPixelCentres) {
   const Camera cam(40, 30, 50, 60, 13.25, 17.5);
   test::SceneArrays<double> g;
@@ -66,7 +86,8 @@ TEST(RasterForward, SingleGaussianFollowsClosedFormAtIntegerPixelCentres) {
   const double x = (20.0 - cam.cx) / cam.fx * z, y = (12.0 - cam.cy) / cam.fy * z;
   Eigen::Matrix<double, 2, 3> J;
   J << cam.fx / z, 0, -cam.fx * x / (z * z), 0, cam.fy / z, -cam.fy * y / (z * z);
-  const Eigen::Matrix2d cov = sigma * sigma * J * J.transpose() + 0.3 * Eigen::Matrix2d::Identity();
+  // 40x30 is below the reference size: the low-pass is 0.3 px^2 / 16 (RasterConfig::low_pass_for).
+  const Eigen::Matrix2d cov = sigma * sigma * J * J.transpose() + 0.3 / 16 * Eigen::Matrix2d::Identity();
   const Eigen::Matrix2d conic = cov.inverse();
   for (int v : {12, 14, 9})
     for (int u : {20, 21, 17}) {

@@ -50,7 +50,7 @@ inline RenderOutput<double> reference_render(const SceneArrays<double>& g, const
     Eigen::Matrix<double, 2, 3> J;
     J << cam.fx / z, 0, -cam.fx * rx / z, 0, cam.fy / z, -cam.fy * ry / z;
     const Eigen::Matrix2d cov =
-        J * W * Sigma * W.transpose() * J.transpose() + cfg.low_pass * Eigen::Matrix2d::Identity();
+        J * W * Sigma * W.transpose() * J.transpose() + cfg.low_pass_for(cam.width, cam.height) * Eigen::Matrix2d::Identity();
     RefSplat r;
     r.mean = cam.project(pc);
     r.conic = cov.inverse();

@@ -91,6 +91,25 @@ TEST(Residency, ModifiedChunkIsWrittenBeforeItsSlotsAreReused) {
   }
 }
 
+TEST(Residency, FlushGathersChunksInPortionsAndWritesEachExactly) {
+  // 40 chunks of 97-296 Gaussians (~8 k) with a 10 000 budget: flush gathers portions of ~2 500
+  // Gaussians at a time, so chunks are split out of several gathers, across portion edges.
+  std::vector<size_t> sizes;
+  for (size_t i = 0; i < 40; ++i) sizes.push_back(97 + (i * 37) % 200);
+  Rig r(sizes, 10'000, /*async=*/true);
+  std::vector<GaussianBlock> modified;
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    r.pin1(cid(int(i)));
+    for (uint32_t s : r.res->slots(cid(int(i)))) r.pool->params().opacity[s] += 0.5f + float(i);
+    r.res->mark_dirty(cid(int(i)));
+    modified.push_back(r.gathered(cid(int(i))));
+    r.unpin1(cid(int(i)));
+  }
+  r.res->flush();
+  for (size_t i = 0; i < sizes.size(); ++i)
+    EXPECT_TRUE(test::same_bits(r.store->load(cid(int(i))), modified[i])) << "chunk " << i;
+}
+
 TEST(Residency, EvictsLeastRecentlyUsedFirstAndNoMoreThanNeeded) {
   Rig r({300, 300, 300, 300, 100}, 1000);
   for (int i : {0, 1, 2}) {

@@ -61,6 +61,8 @@ template <class V>
 void fields(V& v, RasterConfig& c) {
   v("near_plane", c.near_plane, "metres");
   v("low_pass", c.low_pass, "px^2 added to each 2D covariance");
+  v("small_image_reference_px", c.small_image_reference_px,
+    "below this many pixels, low_pass x pixels / reference, at least 1/16 (0: off)");
   v("alpha_max", c.alpha_max, "");
   v("min_alpha", c.min_alpha, "");
   v("min_transmittance", c.min_transmittance, "");

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "chungs/common/error.hpp"
+#include "chungs/image/small_image.hpp"
 
 namespace chungs {
 
@@ -27,10 +28,7 @@ void AdamConfig::validate() const {
 }
 
 double AdamConfig::small_image_factor(int width, int height) const {
-  if (width <= 0 || height <= 0) fail("Adam config: image size must be positive, got ", width, "x", height);
-  const double pixels = double(width) * double(height);
-  if (small_image_reference_px <= 0 || pixels >= small_image_reference_px) return 1.0;
-  return std::min(4.0, std::sqrt(small_image_reference_px / pixels));
+  return chungs::small_image_factor(small_image_reference_px, width, height);
 }
 
 AdamConfig AdamConfig::for_image(int width, int height) const {

@@ -381,7 +381,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     refine.finish();
   }
   record(done ? done - 1 : 0);
-  mapper.checkpoint(state(done, !stopped_at));
+  double final_checkpoint_ms = 0;
+  timed(final_checkpoint_ms, [&] { mapper.checkpoint(state(done, !stopped_at)); });
   const std::vector<std::optional<SE3>> poses = feed->final_poses();
   Trajectory traj;  // the poses the map was made on (after every correction), TUM format
   for (size_t i = 0; i < std::min(done, poses.size()); ++i)
@@ -431,6 +432,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                         {"lr_position", cfg.adam.lr_position},
                         {"lr_small_image_factor", cfg.adam.small_image_factor(width, height)},
                         {"sampler_density", cfg.sampler.density},
+                        {"low_pass_px2", cfg.raster.low_pass_for(width, height)},
                         {"seed", mc.seed}};
   report["device"] = mapper.device();
   if (tracked) report["tracking"] = feed->report();
@@ -493,6 +495,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                                       {"frame_wait", frames_wait_ms},
                                       {"timeline", record_ms},
                                       {"checkpoints", checkpoint_call_ms},
+                                      {"final_checkpoint", final_checkpoint_ms},
                                       {"pose_updates", updates_ms}};
   }
   {

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "chungs/common/error.hpp"
+#include "chungs/image/small_image.hpp"
 
 namespace chungs {
 
@@ -23,6 +24,13 @@ void RasterConfig::validate() const {
   if (sh_degree < 0 || sh_degree > 3) fail("raster config: sh_degree must be 0..3, got ", sh_degree);
   for (double b : background)
     if (!std::isfinite(b)) fail("raster config: background colour must be finite");
+  if (!(small_image_reference_px >= 0) || !std::isfinite(small_image_reference_px))
+    fail("raster config: small_image_reference_px must be >= 0 (0: off), got ", small_image_reference_px);
+}
+
+double RasterConfig::low_pass_for(int width, int height) const {
+  const double f = small_image_factor(small_image_reference_px, width, height);
+  return low_pass / (f * f);
 }
 
 }  // namespace chungs

@@ -55,7 +55,9 @@ const RenderOutput<T>& CpuRasterizer<T>::forward(const GaussianArrays<T>& g, std
   }
 
   auto t0 = Clock::now();
-  cpu::project_splats(g, ids_.data(), ids_.size(), camera, config_, splats_);
+  frame_config_ = config_;
+  frame_config_.low_pass = config_.low_pass_for(W, H);  // the backward uses it too
+  cpu::project_splats(g, ids_.data(), ids_.size(), camera, frame_config_, splats_);
   timings_.project = ms_since(t0);
 
   t0 = Clock::now();
@@ -63,7 +65,7 @@ const RenderOutput<T>& CpuRasterizer<T>::forward(const GaussianArrays<T>& g, std
   timings_.bin = ms_since(t0);
 
   t0 = Clock::now();
-  cpu::composite_forward(splats_, bins_, ids_.data(), config_, out_, last_);
+  cpu::composite_forward(splats_, bins_, ids_.data(), frame_config_, out_, last_);
   const size_t n = ids_.size();
   out_.visible.resize(n);
   out_.radius.resize(n);
@@ -86,11 +88,11 @@ void CpuRasterizer<T>::backward(const RenderGrads<T>& dloss, GaussianGrads<T>& g
   check_grad_image(dloss.alpha, W, H, 1, "alpha");
 
   auto t0 = Clock::now();
-  cpu::composite_backward(splats_, bins_, config_, out_, last_, dloss, thread_buffers_, splat_grads_);
+  cpu::composite_backward(splats_, bins_, frame_config_, out_, last_, dloss, thread_buffers_, splat_grads_);
   timings_.composite_backward = ms_since(t0);
 
   t0 = Clock::now();
-  cpu::backward_splats(g_, ids_.data(), ids_.size(), camera_, config_, splats_, splat_grads_.data(), grads);
+  cpu::backward_splats(g_, ids_.data(), ids_.size(), camera_, frame_config_, splats_, splat_grads_.data(), grads);
   timings_.project_backward = ms_since(t0);
 }
 

@@ -47,6 +47,7 @@ class CpuRasterizer {
 
  private:
   RasterConfig config_;
+  RasterConfig frame_config_;  // config_ for the last forward's image size (RasterConfig::low_pass_for)
   RenderOutput<T> out_;
   RasterTimings timings_;
   // State of the last forward.

@@ -243,6 +243,7 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
   if (cam.width <= 0 || cam.height <= 0)
     fail("CUDA rasterizer: image size must be positive, got ", cam.width, "x", cam.height);
   if (!(cam.fx > 0 && cam.fy > 0)) fail("CUDA rasterizer: focal lengths must be positive");
+  s.consts.low_pass = float(s.config.low_pass_for(cam.width, cam.height));  // the backward uses it too
   if (n >= 0xFFFFFFFFu) fail("CUDA rasterizer: ", n, " indices is more than 2^32 - 1");
   if (n > 0) {
     if (!g.mean || !g.log_scale || !g.rotation || !g.opacity || !g.sh || !ids)
