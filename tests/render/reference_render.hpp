@@ -49,8 +49,8 @@ inline RenderOutput<double> reference_render(const SceneArrays<double>& g, const
     const double rx = std::clamp(pc.x() / z, lo_x, hi_x), ry = std::clamp(pc.y() / z, lo_y, hi_y);
     Eigen::Matrix<double, 2, 3> J;
     J << cam.fx / z, 0, -cam.fx * rx / z, 0, cam.fy / z, -cam.fy * ry / z;
-    const Eigen::Matrix2d cov =
-        J * W * Sigma * W.transpose() * J.transpose() + cfg.low_pass_for(cam.width, cam.height) * Eigen::Matrix2d::Identity();
+    const double low_pass = cfg.low_pass_for(cam.width, cam.height);
+    const Eigen::Matrix2d cov = J * W * Sigma * W.transpose() * J.transpose() + low_pass * Eigen::Matrix2d::Identity();
     RefSplat r;
     r.mean = cam.project(pc);
     r.conic = cov.inverse();

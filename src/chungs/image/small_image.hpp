@@ -1,6 +1,6 @@
 // The factor by which a setting tuned on images of `reference_px` pixels is raised on smaller
 // images: sqrt(reference / pixels), at most 4; 1 at or above the reference, or with reference 0
-// (off). Shared by the Adam rates and the sampler's density (issue 20: defaults across sizes).
+// (off). Shared by the Adam rates (raised by it) and the rasterizer's low-pass (divided by its square).
 #pragma once
 
 namespace chungs {

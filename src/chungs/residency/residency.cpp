@@ -393,24 +393,16 @@ void Residency::flush() {
     // One gather per portion of chunks, not per chunk: from a GPU pool each gather is a round trip,
     // and a chunk of ~200 Gaussians made the final checkpoint of a 4,000-chunk map wait on them.
     const size_t portion_limit = checkpoint_memory_limit() / 4;
-    GaussianBlock portion;
-    size_t portion_end = 0, offset = 0;
+    std::vector<std::shared_ptr<GaussianBlock>> portion;
+    size_t portion_begin = 0, portion_end = 0;
     auto produce = [&](size_t k, GaussianBlock& b) {
       if (k == portion_end) {
-        std::vector<uint32_t> slots;
-        for (; portion_end < dirty.size() && (portion_end == k || slots.size() < portion_limit); ++portion_end) {
-          const auto& s = resident_.at(dirty[portion_end]).slots;
-          slots.insert(slots.end(), s.begin(), s.end());
-        }
-        portion = GaussianBlock();
-        pool_.gather(slots, portion);
-        offset = 0;
+        size_t n = 0;
+        for (portion_begin = k; portion_end < dirty.size() && (portion_end == k || n < portion_limit); ++portion_end)
+          n += resident_.at(dirty[portion_end]).slots.size();
+        portion = gather_chunks(std::span(dirty).subspan(portion_begin, portion_end - portion_begin));
       }
-      const size_t n = resident_.at(dirty[k]).slots.size();
-      b = GaussianBlock();
-      b.sh_degree = portion.sh_degree;
-      b.append_range(portion, offset, n);
-      offset += n;
+      b = std::move(*portion[k - portion_begin]);
     };
     save_chunks_in_parallel(store_, dirty, produce, config_.flush_threads);
     for (ChunkId id : dirty) resident_.at(id).dirty = false;

@@ -166,6 +166,9 @@ class Residency {
   // copy_out of several chunks with one gather from the pool (on a GPU one transfer, not one
   // each); the copies handed over, in the order of `ids`, of those the checkpoint still needed.
   std::vector<std::shared_ptr<const GaussianBlock>> copy_out_many(std::span<const ChunkId> ids);
+  // The contents of the resident chunks `ids`, in their order, from one gather of the pool (on a GPU
+  // one round trip, not one per chunk).
+  std::vector<std::shared_ptr<GaussianBlock>> gather_chunks(std::span<const ChunkId> ids) const;
   // Chunks still to copy out, about `gaussians` of them (at least one chunk while any is left).
   std::vector<ChunkId> next_portion(size_t gaussians) const;
   size_t checkpoint_memory_limit() const;

@@ -15,6 +15,27 @@ size_t checkpoint_memory_limit(size_t budget) { return std::max<size_t>(budget /
 
 size_t Residency::checkpoint_memory_limit() const { return chungs::checkpoint_memory_limit(budget_); }
 
+std::vector<std::shared_ptr<GaussianBlock>> Residency::gather_chunks(std::span<const ChunkId> ids) const {
+  std::vector<uint32_t> slots;
+  for (ChunkId id : ids) {
+    const auto& s = resident_.at(id).slots;
+    slots.insert(slots.end(), s.begin(), s.end());
+  }
+  GaussianBlock all;
+  pool_.gather(slots, all);
+  std::vector<std::shared_ptr<GaussianBlock>> out;
+  size_t first = 0;
+  for (ChunkId id : ids) {
+    const size_t n = resident_.at(id).slots.size();
+    auto block = std::make_shared<GaussianBlock>();
+    block->sh_degree = all.sh_degree;
+    block->append_range(all, first, n);
+    first += n;
+    out.push_back(std::move(block));
+  }
+  return out;
+}
+
 std::vector<ChunkId> Residency::next_portion(size_t gaussians) const {
   std::vector<ChunkId> out;
   size_t n = 0;
@@ -53,27 +74,15 @@ std::vector<std::shared_ptr<const GaussianBlock>> Residency::copy_out_many(std::
   std::vector<std::shared_ptr<const GaussianBlock>> copied;
   if (!checkpoint_) return copied;
   std::vector<ChunkId> todo;
-  std::vector<uint32_t> slots;
   for (ChunkId id : ids)
-    if (checkpoint_todo_.erase(id)) {
-      todo.push_back(id);
-      const auto& s = resident_.at(id).slots;
-      slots.insert(slots.end(), s.begin(), s.end());
-    }
+    if (checkpoint_todo_.erase(id)) todo.push_back(id);
   if (todo.empty()) return copied;
   ScopedTimer t(store_.counters().checkpoint_ns);
-  GaussianBlock all;
-  pool_.gather(slots, all);
-  size_t first = 0;
-  for (ChunkId id : todo) {
-    const size_t n = resident_.at(id).slots.size();
-    auto block = std::make_shared<GaussianBlock>();
-    block->sh_degree = all.sh_degree;
-    block->append_range(all, first, n);
-    first += n;
-    checkpoint_->put(id, block);
-    checkpoint_clean_.insert(id);
-    copied.push_back(std::move(block));
+  std::vector<std::shared_ptr<GaussianBlock>> blocks = gather_chunks(todo);
+  for (size_t k = 0; k < todo.size(); ++k) {
+    checkpoint_->put(todo[k], blocks[k]);
+    checkpoint_clean_.insert(todo[k]);
+    copied.push_back(std::move(blocks[k]));
   }
   if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
   return copied;
