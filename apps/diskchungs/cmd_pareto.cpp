@@ -79,6 +79,7 @@ nlohmann::json finished_report(const Point& p, const Dataset& dataset) {
   same("holdout_every", s.value("holdout_every", nlohmann::json()), c.mapper.holdout_every);
   same("depth weight", s.value("lambda_depth", nlohmann::json()), c.loss.lambda_depth);
   same("position learning rate", s.value("lr_position", nlohmann::json()), c.adam.lr_position);
+  same("rates' reference steps", s.value("lr_reference_steps", nlohmann::json()), c.adam.reference_steps);
   same("sampler density", s.value("sampler_density", nlohmann::json()), c.sampler.density);
   same("image width", r.contains("resolution") ? r["resolution"][0] : nlohmann::json(), width);
   if (!r.contains("held_out"))

@@ -122,6 +122,33 @@ TEST(SparseAdam, RejectsMismatchedInput) {
                Error);
 }
 
+TEST(AdamRates, KeyframesTrainedLongerGetSlowerOpacityColourAndScaleRates) {
+  // Issue 20: at the reference's 30 steps per keyframe and below the rates are as given; at 300 the
+  // three rates are x sqrt(30 / 300); positions, higher SH bands and rotations keep theirs.
+  const AdamConfig c;
+  EXPECT_EQ(c.reference_steps, 30);
+  for (double steps : {-1.0, 0.0, 10.0, 30.0, double(NAN), double(INFINITY)}) EXPECT_EQ(c.steps_factor(steps), 1.0) << steps;
+  EXPECT_NEAR(c.steps_factor(120), 0.5, 1e-12);
+  EXPECT_NEAR(c.steps_factor(300), std::sqrt(0.1), 1e-12);
+  const AdamConfig s = c.for_steps(120);
+  EXPECT_FLOAT_EQ(s.lr_opacity, 0.5f * c.lr_opacity);
+  EXPECT_FLOAT_EQ(s.lr_sh_dc, 0.5f * c.lr_sh_dc);
+  EXPECT_FLOAT_EQ(s.lr_scale, 0.5f * c.lr_scale);
+  EXPECT_EQ(s.lr_position, c.lr_position);
+  EXPECT_EQ(s.lr_sh_rest, c.lr_sh_rest);
+  EXPECT_EQ(s.lr_rotation, c.lr_rotation);
+  // The small-image and the steps factors multiply.
+  EXPECT_FLOAT_EQ(c.for_image(310, 94).for_steps(120).lr_opacity, c.lr_opacity);
+  AdamConfig off;
+  off.reference_steps = 0;
+  EXPECT_EQ(off.for_steps(3000).lr_opacity, off.lr_opacity);
+  for (double bad : {-1.0, double(NAN), double(INFINITY)}) {
+    AdamConfig b;
+    b.reference_steps = bad;
+    EXPECT_THROW(b.validate(), Error) << bad;
+  }
+}
+
 TEST(AdamRates, SmallImagesGetFasterOpacityColourAndScaleRates) {
   // Issue 20: at 310x94 (a quarter of the reference's pixels) the three rates double; positions,
   // higher SH bands and rotations keep theirs; at the reference size and above nothing changes.

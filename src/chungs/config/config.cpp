@@ -91,6 +91,8 @@ void fields(V& v, AdamConfig& c) {
   v("eps", c.eps, "");
   v("small_image_reference_px", c.small_image_reference_px,
     "below this many pixels, opacity, colour and scale rates x sqrt(reference / pixels), at most 4 (0: off)");
+  v("reference_steps", c.reference_steps,
+    "keyframes trained more steps each get opacity, colour and scale rates x sqrt(reference / steps) (0: off)");
 }
 template <class V>
 void fields(V& v, PruneConfig& c) {

@@ -359,6 +359,16 @@ void Mapper::resample(const KeyframeRecord& kf) {
   sample_view(kf.id, images->color, images->depth, kf.camera, kf.pose, cap);
 }
 
+double Mapper::rate_steps_per_keyframe() const {
+  // Under fixed pacing every keyframe gets the configured steps; in real time the steps the recent
+  // keyframes got (none measured yet: the rates as given).
+  return config_.mapper.pacing == "fixed" ? double(config_.mapper.iterations_per_keyframe) : steps_per_keyframe_;
+}
+
+AdamConfig Mapper::step_rates(const Camera& camera) const {
+  return config_.adam.for_image(camera.width, camera.height).for_steps(rate_steps_per_keyframe());
+}
+
 uint64_t Mapper::new_gaussian_cap(const Image8& image) {
   if (keyframes_.empty()) return 0;  // the first keyframe fills an empty map
   const double steps = double(iterations_ - steps_at_last_keyframe_);
@@ -468,7 +478,7 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
                               pixel_mask ? &*pixel_mask : nullptr};
     const LossTerms terms =
         backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
-                       config_.adam.for_image(kf.camera.width, kf.camera.height), prune ? &config_.prune : nullptr,
+                       step_rates(kf.camera), prune ? &config_.prune : nullptr,
                        to_prune_);
     step_times_.backend_ms += ms_since(t1);
     t2 = clock::now();

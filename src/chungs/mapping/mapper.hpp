@@ -108,6 +108,8 @@ class Mapper {
   uint64_t strays_forgotten() const { return stray_pool_.forgotten(); }
   // Steps since the latest keyframe was added.
   uint64_t steps_since_keyframe() const { return iterations_ - steps_at_last_keyframe_; }
+  // The factor on opacity, colour and scale rates for the steps keyframes get now (1: as given).
+  double rate_steps_factor() const { return config_.adam.steps_factor(rate_steps_per_keyframe()); }
   // Keyframes given a depth map without one valid pixel (nothing could be sampled from them).
   uint64_t keyframes_without_depth() const { return keyframes_without_depth_; }
   uint64_t views_over_budget() const { return views_over_budget_; }  // views whose chunks exceed the budget
@@ -158,6 +160,10 @@ class Mapper {
   // New Gaussians a keyframe may add: what the optimiser trained per keyframe lately (see
   // SamplerConfig::new_per_step); 0 for no cap.
   uint64_t new_gaussian_cap(const Image8& image);
+  // The steps per keyframe that the optimiser's rates follow (AdamConfig::reference_steps), and the
+  // rates of a step on a view from that camera.
+  double rate_steps_per_keyframe() const;
+  AdamConfig step_rates(const Camera& camera) const;
   void resample(const KeyframeRecord& kf);
   SampleStats sample_view(uint32_t id, const Image8& color, const ImageF& depth, const Camera& camera,
                           const SE3& pose, uint64_t cap, const std::vector<Eigen::Vector3d>* seeds = nullptr);

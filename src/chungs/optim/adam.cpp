@@ -25,19 +25,38 @@ void AdamConfig::validate() const {
   if (!(eps > 0)) fail("Adam config: eps must be > 0, got ", eps);
   if (!(small_image_reference_px >= 0) || !std::isfinite(small_image_reference_px))
     fail("Adam config: small_image_reference_px must be >= 0 (0: off), got ", small_image_reference_px);
+  if (!(reference_steps >= 0) || !std::isfinite(reference_steps))
+    fail("Adam config: reference_steps must be >= 0 (0: off), got ", reference_steps);
 }
 
 double AdamConfig::small_image_factor(int width, int height) const {
   return chungs::small_image_factor(small_image_reference_px, width, height);
 }
 
-AdamConfig AdamConfig::for_image(int width, int height) const {
-  const double f = small_image_factor(width, height);
-  AdamConfig c = *this;
-  c.lr_opacity = float(lr_opacity * f);
-  c.lr_sh_dc = float(lr_sh_dc * f);
-  c.lr_scale = float(lr_scale * f);
+namespace {
+
+AdamConfig with_rates_scaled(const AdamConfig& a, double f) {
+  AdamConfig c = a;
+  c.lr_opacity = float(a.lr_opacity * f);
+  c.lr_sh_dc = float(a.lr_sh_dc * f);
+  c.lr_scale = float(a.lr_scale * f);
   return c;
+}
+
+}  // namespace
+
+AdamConfig AdamConfig::for_image(int width, int height) const {
+  return with_rates_scaled(*this, small_image_factor(width, height));
+}
+
+double AdamConfig::steps_factor(double steps_per_keyframe) const {
+  if (!(reference_steps > 0) || !(steps_per_keyframe > reference_steps) || !std::isfinite(steps_per_keyframe))
+    return 1.0;
+  return std::sqrt(reference_steps / steps_per_keyframe);
+}
+
+AdamConfig AdamConfig::for_steps(double steps_per_keyframe) const {
+  return with_rates_scaled(*this, steps_factor(steps_per_keyframe));
 }
 
 AdamState adam_state_of(GaussianBlock& b) {

@@ -34,6 +34,12 @@ struct AdamConfig {
   // steps, and twice these rates gave it +0.56..+0.7 dB on two streets, where at 620x188 they gave
   // nothing (bench/README.md, issue 20). 0: the rates as given at any size.
   double small_image_reference_px = 620.0 * 188.0;
+  // The rates above are for keyframes trained this many steps each. Keyframes trained longer get the
+  // rates of opacity, colour (degree 0) and scale x sqrt(reference / steps), as SGD's noise asks when
+  // one view is fitted N times as often: on the 2 km street at 300 steps per keyframe the constant
+  // rates scored 27.84 dB held-out, x0.5 28.28 and x0.316 28.44 (KITTI 24.33 / 24.31 / 24.41;
+  // bench/README.md, issue 20). 0: the rates as given at any number of steps.
+  double reference_steps = 30;
 
   static AdamConfig kitti() { return {}; }
   static AdamConfig indoor() {
@@ -46,6 +52,11 @@ struct AdamConfig {
   double small_image_factor(int width, int height) const;
   // This configuration with those rates scaled for images of that size.
   AdamConfig for_image(int width, int height) const;
+  // The factor on opacity, colour and scale rates for keyframes that get this many steps each
+  // (1 at or below reference_steps, or when steps is not a positive number).
+  double steps_factor(double steps_per_keyframe) const;
+  // This configuration with those rates scaled for that many steps per keyframe.
+  AdamConfig for_steps(double steps_per_keyframe) const;
 };
 
 // The optimiser state arrays of the pool, per slot, in the GaussianBlock layout.

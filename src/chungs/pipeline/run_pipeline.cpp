@@ -431,6 +431,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                         {"lambda_depth", cfg.loss.lambda_depth},
                         {"lr_position", cfg.adam.lr_position},
                         {"lr_small_image_factor", cfg.adam.small_image_factor(width, height)},
+                        {"lr_reference_steps", cfg.adam.reference_steps},
+                        {"lr_steps_factor", mapper.rate_steps_factor()},
                         {"sampler_density", cfg.sampler.density},
                         {"low_pass_px2", cfg.raster.low_pass_for(width, height)},
                         {"seed", mc.seed}};
