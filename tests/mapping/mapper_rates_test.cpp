@@ -2,7 +2,9 @@
 // steps under fixed pacing, the steps recent keyframes got in real time.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/mapper.hpp"
@@ -44,12 +46,25 @@ TEST(MapperRates, FixedPacingScalesTheRatesByItsConfiguredSteps) {
   EXPECT_EQ(at30.rate_steps_factor(), 1.0);
 }
 
+float largest_difference(const std::vector<float>& a, const std::vector<float>& b) {
+  EXPECT_EQ(a.size(), b.size());
+  float d = 0;
+  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) d = std::max(d, std::abs(a[i] - b[i]));
+  return d;
+}
+
 TEST(MapperRates, StepsUseTheScaledRates) {
   log::set_level(log::Level::Error);
-  // At 30 steps per keyframe the rule changes nothing: the same map bit for bit with it off.
-  EXPECT_EQ(render_after(rates_config("fixed", 30, 30), 3), render_after(rates_config("fixed", 30, 0), 3));
+  // At 30 steps per keyframe the rule changes nothing: the same map with it off (up to the order in
+  // which the backward's threads sum).
+  const float same = largest_difference(render_after(rates_config("fixed", 30, 30), 3),
+                                        render_after(rates_config("fixed", 30, 0), 3));
+  EXPECT_LT(same, 1e-5f);
   // At 120 it halves three rates: a different map after the same steps.
-  EXPECT_NE(render_after(rates_config("fixed", 120, 30), 3), render_after(rates_config("fixed", 120, 0), 3));
+  const float changed = largest_difference(render_after(rates_config("fixed", 120, 30), 3),
+                                           render_after(rates_config("fixed", 120, 0), 3));
+  EXPECT_GT(changed, 1e-3f);
+  std::printf("largest colour difference after 3 steps: %.3g at 30 steps per keyframe, %.3g at 120\n", same, changed);
 }
 
 TEST(MapperRates, RealTimeFollowsTheStepsRecentKeyframesGot) {
