@@ -64,7 +64,8 @@ TEST(MapperRates, StepsUseTheScaledRates) {
   const float changed = largest_difference(render_after(rates_config("fixed", 120, 30), 3),
                                            render_after(rates_config("fixed", 120, 0), 3));
   EXPECT_GT(changed, 1e-3f);
-  std::printf("largest colour difference after 3 steps: %.3g at 30 steps per keyframe, %.3g at 120\n", same, changed);
+  std::printf("largest colour difference after 3 steps: %.3g at 30 steps per keyframe, %.3g at 120\n", same,
+              changed);
 }
 
 TEST(MapperRates, RealTimeFollowsTheStepsRecentKeyframesGot) {

@@ -122,21 +122,26 @@ TEST(SparseAdam, RejectsMismatchedInput) {
                Error);
 }
 
+// s holds c's rates with those of opacity, colour (degree 0) and scale times f, the others as given.
+void expect_three_rates_scaled(const AdamConfig& s, const AdamConfig& c, float f) {
+  EXPECT_FLOAT_EQ(s.lr_opacity, f * c.lr_opacity);
+  EXPECT_FLOAT_EQ(s.lr_sh_dc, f * c.lr_sh_dc);
+  EXPECT_FLOAT_EQ(s.lr_scale, f * c.lr_scale);
+  EXPECT_EQ(s.lr_position, c.lr_position);
+  EXPECT_EQ(s.lr_sh_rest, c.lr_sh_rest);
+  EXPECT_EQ(s.lr_rotation, c.lr_rotation);
+}
+
 TEST(AdamRates, KeyframesTrainedLongerGetSlowerOpacityColourAndScaleRates) {
   // Issue 20: at the reference's 30 steps per keyframe and below the rates are as given; at 300 the
   // three rates are x sqrt(30 / 300); positions, higher SH bands and rotations keep theirs.
   const AdamConfig c;
   EXPECT_EQ(c.reference_steps, 30);
-  for (double steps : {-1.0, 0.0, 10.0, 30.0, double(NAN), double(INFINITY)}) EXPECT_EQ(c.steps_factor(steps), 1.0) << steps;
+  for (double steps : {-1.0, 0.0, 10.0, 30.0, double(NAN), double(INFINITY)})
+    EXPECT_EQ(c.steps_factor(steps), 1.0) << steps;
   EXPECT_NEAR(c.steps_factor(120), 0.5, 1e-12);
   EXPECT_NEAR(c.steps_factor(300), std::sqrt(0.1), 1e-12);
-  const AdamConfig s = c.for_steps(120);
-  EXPECT_FLOAT_EQ(s.lr_opacity, 0.5f * c.lr_opacity);
-  EXPECT_FLOAT_EQ(s.lr_sh_dc, 0.5f * c.lr_sh_dc);
-  EXPECT_FLOAT_EQ(s.lr_scale, 0.5f * c.lr_scale);
-  EXPECT_EQ(s.lr_position, c.lr_position);
-  EXPECT_EQ(s.lr_sh_rest, c.lr_sh_rest);
-  EXPECT_EQ(s.lr_rotation, c.lr_rotation);
+  expect_three_rates_scaled(c.for_steps(120), c, 0.5f);
   // The small-image and the steps factors multiply.
   EXPECT_FLOAT_EQ(c.for_image(310, 94).for_steps(120).lr_opacity, c.lr_opacity);
   AdamConfig off;
@@ -157,13 +162,7 @@ TEST(AdamRates, SmallImagesGetFasterOpacityColourAndScaleRates) {
   EXPECT_DOUBLE_EQ(c.small_image_factor(1241, 376), 1.0);
   EXPECT_NEAR(c.small_image_factor(310, 94), 2.0, 1e-12);
   EXPECT_DOUBLE_EQ(c.small_image_factor(64, 48), 4.0);  // at most 4x
-  const AdamConfig s = c.for_image(310, 94);
-  EXPECT_FLOAT_EQ(s.lr_opacity, 2 * c.lr_opacity);
-  EXPECT_FLOAT_EQ(s.lr_sh_dc, 2 * c.lr_sh_dc);
-  EXPECT_FLOAT_EQ(s.lr_scale, 2 * c.lr_scale);
-  EXPECT_EQ(s.lr_position, c.lr_position);
-  EXPECT_EQ(s.lr_sh_rest, c.lr_sh_rest);
-  EXPECT_EQ(s.lr_rotation, c.lr_rotation);
+  expect_three_rates_scaled(c.for_image(310, 94), c, 2.0f);
   AdamConfig off;
   off.small_image_reference_px = 0;
   EXPECT_EQ(off.for_image(64, 48).lr_opacity, off.lr_opacity);
