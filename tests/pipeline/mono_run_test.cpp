@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 
 #include "chungs/common/log.hpp"
 #include "chungs/config/presets.hpp"
@@ -79,6 +80,43 @@ TEST(MonoRun, AStreetFromOneCameraMapsCloseToItsStereoRun) {
 // Keyframes every 2 m of the same street, swept against each other as a run does, scored against the
 // rendered depth. The bound 0.15 leaves room above the plane sweep's 0.07-0.11 on the street
 // (bench/README.md) for the spread between grid points.
+// A keyframe's depth is what its registration fixed: computed at once, or after later keyframes have
+// pushed its neighbours out of the window and a new scene depth is known (a load runs whenever a
+// worker takes it), the same map. Read at load time, those had made fixed pacing's runs differ.
+TEST(MultiviewKeyframes, ADepthDoesNotDependOnWhenItsLoadRuns) {
+  const synth::StreetDataset street(street_options(false));
+  MultiviewDepthConfig config;
+  config.keep_keyframes = 3;
+  const std::vector<size_t> frames{0, 2, 4, 6};
+  auto register_frame = [&](MultiviewKeyframes& mv, size_t i) {
+    FeedItem item;
+    item.frame = i;
+    item.pose = street.gt_pose(i);
+    item.keyframe = true;
+    item.keyframe_id = long(i);
+    mv.seen(item);
+  };
+  std::map<size_t, std::vector<float>> at_once, later;
+  MultiviewKeyframes a(street, 1.0, config, false, true, nullptr);
+  for (size_t i : frames) {
+    register_frame(a, i);
+    if (auto d = a.depth(i, street.frame(i).left).depth) at_once[i] = d->vec();
+  }
+  // Frames 2 and 4 load after frame 6 has pushed frame 0 out of the window and a scene depth is known.
+  MultiviewKeyframes b(street, 1.0, config, false, true, nullptr);
+  for (size_t i : {0, 2, 4}) register_frame(b, i);
+  EXPECT_FALSE(b.depth(0, street.frame(0).left).depth) << "the first keyframe waits for a neighbour";
+  b.set_scene_depth(2.0);
+  register_frame(b, 6);
+  for (size_t i : {2, 4, 6})
+    if (auto d = b.depth(i, street.frame(i).left).depth) later[i] = d->vec();
+  for (size_t i : {2, 4}) {
+    ASSERT_TRUE(at_once.count(i)) << "frame " << i << " has a neighbour";
+    ASSERT_TRUE(later.count(i)) << "frame " << i << ": its neighbours were pushed out of the window before its load";
+    EXPECT_EQ(at_once[i], later[i]) << "frame " << i;
+  }
+}
+
 TEST(MultiviewKeyframes, StreetDepthAgainstRenderedDepth) {
   const synth::StreetDataset street(street_options(true));
   MultiviewKeyframes mv(street, 1.0, MultiviewDepthConfig{}, false, true, nullptr);

@@ -23,6 +23,10 @@ struct MultiviewKeyframes::Entry {
   std::shared_ptr<const Image8> lazy;
   std::vector<size_t> late;  // pending keyframes whose depth this one's load computes
   bool alone = false;        // no earlier neighbour at registration: pending
+  // At registration (a mapped keyframe): the keyframes before it in the window and the scene depth;
+  // released once its depth is computed.
+  std::vector<std::shared_ptr<Entry>> earlier;
+  double scene_depth = 0;
 };
 
 MultiviewKeyframes::MultiviewKeyframes(const Dataset& dataset, double resolution, const MultiviewDepthConfig& config,
@@ -42,11 +46,12 @@ std::shared_ptr<MultiviewKeyframes::Entry> MultiviewKeyframes::find(size_t frame
   return nullptr;
 }
 
-std::vector<size_t> MultiviewKeyframes::choose(const SE3& ref, const std::vector<SE3>& others) const {
+std::vector<size_t> MultiviewKeyframes::choose(const SE3& ref, const std::vector<SE3>& others,
+                                               double scene_depth) const {
   if (others.empty()) return {};
   NeighbourChoice c = config_.choice;
   c.count = config_.neighbours;
-  c.scene_depth = scene_depth_ > 0 ? scene_depth_ : c.scene_depth * units_per_metre_;
+  c.scene_depth = scene_depth > 0 ? scene_depth : c.scene_depth * units_per_metre_;
   std::vector<SE3> poses{ref};
   poses.insert(poses.end(), others.begin(), others.end());
   std::vector<size_t> out = select_sweep_neighbours(camera_, poses, 0, c);
@@ -72,9 +77,12 @@ void MultiviewKeyframes::seen(const FeedItem& item) {
   if (!(item.keyframe && item.pose)) return;
   std::vector<SE3> earlier;
   for (const auto& e : entries_) earlier.push_back(e->pose);
-  const bool alone = choose(*item.pose, earlier).empty();
+  const bool alone = choose(*item.pose, earlier, scene_depth_).empty();
+  std::vector<std::shared_ptr<Entry>> before(entries_.begin(), entries_.end());
   const auto e = add(item.frame, item.keyframe_id, *item.pose, true);
   e->points = item.map_points;
+  e->earlier = std::move(before);
+  e->scene_depth = scene_depth_;
   ++keyframes_;
   // Pending keyframes this one gives a neighbour to: their depth is computed in its load.
   for (auto it = pending_.begin(); it != pending_.end();) {
@@ -82,7 +90,7 @@ void MultiviewKeyframes::seen(const FeedItem& item) {
     std::vector<SE3> others;
     for (const auto& x : entries_)
       if (x != p) others.push_back(x->pose);
-    if (p && !choose(p->pose, others).empty()) {
+    if (p && !choose(p->pose, others, scene_depth_).empty()) {
       e->late.push_back(*it);
       it = pending_.erase(it);
     } else {
@@ -133,12 +141,13 @@ void MultiviewKeyframes::failed(size_t frame, std::exception_ptr error) {
     e = find(frame);
     if (!e || e->published) return;
     e->published = true;
+    e->earlier.clear();
   }
   e->promise.set_exception(error);
 }
 
 std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vector<std::shared_ptr<Entry>>& candidates,
-                                                const Image8& image) {
+                                                const Image8& image, double scene_depth) {
   const auto t0 = std::chrono::steady_clock::now();
   SE3 ref_pose;
   std::vector<SE3> poses;
@@ -165,7 +174,7 @@ std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vec
   {
     std::lock_guard lock(mutex_);
     units_per_metre_ = upm;
-    chosen = choose(ref_pose, poses);
+    chosen = choose(ref_pose, poses, scene_depth);
     if (chosen.empty()) ++without_;
   }
   if (chosen.empty()) return std::nullopt;
@@ -199,25 +208,25 @@ MultiviewKeyframes::Result MultiviewKeyframes::depth(size_t frame, const Image8&
     if (!e) fail("multiview depth: frame ", frame, " was not registered as a keyframe");
     if (e->published) fail("multiview depth: frame ", frame, " was computed twice");
     e->published = true;
-    for (const auto& x : entries_)
-      if (x->seq < e->seq) before.push_back(x);
+    before = std::move(e->earlier);
+    e->earlier.clear();
   }
   e->promise.set_value(std::make_shared<const Image8>(image));
   Result r;
-  if (!e->alone) r.depth = sweep(*e, before, image);
+  if (!e->alone) r.depth = sweep(*e, before, image, e->scene_depth);
   for (size_t p : e->late) {
+    // The pending keyframe against the ones this keyframe's registration knew, this one included.
     std::shared_ptr<Entry> pe;
     std::vector<std::shared_ptr<Entry>> others;
-    {
-      std::lock_guard lock(mutex_);
-      pe = find(p);
-      if (!pe) continue;
-      for (const auto& x : entries_)
-        if (x != pe && x->seq <= e->seq) others.push_back(x);
-    }
+    for (const auto& x : before)
+      if (x->frame == p && x->mapped) pe = x;
+    if (!pe) continue;
+    for (const auto& x : before)
+      if (x != pe) others.push_back(x);
+    others.push_back(e);
     const auto img = image_of(*pe);
     if (!img) continue;
-    if (auto d = sweep(*pe, others, *img)) {
+    if (auto d = sweep(*pe, others, *img, e->scene_depth)) {
       r.late.emplace_back(p, std::move(*d));
       std::lock_guard lock(mutex_);
       ++late_;

@@ -11,6 +11,11 @@
 // The first keyframe has no earlier one: its sampling is deferred. At registration, a keyframe without
 // a usable neighbour among the earlier ones is pending; the first later keyframe with which it has one
 // computes its depth too (after its own), and the run samples it then (Mapper::add_late_depth).
+//
+// What a keyframe's sweeps choose from is fixed when it is registered: the keyframes before it and the
+// scene depth known then. A load runs whenever a worker takes it, by which time the run may have
+// registered later keyframes (pushing the oldest out of the window) and learnt a newer scene depth;
+// read then, they made fixed pacing's maps differ from run to run.
 #pragma once
 #include <deque>
 #include <future>
@@ -58,8 +63,9 @@ class MultiviewKeyframes {
   std::shared_ptr<Entry> find(size_t frame) const;  // under mutex_
   std::shared_ptr<const Image8> image_of(Entry& e);
   std::optional<ImageF> sweep(const Entry& ref, const std::vector<std::shared_ptr<Entry>>& candidates,
-                              const Image8& image);
-  std::vector<size_t> choose(const SE3& ref, const std::vector<SE3>& others) const;
+                              const Image8& image, double scene_depth);
+  // scene_depth: the median depth the choice's triangulation angle refers to (0: unknown yet).
+  std::vector<size_t> choose(const SE3& ref, const std::vector<SE3>& others, double scene_depth) const;
 
   const Dataset& dataset_;
   double resolution_;
