@@ -55,6 +55,18 @@ TEST(SynthHostile, PlyRefusesNonFiniteVertexNamingFileAndLine) {
   EXPECT_EQ(read_ply(dir / "m.ply").vertices.size(), 3u);
 }
 
+// Fuzzing found it (fuzz/corpus/mesh_ply/binary_header_ends_without_newline): a binary header whose
+// end_header is the file's last bytes, without a newline, had the body start one byte past the end
+// and read the vertices from beyond the buffer.
+TEST(SynthHostile, PlyHeaderEndingTheFileWithoutNewlineIsAnEarlyEndNotAnOverread) {
+  test::TempDir dir;
+  write_file(dir / "m.ply",
+             "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+             "property float z\nend_header");
+  const std::string e = error_of([&] { read_ply(dir / "m.ply"); });
+  EXPECT_NE(e.find("m.ply\": file ends early inside the vertex data"), std::string::npos) << e;
+}
+
 TEST(SynthHostile, PlyRefusesAFifoInsteadOfBlocking) {
   test::TempDir dir;
   const auto fifo = dir / "m.ply";

@@ -1,5 +1,6 @@
 #include "chungs/synth/ply.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstring>
@@ -120,7 +121,9 @@ Mesh read_ply(const std::filesystem::path& file) {
     if (nl == std::string::npos) nl = data.size();
     line = data.substr(pos, nl - pos);
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    pos = nl + 1;
+    // A last line without its newline ends at the end of the file, not one byte past it: the body
+    // read from there was empty, and its bounds checks passed a start beyond the end.
+    pos = std::min(nl + 1, data.size());
     ++line_no;
     return true;
   };
