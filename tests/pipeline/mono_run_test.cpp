@@ -77,9 +77,16 @@ TEST(MonoRun, AStreetFromOneCameraMapsCloseToItsStereoRun) {
   EXPECT_EQ(rm["multiview"]["deferred_then_sampled"].get<size_t>(), 1u);
 }
 
-// Keyframes every 2 m of the same street, swept against each other as a run does, scored against the
-// rendered depth. The bound 0.15 leaves room above the plane sweep's 0.07-0.11 on the street
-// (bench/README.md) for the spread between grid points.
+// Frame i of the street registered as a keyframe at its true pose, as the run's feed does.
+void register_keyframe(MultiviewKeyframes& mv, const synth::StreetDataset& street, size_t i) {
+  FeedItem item;
+  item.frame = i;
+  item.pose = street.gt_pose(i);
+  item.keyframe = true;
+  item.keyframe_id = long(i);
+  mv.seen(item);
+}
+
 // A keyframe's depth is what its registration fixed: computed at once, or after later keyframes have
 // pushed its neighbours out of the window and a new scene depth is known (a load runs whenever a
 // worker takes it), the same map. Read at load time, those had made fixed pacing's runs differ.
@@ -88,26 +95,18 @@ TEST(MultiviewKeyframes, ADepthDoesNotDependOnWhenItsLoadRuns) {
   MultiviewDepthConfig config;
   config.keep_keyframes = 3;
   const std::vector<size_t> frames{0, 2, 4, 6};
-  auto register_frame = [&](MultiviewKeyframes& mv, size_t i) {
-    FeedItem item;
-    item.frame = i;
-    item.pose = street.gt_pose(i);
-    item.keyframe = true;
-    item.keyframe_id = long(i);
-    mv.seen(item);
-  };
   std::map<size_t, std::vector<float>> at_once, later;
   MultiviewKeyframes a(street, 1.0, config, false, true, nullptr);
   for (size_t i : frames) {
-    register_frame(a, i);
+    register_keyframe(a, street, i);
     if (auto d = a.depth(i, street.frame(i).left).depth) at_once[i] = d->vec();
   }
   // Frames 2 and 4 load after frame 6 has pushed frame 0 out of the window and a scene depth is known.
   MultiviewKeyframes b(street, 1.0, config, false, true, nullptr);
-  for (size_t i : {0, 2, 4}) register_frame(b, i);
+  for (size_t i : {0, 2, 4}) register_keyframe(b, street, i);
   EXPECT_FALSE(b.depth(0, street.frame(0).left).depth) << "the first keyframe waits for a neighbour";
   b.set_scene_depth(2.0);
-  register_frame(b, 6);
+  register_keyframe(b, street, 6);
   for (size_t i : {2, 4, 6})
     if (auto d = b.depth(i, street.frame(i).left).depth) later[i] = d->vec();
   for (size_t i : {2, 4}) {
@@ -117,19 +116,15 @@ TEST(MultiviewKeyframes, ADepthDoesNotDependOnWhenItsLoadRuns) {
   }
 }
 
+// Keyframes every 2 m of the same street, swept against each other as a run does, scored against the
+// rendered depth. The bound 0.15 leaves room above the plane sweep's 0.07-0.11 on the street
+// (bench/README.md) for the spread between grid points.
 TEST(MultiviewKeyframes, StreetDepthAgainstRenderedDepth) {
   const synth::StreetDataset street(street_options(true));
   MultiviewKeyframes mv(street, 1.0, MultiviewDepthConfig{}, false, true, nullptr);
   std::vector<size_t> frames;
   for (size_t i = 0; i < std::min<size_t>(street.size(), 24); i += 2) frames.push_back(i);
-  for (size_t i : frames) {
-    FeedItem item;
-    item.frame = i;
-    item.pose = street.gt_pose(i);
-    item.keyframe = true;
-    item.keyframe_id = long(i);
-    mv.seen(item);
-  }
+  for (size_t i : frames) register_keyframe(mv, street, i);
   double sum = 0;
   size_t valid = 0, truth = 0, late = 0;
   auto score = [&](const ImageF& est, const ImageF& gt) {

@@ -75,10 +75,10 @@ void MultiviewKeyframes::seen(const FeedItem& item) {
   };
   for (const FeedItem::View& v : item.sweep_views) add(v.frame, v.id, v.pose, false);
   if (!(item.keyframe && item.pose)) return;
-  std::vector<SE3> earlier;
-  for (const auto& e : entries_) earlier.push_back(e->pose);
-  const bool alone = choose(*item.pose, earlier, scene_depth_).empty();
   std::vector<std::shared_ptr<Entry>> before(entries_.begin(), entries_.end());
+  std::vector<SE3> earlier;
+  for (const auto& x : before) earlier.push_back(x->pose);
+  const bool alone = choose(*item.pose, earlier, scene_depth_).empty();
   const auto e = add(item.frame, item.keyframe_id, *item.pose, true);
   e->points = item.map_points;
   e->earlier = std::move(before);
