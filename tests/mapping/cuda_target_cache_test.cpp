@@ -67,6 +67,46 @@ TEST(CudaTargetCache, ExpansionMatchesHostTargetsBitForBit) {
   }
 }
 
+// A cache over keyframes kf[0..]: use(i) expands keyframe i (key i + 1), counting the reads the cache
+// asks for and checking the colour target.
+struct CacheUse {
+  cuda::DeviceTargetCache& cache;
+  const std::vector<std::shared_ptr<const KeyframeImages>>& kf;
+  cuda::DeviceArray<float> rgb, inv;
+  cuda::DeviceArray<uint8_t> mask;
+  int loads = 0;
+  void operator()(int i) {
+    const StepTargets st{uint64_t(i) + 1, true, [this, i] {
+                           ++loads;
+                           return kf[size_t(i)];
+                         }};
+    cache.expand(st, rgb, inv, mask);
+    EXPECT_EQ(mismatches(rgb.download(), host_targets(*kf[size_t(i)], true).rgb.vec()), 0u) << "keyframe " << i;
+  }
+};
+
+TEST(CudaTargetCache, KeepsAtMostItsEntriesWhateverTheBytes) {
+  CHUNGS_REQUIRE_GPU();
+  std::mt19937 rng(11);
+  std::vector<std::shared_ptr<const KeyframeImages>> kf;
+  for (int i = 0; i < 4; ++i) kf.push_back(random_keyframe(24, 16, 3, true, rng));
+  cuda::DeviceTargetCache cache(64 << 20, 2);
+  CacheUse use{cache, kf};
+  use(0), use(1), use(0);
+  EXPECT_EQ(use.loads, 2);
+  use(2);  // two entries at most: 1, the least recently used, goes
+  EXPECT_EQ(cache.entries(), 2u);
+  use(0), use(2);
+  EXPECT_EQ(use.loads, 3);
+  use(1);
+  EXPECT_EQ(use.loads, 4);
+  cuda::DeviceTargetCache none(64 << 20, 0);  // keeps nothing
+  CacheUse use_none{none, kf};
+  use_none(0), use_none(0);
+  EXPECT_EQ(none.entries(), 0u);
+  EXPECT_EQ(none.uploads(), 2u);
+}
+
 TEST(CudaTargetCache, KeepsKeyframesUntilFullThenDropsTheLeastRecentlyUsed) {
   CHUNGS_REQUIRE_GPU();
   std::mt19937 rng(9);
@@ -75,30 +115,20 @@ TEST(CudaTargetCache, KeepsKeyframesUntilFullThenDropsTheLeastRecentlyUsed) {
   for (int i = 0; i < 5; ++i) kf.push_back(random_keyframe(40, 30, 3, true, rng));
   const size_t one = kf[0]->bytes();
   cuda::DeviceTargetCache cache(3 * one + one / 2);
-  cuda::DeviceArray<float> rgb, inv;
-  cuda::DeviceArray<uint8_t> mask;
-  int loads = 0;
-  auto use = [&](int i) {
-    const StepTargets st{uint64_t(i) + 1, true, [&, i] {
-                           ++loads;
-                           return kf[size_t(i)];
-                         }};
-    cache.expand(st, rgb, inv, mask);
-    EXPECT_EQ(mismatches(rgb.download(), host_targets(*kf[size_t(i)], true).rgb.vec()), 0u) << "keyframe " << i;
-  };
+  CacheUse use{cache, kf};
   use(0), use(1), use(2);
-  EXPECT_EQ(loads, 3);
+  EXPECT_EQ(use.loads, 3);
   use(0), use(1), use(2);  // all kept: no load
-  EXPECT_EQ(loads, 3);
+  EXPECT_EQ(use.loads, 3);
   EXPECT_EQ(cache.entries(), 3u);
   EXPECT_EQ(cache.bytes(), 3 * one);
   use(3);  // full: keyframe 0, the least recently used, goes
-  EXPECT_EQ(loads, 4);
+  EXPECT_EQ(use.loads, 4);
   EXPECT_EQ(cache.entries(), 3u);
   use(1), use(2), use(3);
-  EXPECT_EQ(loads, 4);
+  EXPECT_EQ(use.loads, 4);
   use(0);  // loaded again
-  EXPECT_EQ(loads, 5);
+  EXPECT_EQ(use.loads, 5);
   EXPECT_LE(cache.bytes(), 3 * one + one / 2);
 }
 

@@ -59,6 +59,38 @@ TEST(KeyframeSelector, AWindowNarrowsTheCellUntilTheNextKeyframe) {
   EXPECT_EQ(s.candidates().size(), 7u);
 }
 
+TEST(KeyframeSelector, CandidatesAreCappedToTheNearestWithTheLatestAmongThem) {
+  KeyframeSelectorConfig c;
+  c.max_candidates = 3;
+  KeyframeSelector s(c);
+  // Along a street a metre apart, then back to x = 2.5: the nearest three are 2, 3 and the latest.
+  for (uint32_t i = 0; i < 8; ++i) s.add(i, {double(i), 0, 0});
+  s.add(8, {2.5, 0, 0});
+  EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{2, 3, 8}));
+  std::mt19937_64 rng(4);
+  std::map<uint32_t, int> seen;
+  for (int i = 0; i < 100; ++i) ++seen[s.pick(rng)];
+  EXPECT_EQ(seen.size(), 3u);
+  for (const auto& [id, n] : seen) EXPECT_TRUE(id == 2 || id == 3 || id == 8) << id;
+  // A new keyframe moves the cap with it.
+  s.add(9, {7.2, 0, 0});
+  EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{6, 7, 9}));
+  c.max_candidates = 0;  // no cap
+  KeyframeSelector all(c);
+  for (uint32_t i = 0; i < 8; ++i) all.add(i, {double(i), 0, 0});
+  EXPECT_EQ(all.candidates().size(), 8u);
+}
+
+TEST(KeyframeSelector, ACachedCandidateListFollowsEveryAddAndWindow) {
+  KeyframeSelector s;
+  for (uint32_t i = 0; i < 4; ++i) s.add(i, {10.0 * i, 0, 0});
+  EXPECT_EQ(s.candidates().size(), 4u);
+  s.restrict_to({2});
+  EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{2, 3}));
+  s.add(1, {10000, 0, 0});  // an existing keyframe moved far away (a loop correction) and made latest
+  EXPECT_EQ(s.candidates(), (std::vector<uint32_t>{1}));
+}
+
 TEST(KeyframeSelector, ACellPickRangesBeyondTheWindowAndSaysWhichAreInIt) {
   KeyframeSelector s;
   for (uint32_t i = 0; i < 6; ++i) s.add(i, {10.0 * i, 0, 0});

@@ -185,6 +185,7 @@ void fields(V& v, KeyframeSelectorConfig& c) {
   v("budget_cell_size", c.budget_cell_size, "metres, the cell while the budget narrows training to a window");
   v("around_latest", c.around_latest,
     "candidates within cell_size / 2 of the latest keyframe instead of its grid cell");
+  v("max_candidates", c.max_candidates, "at most this many candidates, the nearest (0: no limit)");
   v("new_uses", c.new_uses, "remaining uses of a new keyframe");
   v("top_loss_fraction", c.top_loss_fraction, "share of candidates by loss that get an extra use");
   v("budget_share", c.budget_share, "most of the budget the keyframes trained on together may need");

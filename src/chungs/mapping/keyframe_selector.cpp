@@ -33,18 +33,29 @@ void KeyframeSelector::add(uint32_t id, const Eigen::Vector3d& position, int use
   keyframes_[id] = {id, position, uses < 0 ? config_.new_uses : uses, last_loss};
   latest_ = id;
   window_.clear();
+  cache_valid_[0] = cache_valid_[1] = false;
 }
 
 void KeyframeSelector::restrict_to(std::vector<uint32_t> ids) {
   std::sort(ids.begin(), ids.end());
   window_ = std::move(ids);
+  cache_valid_[0] = cache_valid_[1] = false;
 }
 
 bool KeyframeSelector::in_window(uint32_t id) const {
   return window_.empty() || id == latest_ || std::binary_search(window_.begin(), window_.end(), id);
 }
 
-std::vector<uint32_t> KeyframeSelector::in_cell(PickScope scope) const {
+const std::vector<uint32_t>& KeyframeSelector::in_cell(PickScope scope) const {
+  const int k = scope == PickScope::window ? 0 : 1;
+  if (!cache_valid_[k]) {
+    cached_[k] = find_in_cell(scope);
+    cache_valid_[k] = true;
+  }
+  return cached_[k];
+}
+
+std::vector<uint32_t> KeyframeSelector::find_in_cell(PickScope scope) const {
   std::vector<uint32_t> out;
   if (keyframes_.empty()) return out;
   const Eigen::Vector3d& here = keyframes_.at(latest_).position;
@@ -56,12 +67,21 @@ std::vector<uint32_t> KeyframeSelector::in_cell(PickScope scope) const {
         config_.around_latest ? (k.position - here).squaredNorm() <= r2 : cell_of(k.position, size) == c;
     if (window_.empty() ? near : (in_window(id) || (near && scope == PickScope::cell))) out.push_back(id);
   }
+  if (config_.max_candidates > 0 && out.size() > config_.max_candidates) {
+    // The nearest (ties: lower id), the latest first of all.
+    const auto d2 = [&](uint32_t id) {
+      return id == latest_ ? -1.0 : (keyframes_.at(id).position - here).squaredNorm();
+    };
+    std::nth_element(out.begin(), out.begin() + std::ptrdiff_t(config_.max_candidates - 1), out.end(),
+                     [&](uint32_t a, uint32_t b) { return d2(a) != d2(b) ? d2(a) < d2(b) : a < b; });
+    out.resize(config_.max_candidates);
+  }
   std::sort(out.begin(), out.end());
   return out;
 }
 
 uint32_t KeyframeSelector::pick(std::mt19937_64& rng, PickScope scope) {
-  const std::vector<uint32_t> cand = in_cell(scope);
+  const std::vector<uint32_t>& cand = in_cell(scope);
   if (cand.empty()) fail("keyframe selector: no keyframe to pick from");
   long long total = 0;
   for (uint32_t id : cand) total += keyframes_[id].uses;

@@ -33,6 +33,10 @@ struct KeyframeSelectorConfig {
   // steps between a few views, and the keyframes just behind the border get none: on a 1 km street
   // the grid scored 1.0-1.2 dB below this at 30 and 100 steps per keyframe (bench/README.md).
   bool around_latest = true;
+  // At most this many candidates, the nearest (0: no limit): the keyframes the paper keeps in VRAM, and
+  // what the CUDA backend's image cache holds by default. A 600 m cell of keyframes a metre apart held
+  // 523, and a step at 1241x376 then spent 1.4 ms fetching and uploading images (bench_step_loop).
+  size_t max_candidates = 400;
   int new_uses = 8;
   double top_loss_fraction = 0.25;
   // The keyframes trained on together may need at most this share of the budget (their chunks'
@@ -68,7 +72,7 @@ class KeyframeSelector {
   // Keyframes in the latest keyframe's cell (within the window, if one is set), ascending. While a
   // window is set the cell is budget_cell_size, and the window's keyframes are in it whatever their
   // distance.
-  std::vector<uint32_t> candidates() const { return in_cell(PickScope::window); }
+  const std::vector<uint32_t>& candidates() const { return in_cell(PickScope::window); }
   // Whether the keyframe is a candidate of the window (true when there is none).
   bool in_window(uint32_t id) const;
   // Narrows the candidates to these keyframes until the next add(); empty: the whole cell. The
@@ -87,12 +91,17 @@ class KeyframeSelector {
   };
   Cell cell_of(const Eigen::Vector3d& p, double size) const;
   double current_cell_size() const { return window_.empty() ? config_.cell_size : config_.budget_cell_size; }
-  std::vector<uint32_t> in_cell(PickScope scope) const;
+  const std::vector<uint32_t>& in_cell(PickScope scope) const;
+  std::vector<uint32_t> find_in_cell(PickScope scope) const;
   KeyframeSelectorConfig config_;
   std::unordered_map<uint32_t, KeyframeUsage> keyframes_;
   std::vector<uint32_t> order_;  // insertion order
   uint32_t latest_ = 0;
   std::vector<uint32_t> window_;  // sorted; empty: no window
+  // in_cell's answer per scope, until the next add() or restrict_to(): a step picks every few
+  // milliseconds, and the scan over every keyframe of the run grows with the drive.
+  mutable std::vector<uint32_t> cached_[2];
+  mutable bool cache_valid_[2] = {false, false};
 };
 
 }  // namespace chungs

@@ -49,7 +49,8 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   }
   backend_ =
       make_optim_backend(device_, pool_capacity(config_.residency), store_->sh_degree(), config_.raster,
-                         size_t(config_.mapper.gpu_keyframe_cache_mb) << 20);
+                         size_t(config_.mapper.gpu_keyframe_cache_mb) << 20,
+                         config_.selector.max_candidates > 0 ? config_.selector.max_candidates : SIZE_MAX);
   ResidencyConfig rc = config_.residency;
   // In-core comparison: nothing may leave memory before the run stops once the map passes the
   // budget, so eviction starts only at the pool's full capacity (which the stop never reaches:
@@ -388,10 +389,14 @@ StepStats Mapper::step() {
   const PickScope scope = config_.selector.partial_views ? PickScope::cell : PickScope::window;
   const uint32_t keyframe = next_pick_ ? *next_pick_ : selector_.pick(rng_, scope);
   next_pick_ = selector_.pick(rng_, scope);
-  // A pick outside the window loads nothing: its step uses what is resident.
-  if (const KeyframeRecord* next = find_keyframe(*next_pick_); next && selector_.in_window(next->id)) {
-    const std::vector<ChunkId> ahead = visible_chunks(next->camera, next->pose);
-    residency_->prefetch(ahead);
+  // A pick outside the window loads no chunk: its step uses what is resident. Its images are read
+  // ahead all the same (they are scored, and its coverage is built from its depth): on a 2 km street
+  // under a 300 k budget, 432 keyframe reads had waited, 0.85 s of the optimiser's time.
+  if (const KeyframeRecord* next = find_keyframe(*next_pick_)) {
+    if (selector_.in_window(next->id)) {
+      const std::vector<ChunkId> ahead = visible_chunks(next->camera, next->pose);
+      residency_->prefetch(ahead);
+    }
     keyframe_store_->prefetch(next->id);
   }
   step_times_.pick_ms += ms_since(t0);

@@ -47,8 +47,9 @@ struct MapperConfig {
                                     // checkpoint and a report) once the map outgrows the budget
   std::string device = "auto";      // optimisation on auto | cuda | cpu (auto: cuda when a GPU is usable)
   // On the GPU: VRAM that keeps keyframe images for the steps (least recently used go first), so a
-  // step uploads nothing. 1 GB holds ~300 KITTI keyframes at full resolution (the paper keeps 400).
-  int gpu_keyframe_cache_mb = 1024;
+  // step uploads nothing; never more keyframes than selector.max_candidates (400, as the paper keeps).
+  // 2 GB holds ~620 KITTI keyframes at full resolution, so the 400 fit (1.3 GB).
+  int gpu_keyframe_cache_mb = 2048;
   void validate() const;
 };
 

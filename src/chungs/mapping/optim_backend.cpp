@@ -37,12 +37,15 @@ std::string resolve_device(const std::string& device) {
 }
 
 std::unique_ptr<OptimBackend> make_optim_backend(const std::string& device, size_t capacity, int sh_degree,
-                                                 const RasterConfig& raster, size_t target_cache_bytes) {
+                                                 const RasterConfig& raster, size_t target_cache_bytes,
+                                                 size_t target_cache_entries) {
   const std::string d = resolve_device(device);
 #if CHUNGS_WITH_CUDA
-  if (d == "cuda") return std::make_unique<cuda::CudaOptimBackend>(capacity, sh_degree, raster, target_cache_bytes);
+  if (d == "cuda")
+    return std::make_unique<cuda::CudaOptimBackend>(capacity, sh_degree, raster, target_cache_bytes,
+                                                    target_cache_entries);
 #endif
-  (void)target_cache_bytes;  // the CPU backend reads the keyframe store's host copies
+  (void)target_cache_bytes, (void)target_cache_entries;  // the CPU backend reads the store's host copies
   return std::make_unique<CpuOptimBackend>(capacity, sh_degree, raster);
 }
 

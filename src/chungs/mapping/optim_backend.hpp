@@ -78,9 +78,10 @@ class OptimBackend {
 // "auto" -> "cuda" when this build has the CUDA backend and a device is present, else "cpu".
 // "cuda" without either throws Error saying which is missing; anything but auto|cpu|cuda throws.
 std::string resolve_device(const std::string& device);
-// A backend for a resolved device with a pool of `capacity` slots; a GPU backend keeps step targets in
-// up to `target_cache_bytes` of VRAM.
+// A backend for a resolved device with a pool of `capacity` slots; a GPU backend keeps the step targets
+// of up to `target_cache_entries` keyframes in up to `target_cache_bytes` of VRAM.
 std::unique_ptr<OptimBackend> make_optim_backend(const std::string& device, size_t capacity, int sh_degree,
-                                                 const RasterConfig& raster, size_t target_cache_bytes = 0);
+                                                 const RasterConfig& raster, size_t target_cache_bytes = 0,
+                                                 size_t target_cache_entries = SIZE_MAX);
 
 }  // namespace chungs

@@ -16,8 +16,8 @@ GaussianArraysMut<float> params_of(const PoolDeviceArrays& d, int k) {
 }  // namespace
 
 CudaOptimBackend::CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster,
-                                   size_t target_cache_bytes)
-    : pool_(capacity, sh_degree), raster_(raster), targets_(target_cache_bytes) {}
+                                   size_t target_cache_bytes, size_t target_cache_entries)
+    : pool_(capacity, sh_degree), raster_(raster), targets_(target_cache_bytes, target_cache_entries) {}
 
 void CudaOptimBackend::upload_slots(std::span<const uint32_t> slots) {
   ids_ = static_cast<const uint32_t*>(staging_.upload(slots.data(), slots.size_bytes(), "slot list"));

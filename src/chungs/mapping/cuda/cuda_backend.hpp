@@ -19,7 +19,8 @@ namespace chungs::cuda {
 
 class CudaOptimBackend final : public OptimBackend {
  public:
-  CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster, size_t target_cache_bytes = 0);
+  CudaOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster, size_t target_cache_bytes = 0,
+                   size_t target_cache_entries = SIZE_MAX);
   std::string name() const override { return "cuda"; }
   GaussianPool& pool() override { return pool_; }
   RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) override;

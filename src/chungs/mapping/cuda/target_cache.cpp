@@ -33,10 +33,10 @@ DeviceTargets DeviceTargetCache::expand(const StepTargets& targets, DeviceArray<
     const auto images = targets.load();
     if (!images) fail("step targets: keyframe images missing");
     const size_t need = images->bytes();
-    if (targets.key == 0 || need > capacity_) {
+    if (targets.key == 0 || need > capacity_ || max_entries_ == 0) {
       e = &upload(*images, scratch_);
     } else {
-      while (bytes_ + need > capacity_ && !lru_.empty()) {
+      while ((bytes_ + need > capacity_ || entries_.size() >= max_entries_) && !lru_.empty()) {
         auto victim = entries_.find(lru_.back());
         bytes_ -= victim->second.bytes;
         entries_.erase(victim);

@@ -4,6 +4,7 @@
 // (its CPU twin). Before, every step converted the images on the host and uploaded them: ~9 MB a
 // step at KITTI's full resolution. No CUDA headers here (the kernel lives in target_cache.cu).
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <list>
 #include <unordered_map>
@@ -27,7 +28,9 @@ struct DeviceTargets {
 
 class DeviceTargetCache {
  public:
-  explicit DeviceTargetCache(size_t capacity_bytes) : capacity_(capacity_bytes) {}
+  // At most `capacity_bytes` and `max_entries` keyframes.
+  explicit DeviceTargetCache(size_t capacity_bytes, size_t max_entries = SIZE_MAX)
+      : capacity_(capacity_bytes), max_entries_(max_entries) {}
   // The float targets of `targets` in rgb (3 channels), inv_depth and mask (device, resized).
   DeviceTargets expand(const StepTargets& targets, DeviceArray<float>& rgb, DeviceArray<float>& inv_depth,
                        DeviceArray<uint8_t>& mask);
@@ -45,7 +48,7 @@ class DeviceTargetCache {
   };
   Entry& upload(const KeyframeImages& images, Entry& e);
 
-  size_t capacity_, bytes_ = 0;
+  size_t capacity_, max_entries_, bytes_ = 0;
   uint64_t uploads_ = 0;
   std::unordered_map<uint64_t, Entry> entries_;
   std::list<uint64_t> lru_;  // most recent first

@@ -20,14 +20,21 @@ __global__ void adam_kernel(AdamLaunch a, uint32_t* __restrict__ bad) {
     if (lane == 0 && bad) atomicMin(bad, j);
     return;
   }
-  const uint32_t t = a.steps[s] + 1;
-  const float f = a.factor[s];
-  __syncwarp();
-  // As the CPU twin: the bias corrections in double, then rounded. beta^t as exp(t ln beta): a double
-  // pow per Gaussian had been a large share of the kernel; both agree to a few double ulps, far
-  // below the float the factors are rounded to.
-  const float c1 = float(1 / (1 - exp(double(t) * a.log_beta1)));
-  const float c2 = float(1 / (1 - exp(double(t) * a.log_beta2)));
+  // Lane 0 reads the step count and computes the bias corrections for the warp. As the CPU twin: in
+  // double, then rounded. beta^t as exp(t ln beta): a double pow per Gaussian had been a large share
+  // of the kernel; both agree to a few double ulps, far below the float the factors are rounded to.
+  uint32_t t = 0;
+  float f = 0, c1 = 0, c2 = 0;
+  if (lane == 0) {
+    t = a.steps[s] + 1;
+    f = a.factor[s];
+    c1 = float(1 / (1 - exp(double(t) * a.log_beta1)));
+    c2 = float(1 / (1 - exp(double(t) * a.log_beta2)));
+  }
+  t = __shfl_sync(0xffffffffu, t, 0);
+  f = __shfl_sync(0xffffffffu, f, 0);
+  c1 = __shfl_sync(0xffffffffu, c1, 0);
+  c2 = __shfl_sync(0xffffffffu, c2, 0);
 #pragma unroll
   for (int h = 0; h < 2; ++h) {
     const int e = lane + 32 * h;  // 0..2 mean, 3..5 log_scale, 6..9 rotation, 10 opacity, 11..58 sh

@@ -3,6 +3,11 @@
 // backward: 128, two pixels each); the tile's splats are staged through shared memory in batches. The
 // Gaussian falloff uses the fast exponential (relative error ~1e-7 over the exponents that pass the alpha
 // cut-off).
+// Most splats are a few pixels wide, so a warp's 8x4 (backward 8x8) pixels lie outside most of its
+// tile's splats: when a batch is staged, each splat gets a bit per warp whose pixels its ellipse's box
+// (widened by a pixel against rounding) reaches, and a warp walks only the splats of its bits, in order.
+// A splat skipped that way has no pixel of the warp with power >= its cut-off, so the images and
+// gradients are those of walking every splat.
 #include "chungs/render/cuda/kernels.cuh"
 #include "chungs/render/render_output.hpp"
 
@@ -13,18 +18,47 @@ namespace {
 struct Batch {
   float4 a[kBlock], b[kBlock], c[kBlock];
   uint32_t j[kBlock];
+  uint8_t warps[kBlock];  // bit w: the splat may reach a pixel of warp w
 };
 
+// Bits of the warps (rectangles of 8 x `rows` pixels: warp w at column 8 (w & 1), row rows (w >> 1))
+// that the box of splat (a, b) reaches in the tile whose first pixel is (x0, y0). All bits when the
+// box cannot be trusted (a degenerate conic).
+template <int kWarps, int kRows>
+__device__ __forceinline__ uint8_t warps_reached(float4 a, float4 b, int x0, int y0) {
+  const float q = -2.f * a.w, dc = b.x * b.z - b.y * b.y;
+  const float ex = sqrtf(q * b.z / dc), ey = sqrtf(q * b.x / dc);
+  if (!(ex < 1e6f && ey < 1e6f)) return uint8_t((1u << kWarps) - 1);  // NaN or huge: no culling
+  const float mx = a.x - float(x0), my = a.y - float(y0);
+  const float rx = ex * 1.001f + 1.f, ry = ey * 1.001f + 1.f;
+  uint32_t bits = 0;
+#pragma unroll
+  for (int w = 0; w < kWarps; ++w) {
+    const float c0 = float(8 * (w & 1)), r0 = float(kRows * (w >> 1));
+    if (mx + rx >= c0 && mx - rx <= c0 + 7.f && my + ry >= r0 && my - ry <= r0 + float(kRows - 1))
+      bits |= 1u << w;
+  }
+  return uint8_t(bits);
+}
+
+template <int kWarps, int kRows>
 __device__ __forceinline__ void load_batch(Batch& sm, const uint32_t* list, SplatData s, uint32_t begin,
-                                           uint32_t end, bool need_c) {
+                                           uint32_t end, int x0, int y0) {
   const uint32_t e = begin + threadIdx.x;
   if (e < end) {
     const uint32_t j = list[e];
+    const float4 a = s.a[j], b = s.b[j];
     sm.j[threadIdx.x] = j;
-    sm.a[threadIdx.x] = s.a[j];
-    sm.b[threadIdx.x] = s.b[j];
-    if (need_c) sm.c[threadIdx.x] = s.c[j];
+    sm.a[threadIdx.x] = a;
+    sm.b[threadIdx.x] = b;
+    sm.c[threadIdx.x] = s.c[j];
+    sm.warps[threadIdx.x] = warps_reached<kWarps, kRows>(a, b, x0, y0);
   }
+}
+
+// The splats among batch entries [g, g + 32) (of m) that reach warp `warp`, one bit each.
+__device__ __forceinline__ uint32_t reaching(const Batch& sm, int g, int m, int warp, int lane) {
+  return __ballot_sync(0xffffffffu, g + lane < m && ((sm.warps[g + lane] >> warp) & 1));
 }
 
 __global__ void __launch_bounds__(kBlock)
@@ -40,32 +74,40 @@ __global__ void __launch_bounds__(kBlock)
   const float fx = float(x), fy = float(y);
   const uint2 range = ranges[tile];
 
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
+  const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
+
   float T = 1.f, acc[5] = {0, 0, 0, 0, 0}, best_w = 0.f;
   int best = -1;
   uint32_t cnt = 0;
   bool done = !inside;
   for (uint32_t base = range.x; base < range.y; base += kBlock) {
     if (__syncthreads_count(done) == kBlock) break;
-    load_batch(sm, list, s, base, range.y, true);
+    load_batch<8, 4>(sm, list, s, base, range.y, x0, y0);
     __syncthreads();
     const int m = min(kBlock, int(range.y - base));
-    for (int i = 0; i < m && !done; ++i) {
-      const float4 a = sm.a[i], b = sm.b[i];
-      const float dx = fx - a.x, dy = fy - a.y;
-      const float power = -0.5f * (b.x * dx * dx + b.z * dy * dy) - (b.y * dy) * dx;
-      if (!(power >= a.w)) continue;
-      const float alpha = fminf(k.alpha_max, a.z * __expf(power));
-      const float nT = T * (1.f - alpha);
-      if (nT < k.min_T) {
-        done = true;
-        break;
+    for (int g0 = 0; g0 < m; g0 += 32) {
+      if (__all_sync(0xffffffffu, done)) break;
+      for (uint32_t bits = reaching(sm, g0, m, warp, lane); bits; bits &= bits - 1) {
+        if (done) continue;
+        const int i = g0 + __ffs(bits) - 1;
+        const float4 a = sm.a[i], b = sm.b[i];
+        const float dx = fx - a.x, dy = fy - a.y;
+        const float power = -0.5f * (b.x * dx * dx + b.z * dy * dy) - (b.y * dy) * dx;
+        if (!(power >= a.w)) continue;
+        const float alpha = fminf(k.alpha_max, a.z * __expf(power));
+        const float nT = T * (1.f - alpha);
+        if (nT < k.min_T) {
+          done = true;
+          continue;
+        }
+        const float w = alpha * T;
+        const float4 c = sm.c[i];
+        acc[0] += w * c.x, acc[1] += w * c.y, acc[2] += w * c.z, acc[3] += w * b.w, acc[4] += w * c.w;
+        T = nT;
+        if (w > best_w) best_w = w, best = int(sm.j[i]);
+        cnt = base - range.x + i + 1;
       }
-      const float w = alpha * T;
-      const float4 c = sm.c[i];
-      acc[0] += w * c.x, acc[1] += w * c.y, acc[2] += w * c.z, acc[3] += w * b.w, acc[4] += w * c.w;
-      T = nT;
-      if (w > best_w) best_w = w, best = int(sm.j[i]);
-      cnt = base - range.x + i + 1;
     }
   }
   if (!inside) return;
@@ -171,68 +213,65 @@ __global__ void __launch_bounds__(kBlock / P)
 #pragma unroll
   for (int o = 16; o > 0; o >>= 1) warp_stop = max(warp_stop, __shfl_xor_sync(0xffffffffu, warp_stop, o));
 
+  const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
   for (uint32_t base = range.x; base < end; base += kThreads) {
     __syncthreads();  // the previous batch is consumed
-    const uint32_t e = base + threadIdx.x;
-    if (e < end) {
-      const uint32_t j = list[e];
-      sm.j[threadIdx.x] = j;
-      sm.a[threadIdx.x] = s.a[j];
-      sm.b[threadIdx.x] = s.b[j];
-      sm.c[threadIdx.x] = s.c[j];
-    }
+    load_batch<kThreads / 32, 4 * P>(sm, list, s, base, end, x0, y0);
     __syncthreads();
     const int m = min(kThreads, int(range.x + warp_stop) - int(base));
-    for (int i = 0; i < m; ++i) {
-      const float4 a = sm.a[i], b = sm.b[i];
-      const uint32_t entry = base - range.x + i;
-      const float dx = fx - a.x;
-      float dy[P], power[P];
-      bool live[P], any_live = false;
+    for (int g0 = 0; g0 < m; g0 += 32) {
+      for (uint32_t bits = reaching(sm, g0, m, warp, lane); bits; bits &= bits - 1) {
+        const int i = g0 + __ffs(bits) - 1;
+        const float4 a = sm.a[i], b = sm.b[i];
+        const uint32_t entry = base - range.x + i;
+        const float dx = fx - a.x;
+        float dy[P], power[P];
+        bool live[P], any_live = false;
 #pragma unroll
-      for (int q = 0; q < P; ++q) {
-        dy[q] = fy[q] - a.y;
-        power[q] = -0.5f * (b.x * dx * dx + b.z * dy[q] * dy[q]) - (b.y * dy[q]) * dx;
-        live[q] = power[q] >= a.w && entry < stop[q];
-        any_live |= live[q];
-      }
-      if (!__any_sync(0xffffffffu, any_live)) continue;
-      float v[kSplatGrads] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
-      const float4 c = sm.c[i];
-      const float feat[5] = {c.x, c.y, c.z, b.w, c.w};
-#pragma unroll
-      for (int q = 0; q < P; ++q) {
-        if (!live[q]) continue;
-        const float G = __expf(power[q]);
-        const float raw = a.z * G;
-        const bool clamped = raw > k.alpha_max;
-        const float alpha = clamped ? k.alpha_max : raw;
-        const float w = alpha * T[q];
-        const float inv_1ma = 1.f / (1.f - alpha);
-        float dalpha = galpha_Tf[q] * inv_1ma;
-#pragma unroll
-        for (int ch = 0; ch < 5; ++ch) {
-          acc[q][ch] += w * feat[ch];
-          dalpha += g[q][ch] * (feat[ch] * T[q] - (fin[q][ch] - acc[q][ch]) * inv_1ma);
+        for (int q = 0; q < P; ++q) {
+          dy[q] = fy[q] - a.y;
+          power[q] = -0.5f * (b.x * dx * dx + b.z * dy[q] * dy[q]) - (b.y * dy[q]) * dx;
+          live[q] = power[q] >= a.w && entry < stop[q];
+          any_live |= live[q];
         }
-        T[q] *= 1.f - alpha;
-        const float dal = clamped ? 0.f : dalpha;
-        const float gpow = dal * alpha;
-        v[0] += gpow * (b.x * dx + b.y * dy[q]);
-        v[1] += gpow * (b.y * dx + b.z * dy[q]);
-        v[2] += gpow * (-0.5f * dx * dx);
-        v[3] -= gpow * (dx * dy[q]);
-        v[4] += gpow * (-0.5f * dy[q] * dy[q]);
-        v[5] += dal * G;
-        v[6] += w * g[q][0], v[7] += w * g[q][1], v[8] += w * g[q][2];
-        v[9] += w * (g[q][3] - g[q][4] * c.w * c.w);
+        if (!__any_sync(0xffffffffu, any_live)) continue;
+        float v[kSplatGrads] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+        const float4 c = sm.c[i];
+        const float feat[5] = {c.x, c.y, c.z, b.w, c.w};
+#pragma unroll
+        for (int q = 0; q < P; ++q) {
+          if (!live[q]) continue;
+          const float G = __expf(power[q]);
+          const float raw = a.z * G;
+          const bool clamped = raw > k.alpha_max;
+          const float alpha = clamped ? k.alpha_max : raw;
+          const float w = alpha * T[q];
+          const float inv_1ma = 1.f / (1.f - alpha);
+          float dalpha = galpha_Tf[q] * inv_1ma;
+#pragma unroll
+          for (int ch = 0; ch < 5; ++ch) {
+            acc[q][ch] += w * feat[ch];
+            dalpha += g[q][ch] * (feat[ch] * T[q] - (fin[q][ch] - acc[q][ch]) * inv_1ma);
+          }
+          T[q] *= 1.f - alpha;
+          const float dal = clamped ? 0.f : dalpha;
+          const float gpow = dal * alpha;
+          v[0] += gpow * (b.x * dx + b.y * dy[q]);
+          v[1] += gpow * (b.y * dx + b.z * dy[q]);
+          v[2] += gpow * (-0.5f * dx * dx);
+          v[3] -= gpow * (dx * dy[q]);
+          v[4] += gpow * (-0.5f * dy[q] * dy[q]);
+          v[5] += dal * G;
+          v[6] += w * g[q][0], v[7] += w * g[q][1], v[8] += w * g[q][2];
+          v[9] += w * (g[q][3] - g[q][4] * c.w * c.w);
+        }
+        fold<10>(v, lane, 16);
+        fold<5>(v, lane, 8);
+        fold<3>(v, lane, 4);
+        fold<2>(v, lane, 2);
+        v[0] += __shfl_xor_sync(0xffffffffu, v[0], 1);
+        if (writer) atomicAdd(splat_grads + size_t(sm.j[i]) * kSplatGrads + my_index, v[0]);
       }
-      fold<10>(v, lane, 16);
-      fold<5>(v, lane, 8);
-      fold<3>(v, lane, 4);
-      fold<2>(v, lane, 2);
-      v[0] += __shfl_xor_sync(0xffffffffu, v[0], 1);
-      if (writer) atomicAdd(splat_grads + size_t(sm.j[i]) * kSplatGrads + my_index, v[0]);
     }
   }
 }
