@@ -70,9 +70,22 @@ TEST(MultiviewDepth, AGridSweepSpreadEdgeAwareCoversTheTexturedSurfaces) {
   EXPECT_FALSE(d.prior);
   EXPECT_GT(s.coverage, 0.8);
   EXPECT_LT(s.abs_rel, 0.05);
-  EXPECT_EQ(d.valid, size_t(std::count_if(d.depth.vec().begin(), d.depth.vec().end(), [](float z) { return z > 0; })));
+  const auto with_depth = [](const MultiviewDepth& m) {
+    return size_t(std::count_if(m.depth.vec().begin(), m.depth.vec().end(), [](float z) { return z > 0; }));
+  };
+  EXPECT_EQ(d.valid + d.filled, with_depth(d));
+  EXPECT_EQ(with_depth(d), d.depth.pixels()) << "the fill gives every pixel depth";
   for (size_t i = 0; i < d.depth.pixels(); ++i)
     ASSERT_EQ(d.depth.vec()[i] > 0, d.confidence.vec()[i] > 0) << "pixel " << i;
+  // Without the fill, only the spread's confident pixels have depth, and the filled ones were not.
+  MultiviewDepthConfig no_fill = config();
+  no_fill.fill_holes = false;
+  const MultiviewDepth spread = multiview_depth(v.input(), no_fill, nullptr);
+  EXPECT_EQ(spread.filled, 0u);
+  EXPECT_EQ(spread.valid, with_depth(spread));
+  EXPECT_EQ(spread.valid, d.valid);
+  for (size_t i = 0; i < d.depth.pixels(); ++i)
+    if (spread.depth.vec()[i] > 0) ASSERT_EQ(spread.depth.vec()[i], d.depth.vec()[i]) << "pixel " << i;
   // The untextured patch lies on the wall: where the spread reaches it, it carries the wall's depth,
   // which is the patch's (the sweep alone keeps none of it).
   EXPECT_LT(s.flat_abs_rel, 0.05);

@@ -121,7 +121,9 @@ TEST(MultiviewKeyframes, ADepthDoesNotDependOnWhenItsLoadRuns) {
 // (bench/README.md) for the spread between grid points.
 TEST(MultiviewKeyframes, StreetDepthAgainstRenderedDepth) {
   const synth::StreetDataset street(street_options(true));
-  MultiviewKeyframes mv(street, 1.0, MultiviewDepthConfig{}, false, true, nullptr);
+  MultiviewDepthConfig c;
+  c.fill_holes = false;  // as run has it outdoors, where the sampler's fill depth takes the sky
+  MultiviewKeyframes mv(street, 1.0, c, false, true, nullptr);
   std::vector<size_t> frames;
   for (size_t i = 0; i < std::min<size_t>(street.size(), 24); i += 2) frames.push_back(i);
   for (size_t i : frames) register_keyframe(mv, street, i);

@@ -171,6 +171,8 @@ void fields(V& v, MultiviewDepthConfig& c) {
   v("min_prior_points", c.min_prior_points, "tracker map points in view for a prior (else the wide sweep)");
   v("min_confidence", c.min_confidence, "spread depth below this confidence is dropped");
   v("keep_keyframes", c.keep_keyframes, "recent keyframes kept (images) to choose neighbours from");
+  v("fill_holes", c.fill_holes,
+    "pixels left without depth get a membrane fill of the others' inverse depth (not with a fill depth)");
   v("near", c.sweep.near, "wide sweep from (metres; a monocular tracker's unit is scaled to its points)");
   v("far", c.sweep.far, "... to (metres)");
   v("prior_range", c.sweep.prior_range, "sweep around a prior: its inverse depth x (1 -+ this)");

@@ -57,8 +57,9 @@ Camera freiburg_camera(const fs::path& dir) {
     c.dist = {0.2312, -0.7849, -0.0033, -0.0001, 0.9172};
   } else if (name.find("freiburg3") != std::string::npos) {
     c = Camera(640, 480, 535.4, 539.2, 320.1, 247.6);
-  } else {
-    log::info(dir.string(), ": folder name does not say freiburg1/2/3; using default intrinsics 525/525/319.5/239.5");
+  } else if (!fs::exists(dir / "calib.txt")) {
+    log::info(dir.string(), ": folder name does not say freiburg1/2/3 and there is no calib.txt; using default ",
+              "intrinsics 525/525/319.5/239.5");
   }
   return c;
 }

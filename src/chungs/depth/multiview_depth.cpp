@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "chungs/common/error.hpp"
+#include "chungs/depth/hole_fill.hpp"
 
 namespace chungs {
 
@@ -98,6 +99,22 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
       out.confidence(x, y) = c;
       ++out.valid;
     }
+  if (config.fill_holes && out.valid > 0 && out.valid < image.pixels()) {
+    ImageF inv(w, h, 1, 0.0f);
+    for (size_t i = 0; i < inv.vec().size(); ++i)
+      if (out.depth.vec()[i] > 0) inv.vec()[i] = 1.0f / out.depth.vec()[i];
+    const ImageF full = fill_holes_membrane(inv);
+    // Below every spread pixel's confidence: a filled pixel is a guess from its surroundings.
+    const float guess = float(std::max(config.min_confidence, 0.01) / 2);
+    for (size_t i = 0; i < inv.vec().size(); ++i) {
+      if (inv.vec()[i] > 0 || !(full.vec()[i] > 0)) continue;
+      const float z = 1.0f / full.vec()[i];
+      if (!(z >= sweep.near && z <= sweep.far)) continue;
+      out.depth.vec()[i] = z;
+      out.confidence.vec()[i] = guess;
+      ++out.filled;
+    }
+  }
   return out;
 }
 

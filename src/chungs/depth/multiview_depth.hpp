@@ -55,6 +55,10 @@ struct MultiviewDepthConfig {
   // synthetic room, +2.9 on Replica office0 (bench/README.md).
   double min_confidence = 0.25;
   int keep_keyframes = 24;  // recent keyframes whose images the run keeps for the sweep
+  // Pixels left without depth get the membrane interpolation of the others in inverse depth
+  // (hole_fill.hpp), so that untextured walls get Gaussians. run turns it off where the sampler has a
+  // fill depth (outdoors), since there they are mostly sky.
+  bool fill_holes = true;
   // RGB-D and stereo input: the depth of each pixel the sampler draws is polished by the sweep against
   // `neighbours` earlier keyframes over its inverse depth -+ the range (1/m; the paper's ranges) where
   // the sweep is confident (depth_refine.hpp). On: held-out +0.29 dB on KITTI stereo with ground-truth
@@ -82,6 +86,7 @@ struct MultiviewDepth {
   ImageF depth;       // the poses' units along the optical axis, 0 where invalid; the reference's size
   ImageF confidence;  // (0, 1] where valid
   size_t swept = 0, matched = 0, valid = 0;  // grid pixels swept, of them given depth, pixels with depth
+  size_t filled = 0;                         // pixels given depth by fill_holes (not in valid)
   bool prior = false;  // whether a prior narrowed the sweep
 };
 

@@ -194,6 +194,7 @@ std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vec
     with_prior_ += d.prior;
     swept_ += d.swept;
     valid_share_ += double(d.valid) / double(std::max<size_t>(image.pixels(), 1));
+    filled_share_ += double(d.filled) / double(std::max<size_t>(image.pixels(), 1));
     ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   return d.depth;
@@ -247,7 +248,8 @@ nlohmann::json MultiviewKeyframes::report() const {
           {"prior_source", prior_ ? prior_->name() : "none"},
           {"mean_ms", ms_ / n},
           {"swept_pixels_per_keyframe", double(swept_) / n},
-          {"valid_share", valid_share_ / n}};
+          {"valid_share", valid_share_ / n},
+          {"filled_share", filled_share_ / n}};
 }
 
 }  // namespace chungs

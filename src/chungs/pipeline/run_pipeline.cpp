@@ -217,8 +217,12 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     std::shared_ptr<const DepthPriorSource> prior =
         std::make_shared<MapPointPrior>(cfg.multiview.min_prior_points, cfg.multiview.densify);
     if (learned) prior = learned_prior = std::make_shared<LearnedPrior>(learned, InverseDepthFitOptions{}, prior);
-    multiview = std::make_unique<MultiviewKeyframes>(*dataset, mc.resolution, cfg.multiview,
-                                                     mapper.device() == "cuda", metric, prior);
+    MultiviewDepthConfig mv = cfg.multiview;
+    // Outdoors the pixels without depth are mostly sky, which the sampler's fill depth puts far away; a
+    // membrane between the buildings' depths would bring the sky down onto them.
+    if (cfg.sampler.fill_depth > 0) mv.fill_holes = false;
+    multiview = std::make_unique<MultiviewKeyframes>(*dataset, mc.resolution, mv, mapper.device() == "cuda",
+                                                     metric, prior);
   }
   // Measured depth polished at the sampled pixels by the sweep against earlier keyframes (issue 25).
   if (cfg.multiview.refine && (mode == DepthMode::Sensor || mode == DepthMode::Stereo)) {
