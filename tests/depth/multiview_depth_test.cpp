@@ -161,6 +161,7 @@ TEST(MultiviewDepth, BadSettingsAndInputsAreRefusedByName) {
   };
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.stride = 0; }, "stride");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.neighbours = 9; }, "neighbours");
+  refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.refine_neighbours = 0; }, "refine_neighbours");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.min_confidence = 1.5; }, "min_confidence");
   refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.units_per_metre = 0; }, "units_per_metre");
   refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.neighbours.clear(); }, "neighbour");

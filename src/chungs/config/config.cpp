@@ -178,6 +178,7 @@ void fields(V& v, MultiviewDepthConfig& c) {
   v("prior_range", c.sweep.prior_range, "sweep around a prior: its inverse depth x (1 -+ this)");
   v("refine", c.refine,
     "RGB-D and stereo input: polish the depth of sampled pixels by a sweep against earlier keyframes");
+  v("refine_neighbours", c.refine_neighbours, "refine: earlier keyframes swept against (1 to 8)");
   v("refine_rgbd_range", c.refine_rgbd_range, "refine: sensor depth's inverse depth -+ this (1/m)");
   v("refine_stereo_range", c.refine_stereo_range, "refine: stereo depth's inverse depth -+ this (1/m)");
 }

@@ -13,6 +13,8 @@ void MultiviewDepthConfig::validate() const {
   if (stride < 1 || stride > 64) fail("multiview: stride ", stride, " (1 to 64)");
   if (cuda_stride < 1 || cuda_stride > 64) fail("multiview: cuda_stride ", cuda_stride, " (1 to 64)");
   if (neighbours < 1 || neighbours > 8) fail("multiview: neighbours ", neighbours, " (1 to 8)");
+  if (refine_neighbours < 1 || refine_neighbours > 8)
+    fail("multiview: refine_neighbours ", refine_neighbours, " (1 to 8)");
   if (!(min_confidence >= 0 && min_confidence <= 1)) fail("multiview: min_confidence ", min_confidence, " (0 to 1)");
   if (keep_keyframes < 2 || keep_keyframes > 1000) fail("multiview: keep_keyframes ", keep_keyframes, " (2 to 1000)");
   for (const auto& [key, r] : {std::pair{"refine_rgbd_range", refine_rgbd_range},

@@ -47,7 +47,10 @@ class MapPointPrior : public DepthPriorSource {
 struct MultiviewDepthConfig {
   int stride = 4;       // host: sweep every stride-th pixel per axis (then spread edge-aware)
   int cuda_stride = 1;  // under --device cuda
-  size_t neighbours = 4;  // keyframes swept against (best first, select_sweep_neighbours); the paper: 6
+  // Keyframes swept against (best first, select_sweep_neighbours), the paper's 6: against 4, held-out
+  // +0.9 dB on Replica office0, +0.4 on KITTI, +0.3 on a street from one camera, the room unchanged
+  // (bench/README.md), for a sweep 1.5x as long.
+  size_t neighbours = 6;
   size_t min_prior_points = 20;  // map points in view below which there is no prior (the sweep goes wide)
   // Spread depth is kept where its confidence (prior_densify's, from the swept samples' support) is
   // at least this: pixels far from any confident sample of their own surface get none. 0.25 kept
@@ -60,11 +63,12 @@ struct MultiviewDepthConfig {
   // fill depth (outdoors), since there they are mostly sky.
   bool fill_holes = true;
   // RGB-D and stereo input: the depth of each pixel the sampler draws is polished by the sweep against
-  // `neighbours` earlier keyframes over its inverse depth -+ the range (1/m; the paper's ranges) where
+  // `refine_neighbours` earlier keyframes over its inverse depth -+ the range (1/m; the paper's ranges) where
   // the sweep is confident (depth_refine.hpp). On: held-out +0.29 dB on KITTI stereo with ground-truth
   // poses, +0.08 tracked, +0.21 on the synthetic RGB-D room, two CPU runs each (bench/README.md). run
   // skips it under anytime pacing, where its time would come out of the optimiser's steps.
   bool refine = true;
+  size_t refine_neighbours = 4;  // keyframes the refinement sweeps against (measured with 4)
   double refine_rgbd_range = 0.05, refine_stereo_range = 0.01;
   PlaneSweepConfig sweep;
   NeighbourChoice choice;

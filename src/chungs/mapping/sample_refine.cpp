@@ -24,7 +24,7 @@ void refine_sampled_depths(const Camera& camera, const SE3& pose, uint32_t id,
   std::vector<SE3> poses{pose};
   for (const KeyframeRecord* k : candidates) poses.push_back(k->pose);
   NeighbourChoice choice = config.choice;
-  choice.count = config.neighbours;
+  choice.count = config.refine_neighbours;
   // The pixels' own depths say where the triangulation angle matters (no guess at a scene depth).
   std::nth_element(z.begin(), z.begin() + long(z.size() / 2), z.end());
   choice.scene_depth = double(z[z.size() / 2]);
