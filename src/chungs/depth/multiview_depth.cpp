@@ -91,6 +91,7 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
     if (p.depth > 0 && std::isfinite(p.depth) && p.depth >= sweep.near && p.depth <= sweep.far) samples.push_back(p);
 
   const DensePrior dense = densify_prior(image, samples, config.densify);
+  ImageF kept(w, h, 1, 0.0f);  // inverse depth of the pixels given depth, what the fill starts from
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const float inv = dense.inv_depth(x, y), c = dense.confidence(x, y);
@@ -99,17 +100,15 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
       if (!(z >= sweep.near && z <= sweep.far)) continue;
       out.depth(x, y) = z;
       out.confidence(x, y) = c;
+      kept(x, y) = 1.0f / z;
       ++out.valid;
     }
   if (config.fill_holes && out.valid > 0 && out.valid < image.pixels()) {
-    ImageF inv(w, h, 1, 0.0f);
-    for (size_t i = 0; i < inv.vec().size(); ++i)
-      if (out.depth.vec()[i] > 0) inv.vec()[i] = 1.0f / out.depth.vec()[i];
-    const ImageF full = fill_holes_membrane(inv);
+    const ImageF full = fill_holes_membrane(kept);
     // Below every spread pixel's confidence: a filled pixel is a guess from its surroundings.
     const float guess = float(std::max(config.min_confidence, 0.01) / 2);
-    for (size_t i = 0; i < inv.vec().size(); ++i) {
-      if (inv.vec()[i] > 0 || !(full.vec()[i] > 0)) continue;
+    for (size_t i = 0; i < kept.vec().size(); ++i) {
+      if (kept.vec()[i] > 0 || !(full.vec()[i] > 0)) continue;
       const float z = 1.0f / full.vec()[i];
       if (!(z >= sweep.near && z <= sweep.far)) continue;
       out.depth.vec()[i] = z;

@@ -69,13 +69,13 @@ __global__ void __launch_bounds__(kBlock)
   const int tile = blockIdx.x;
   int lx, ly;
   pixel_of_thread(threadIdx.x, lx, ly);
-  const int x = (tile % tiles_x) * kTileSize + lx, y = (tile / tiles_x) * kTileSize + ly;
+  const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;  // the tile's first pixel
+  const int x = x0 + lx, y = y0 + ly;
   const bool inside = x < W && y < H;
   const float fx = float(x), fy = float(y);
   const uint2 range = ranges[tile];
 
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
-  const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
 
   float T = 1.f, acc[5] = {0, 0, 0, 0, 0}, best_w = 0.f;
   int best = -1;
@@ -171,7 +171,8 @@ __global__ void __launch_bounds__(kBlock / P)
   const int tile = blockIdx.x;
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
   const int lx = (warp & 1) * 8 + (lane & 7), ly0 = (warp >> 1) * 4 * P + (lane >> 3);
-  const int x = (tile % tiles_x) * kTileSize + lx;
+  const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;  // the tile's first pixel
+  const int x = x0 + lx;
   const float fx = float(x);
   const int my_index = reduced_index(lane);
   const bool writer = (lane & 1) == 0 && my_index >= 0;
@@ -182,7 +183,7 @@ __global__ void __launch_bounds__(kBlock / P)
   uint32_t stop[P], my_stop = 0;
 #pragma unroll
   for (int q = 0; q < P; ++q) {
-    const int y = (tile / tiles_x) * kTileSize + ly0 + 4 * q;
+    const int y = y0 + ly0 + 4 * q;
     fy[q] = float(y);
     T[q] = 1.f, galpha_Tf[q] = 0.f, stop[q] = 0;
 #pragma unroll
@@ -213,7 +214,6 @@ __global__ void __launch_bounds__(kBlock / P)
 #pragma unroll
   for (int o = 16; o > 0; o >>= 1) warp_stop = max(warp_stop, __shfl_xor_sync(0xffffffffu, warp_stop, o));
 
-  const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
   for (uint32_t base = range.x; base < end; base += kThreads) {
     __syncthreads();  // the previous batch is consumed
     load_batch<kThreads / 32, 4 * P>(sm, list, s, base, end, x0, y0);
