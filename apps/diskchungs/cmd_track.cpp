@@ -60,8 +60,8 @@ int run_track(const TrackArgs& a) {
   opt.local_ba = !a.no_ba;
   opt.loop_closure = !a.no_loop;
   if (a.rgbd_baseline > 0) opt.rgbd_virtual_baseline = a.rgbd_baseline;
-  if (a.kf_min_interval >= 0) opt.min_keyframe_interval = a.kf_min_interval;
-  if (a.kf_max_interval >= 0) opt.max_keyframe_interval = a.kf_max_interval;
+  if (a.kf_min_interval >= 0) (mono ? opt.mono_min_keyframe_interval : opt.min_keyframe_interval) = a.kf_min_interval;
+  if (a.kf_max_interval >= 0) (mono ? opt.mono_max_keyframe_interval : opt.max_keyframe_interval) = a.kf_max_interval;
   tracking::VisualTracker tracker(opt);
   const size_t n = a.max_frames ? std::min(size_t(a.max_frames), ds->size()) : ds->size();
   Trajectory gt;

@@ -163,6 +163,8 @@ TEST(MultiviewDepth, BadSettingsAndInputsAreRefusedByName) {
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.neighbours = 9; }, "neighbours");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.refine_neighbours = 0; }, "refine_neighbours");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.min_confidence = 1.5; }, "min_confidence");
+  refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.choice.scene_depth = 0; }, "scene_depth");
+  refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.choice.scene_depth = std::nan(""); }, "scene_depth");
   refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.units_per_metre = 0; }, "units_per_metre");
   refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.neighbours.clear(); }, "neighbour");
   refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.reference.image = nullptr; }, "reference");

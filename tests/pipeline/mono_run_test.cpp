@@ -77,6 +77,42 @@ TEST(MonoRun, AStreetFromOneCameraMapsCloseToItsStereoRun) {
   EXPECT_EQ(rm["multiview"]["deferred_then_sampled"].get<size_t>(), 1u);
 }
 
+// One camera's tracker sets the map's unit at its first keyframe; `run` sets that keyframe's median depth
+// to multiview.scene_depth metres (10 outdoors) so that the metric settings keep their sense. The street's
+// views are 5-20 m deep, so the unit is within a factor 2 of a metre (it was ~1/10 of the tracker's own
+// convention, median depth 1), and twice the setting gives a map twice as large.
+TEST(MonoRun, ATrackedMapFromOneCameraIsNearlyInMetres) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  synth::StreetDatasetOptions so = street_options(false);
+  so.width = 620;  // the tracker needs more than 310x94 (bench/README.md, "Monocular tracking")
+  so.height = 188;
+  so.max_frames = 24;
+  const auto mono = with_input_mode(std::make_unique<synth::StreetDataset>(so), InputMode::Mono);
+  Config c = street_config();
+  c.mapper.iterations_per_keyframe = 1;
+  c.mapper.final_iterations = 0;
+  c.mapper.resolution = 0.5;
+  auto scale = [&](double scene_depth, const char* name) {
+    c.multiview.choice.scene_depth = scene_depth;
+    RunOptions o;
+    o.dataset = "synth-street:mono";
+    o.out = dir / name;
+    o.config = c;
+    o.poses = "track";
+    const nlohmann::json r = run_mapping(o, *mono);
+    EXPECT_EQ(r["tracking"]["map_segments"].get<int>(), 1) << name;
+    EXPECT_EQ(r["tracking"]["ate"]["alignment"], "sim3") << name;
+    // The alignment's scale takes the tracker's units to metres.
+    return r["tracking"]["ate"]["transform"]["scale"].get<double>();
+  };
+  const double s10 = scale(10, "unit10"), s20 = scale(20, "unit20");
+  std::printf("metres per map unit: %.3f (scene depth 10 m), %.3f (20 m)\n", s10, s20);
+  EXPECT_GT(s10, 0.5);
+  EXPECT_LT(s10, 2.0);
+  EXPECT_NEAR(s20, s10 / 2, 0.1 * s10);
+}
+
 // Frame i of the street registered as a keyframe at its true pose, as the run's feed does.
 void register_keyframe(MultiviewKeyframes& mv, const synth::StreetDataset& street, size_t i) {
   FeedItem item;

@@ -171,6 +171,9 @@ void fields(V& v, MultiviewDepthConfig& c) {
   v("min_prior_points", c.min_prior_points, "tracker map points in view for a prior (else the wide sweep)");
   v("min_confidence", c.min_confidence, "spread depth below this confidence is dropped");
   v("keep_keyframes", c.keep_keyframes, "recent keyframes kept (images) to choose neighbours from");
+  v("scene_depth", c.choice.scene_depth,
+    "metres, a typical depth of a view: the neighbour choice's before the run knows its depth, "
+    "and one camera's tracked map unit (its first keyframe's median depth is set to this)");
   v("fill_holes", c.fill_holes,
     "pixels left without depth get a membrane fill of the others' inverse depth (not with a fill depth)");
   v("near", c.sweep.near, "wide sweep from (metres; a monocular tracker's unit is scaled to its points)");

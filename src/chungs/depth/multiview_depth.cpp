@@ -20,6 +20,8 @@ void MultiviewDepthConfig::validate() const {
   for (const auto& [key, r] : {std::pair{"refine_rgbd_range", refine_rgbd_range},
                                 std::pair{"refine_stereo_range", refine_stereo_range}})
     if (!(r > 0 && r <= 10)) fail("multiview: ", key, " is an inverse depth in 1/m, above 0 and at most 10; got ", r);
+  if (!(choice.scene_depth > 0 && choice.scene_depth <= 1e4))
+    fail("multiview: scene_depth ", choice.scene_depth, " (metres, above 0 and at most 10000)");
   sweep.validate();
   densify.validate();
 }

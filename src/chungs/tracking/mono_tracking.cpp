@@ -168,8 +168,9 @@ bool VisualTracker::need_keyframe_mono(const Current& c, int inliers) const {
   const size_t since = c.index - last_kf_frame_;
   if (since < 1) return false;
   if (opt_.mono_max_keyframe_interval > 0 && since >= size_t(opt_.mono_max_keyframe_interval)) return true;
-  // Keyframes a frame apart see the same points from nearly the same place: little parallax for new points
-  // and a local BA window that spans only metres. A frame that tracks few points makes one anyway.
+  // A minimum spacing (mono_min_keyframe_interval, 1 by default) keeps keyframes apart; a frame that tracks
+  // few points makes one anyway. Spaced 3 frames apart, the keyframes came too late at the street's tight
+  // corners: the map ran out of points and tracking was lost (bench/README.md, "Monocular tracking").
   const bool weak = inliers < 3 * opt_.mono_min_inliers;
   if (weak) return true;
   if (since < size_t(opt_.mono_min_keyframe_interval)) return false;

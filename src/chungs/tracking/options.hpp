@@ -45,7 +45,8 @@ struct TrackerOptions {
   int mono_min_inliers = 15;             // tracked map points needed (fewer: lost)
   float mono_keyframe_ratio = 0.75f;     // new keyframe when tracked < ratio * the reference's confirmed points
   int mono_max_keyframe_interval = 8;    // ... or this many frames after the last (0: no limit)
-  int mono_min_keyframe_interval = 3;    // frames after a keyframe before the next, unless tracking weakens
+  int mono_min_keyframe_interval = 1;    // frames after a keyframe before the next, unless tracking weakens
+                                         // (3 lost the map at tight corners, and gave the mapper half the views)
   int mono_ba_window = 8;                // keyframes optimised by local BA
   int mono_neighbours = 10;              // keyframes new points are triangulated against
   double mono_point_parallax_deg = 1.0;  // least parallax of a new point's two rays
