@@ -74,7 +74,6 @@ Options parse(int argc, char** argv) {
 Config outdoor(const Options& o) {
   Config c;
   c.loss = LossConfig::kitti();
-  c.adam.lr_position = AdamConfig::kitti().lr_position;
   c.sampler.fill_depth = 80.0;
   c.sky.enabled = true;
   c.mapper.device = o.device;

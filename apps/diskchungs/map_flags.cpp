@@ -16,7 +16,7 @@ void add_map_flags(CLI::App& app, MapFlags& f) {
   app.add_option("--poses", f.o.poses, "gt (ground truth), a TUM/KITTI trajectory file, or track (the visual tracker)")
       ->capture_default_str();
   app.add_option("--config", f.config_file, "YAML configuration (see diskchungs info --config)");
-  app.add_option("--preset", f.preset, "auto | outdoor | indoor: loss and learning-rate defaults")
+  app.add_option("--preset", f.preset, "auto | outdoor | indoor: loss, fill depth and sky defaults")
       ->capture_default_str();
   app.add_option("--budget", f.budget, "resident Gaussians at most");
   app.add_option("--chunk-size", f.chunk_size, "chunk edge in metres (new maps)");

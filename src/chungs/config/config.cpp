@@ -78,7 +78,7 @@ void fields(V& v, LossConfig& c) {
 }
 template <class V>
 void fields(V& v, AdamConfig& c) {
-  v("lr_position", c.lr_position, "1e-3 outdoor (KITTI), 5e-5 indoor");
+  v("lr_position", c.lr_position, "metres (the paper: 1e-3 outdoor, 5e-5 indoor; here 1e-3 both)");
   v("position_decay", c.position_decay, "position lr factor per visit");
   v("position_lr_floor", c.position_lr_floor, "lowest position lr factor");
   v("lr_sh_dc", c.lr_sh_dc, "");

@@ -10,12 +10,10 @@ void apply_preset(Config& c, const std::string& preset, const std::string& datas
     p = dataset.rfind("kitti:", 0) == 0 || dataset.rfind("synth-street:", 0) == 0 ? "outdoor" : "indoor";
   if (p == "outdoor") {
     c.loss = LossConfig::kitti();
-    c.adam.lr_position = AdamConfig::kitti().lr_position;
     c.sampler.fill_depth = 80.0;  // far field beyond the stereo range
     c.sky.enabled = true;         // the sky behind everything (render/sky.hpp)
   } else if (p == "indoor") {
     c.loss = LossConfig::indoor();
-    c.adam.lr_position = AdamConfig::indoor().lr_position;
   } else {
     fail("--preset must be auto, outdoor or indoor, got '", preset, "'");
   }
