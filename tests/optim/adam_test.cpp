@@ -175,5 +175,16 @@ TEST(AdamRates, SmallImagesGetFasterOpacityColourAndScaleRates) {
   }
 }
 
+TEST(AdamRates, TheOneCameraPositionFactorIsRefusedOutsideItsRange) {
+  for (float bad : {0.0f, -1.0f, 101.0f, float(NAN), float(INFINITY)}) {
+    AdamConfig b;
+    b.multiview_position_factor = bad;
+    EXPECT_THROW(b.validate(), Error) << bad;
+  }
+  AdamConfig ok;
+  ok.multiview_position_factor = 1.0f;  // off
+  EXPECT_NO_THROW(ok.validate());
+}
+
 }  // namespace
 }  // namespace chungs

@@ -73,6 +73,9 @@ TEST(MonoRun, AStreetFromOneCameraMapsCloseToItsStereoRun) {
   EXPECT_EQ(rm["depth"], "multiview");
   EXPECT_GT(rm["gaussians"]["total"].get<uint64_t>(), 1000u);
   EXPECT_GT(pm, ps - 3.0);
+  // Swept depth is a guess: the run raises the position rate for it (adam.multiview_position_factor).
+  EXPECT_NEAR(rm["settings"]["lr_position"].get<double>(),
+              rs["settings"]["lr_position"].get<double>() * AdamConfig().multiview_position_factor, 1e-9);
   EXPECT_EQ(rm["multiview"]["deferred"].get<size_t>(), 1u);  // the first keyframe
   EXPECT_EQ(rm["multiview"]["deferred_then_sampled"].get<size_t>(), 1u);
 }

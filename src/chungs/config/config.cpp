@@ -79,6 +79,8 @@ void fields(V& v, LossConfig& c) {
 template <class V>
 void fields(V& v, AdamConfig& c) {
   v("lr_position", c.lr_position, "metres (the paper: 1e-3 outdoor, 5e-5 indoor; here 1e-3 both)");
+  v("multiview_position_factor", c.multiview_position_factor,
+    "one camera (depth from the plane sweep): lr_position is multiplied by this");
   v("position_decay", c.position_decay, "position lr factor per visit");
   v("position_lr_floor", c.position_lr_floor, "lowest position lr factor");
   v("lr_sh_dc", c.lr_sh_dc, "");

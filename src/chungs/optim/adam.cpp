@@ -16,6 +16,8 @@ void AdamConfig::validate() const {
                          {lr_scale, "lr_scale"},
                          {lr_rotation, "lr_rotation"}})
     if (!(v >= 0) || !std::isfinite(v)) fail("Adam config: ", name, " must be >= 0, got ", v);
+  if (!(multiview_position_factor > 0 && multiview_position_factor <= 100))
+    fail("Adam config: multiview_position_factor must be above 0 and at most 100, got ", multiview_position_factor);
   if (!(position_decay > 0 && position_decay <= 1))
     fail("Adam config: position_decay must be in (0, 1], got ", position_decay);
   if (!(position_lr_floor >= 0 && position_lr_floor <= 1))

@@ -124,7 +124,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     log::warn("--mono-depth-model: this run's depth is ", depth_mode_name(mode),
               ", so the model is not used (it gives the plane sweep of monocular input its prior)");
 
-  Mapper mapper(o.out, cfg, o.resume);
+  // Depth from the plane sweep is a guess: its Gaussians get a higher position rate (adam.hpp).
+  Config mapper_cfg = cfg;
+  if (mode == DepthMode::Multiview) mapper_cfg.adam.lr_position *= cfg.adam.multiview_position_factor;
+  Mapper mapper(o.out, mapper_cfg, o.resume);
   const nlohmann::json& prev = mapper.resumed_state();
   size_t start = 0;
   double carried_seconds = 0;
@@ -440,7 +443,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                         {"budget_gaussians", cfg.residency.budget_gaussians},
                         {"chunk_size_m", cfg.store.chunk_size},
                         {"lambda_depth", cfg.loss.lambda_depth},
-                        {"lr_position", cfg.adam.lr_position},
+                        {"lr_position", mapper_cfg.adam.lr_position},
                         {"lr_small_image_factor", cfg.adam.small_image_factor(width, height)},
                         {"lr_reference_steps", cfg.adam.reference_steps},
                         {"lr_steps_factor", mapper.rate_steps_factor()},
