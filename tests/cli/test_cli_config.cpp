@@ -41,6 +41,6 @@ TEST(CliConfig, AFileNamingOneKeyKeepsTheDatasetsPreset) {
   const nlohmann::json indoor =
       run_street(dir / "indoor", "--preset indoor --config " + (dir / "budget.yaml").string());
   ASSERT_TRUE(indoor.contains("settings"));
-  EXPECT_NE(indoor["settings"]["lr_position"], plain["settings"]["lr_position"]);
+  EXPECT_NE(indoor["settings"]["lambda_depth"], plain["settings"]["lambda_depth"]);
   EXPECT_EQ(indoor["settings"]["budget_gaussians"], 123456);
 }
