@@ -193,7 +193,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   // One camera measures no scale, so its tracker sets the map's unit at its first keyframe. Setting that
   // keyframe's median depth to a typical scene's metres keeps the metric settings (chunk size, far plane,
   // fill depth, position learning rate, keyframe spacing) near their meaning: with a unit of "median depth
-  // 1" (~12 m on KITTI) a 10 m chunk spanned 120 m and held-out PSNR fell 0.9 dB (bench/README.md).
+  // 1" (~15 m on KITTI) a 10 m chunk spanned 150 m and held-out PSNR fell 0.9 dB (bench/README.md).
   tracking::TrackerOptions tracker_options = o.tracker;
   if (tracked && !info.has_depth && !info.has_right)
     tracker_options.mono_init.target_median_depth = cfg.multiview.choice.scene_depth;
