@@ -97,6 +97,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
            "x", kMinSide, " that mapping needs");
   }
   const bool tracked = o.poses == "track";
+  // A tracker with depth or a second camera measures metres; one camera alone has its own unit.
+  const bool own_unit = tracked && !info.has_depth && !info.has_right;
   if (tracked && o.resume)
     fail(o.out.string(),
          ": --resume continues runs on given poses only; for a tracked run write the "
@@ -195,7 +197,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   // fill depth, position learning rate, keyframe spacing) near their meaning: with a unit of "median depth
   // 1" (~15 m on KITTI) a 10 m chunk spanned 150 m and held-out PSNR fell 0.9 dB (bench/README.md).
   tracking::TrackerOptions tracker_options = o.tracker;
-  if (tracked && !info.has_depth && !info.has_right)
+  if (own_unit)
     tracker_options.mono_init.target_median_depth = cfg.multiview.choice.scene_depth;
   std::unique_ptr<FrameFeed> feed =
       tracked
@@ -222,8 +224,6 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   std::unique_ptr<MultiviewKeyframes> multiview;
   std::shared_ptr<const LearnedPrior> learned_prior;
   if (mode == DepthMode::Multiview) {
-    // A tracker with depth or a second camera measures metres; one camera alone has its own unit.
-    const bool metric = !tracked || info.has_depth || info.has_right;
     std::shared_ptr<const DepthPriorSource> prior =
         std::make_shared<MapPointPrior>(cfg.multiview.min_prior_points, cfg.multiview.densify);
     if (learned) prior = learned_prior = std::make_shared<LearnedPrior>(learned, InverseDepthFitOptions{}, prior);
@@ -232,7 +232,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     // membrane between the buildings' depths would bring the sky down onto them.
     if (cfg.sampler.fill_depth > 0) mv.fill_holes = false;
     multiview = std::make_unique<MultiviewKeyframes>(*dataset, mc.resolution, mv, mapper.device() == "cuda",
-                                                     metric, prior);
+                                                     !own_unit, prior);
   }
   // Measured depth polished at the sampled pixels by the sweep against earlier keyframes (issue 25).
   if (cfg.multiview.refine && (mode == DepthMode::Sensor || mode == DepthMode::Stereo)) {
@@ -402,7 +402,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   for (size_t i = 0; i < std::min(done, poses.size()); ++i)
     if (poses[i]) traj.push_back(dataset->timestamp(i), *poses[i]);
   // A tracker with one camera: its unit is its own, and the file says so (eval ate then aligns with Sim(3)).
-  write_tum_trajectory(o.out / "trajectory.txt", traj, tracked && !info.has_depth && !info.has_right);
+  write_tum_trajectory(o.out / "trajectory.txt", traj, own_unit);
   // The last sample sees the run as it ends (after the final checkpoint), so the plot, the CSV and
   // the report's times agree.
   disk_measured_at = -1e9;
