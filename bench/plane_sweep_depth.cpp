@@ -8,9 +8,9 @@
 // around; without it the sweep is wide (near..far).
 //
 //   bench_plane_sweep_depth [--dataset kitti:PATH|street:LENGTH_M,W,H[,SEED]] [--reference stereo|dataset] [--keyframes 5] [--first 10]
-//                           [--every 20] [--window 6] [--neighbours 4] [--scale 0.5] [--samples 5000]
+//                           [--every 20] [--window 6] [--ahead WINDOW] [--neighbours 4] [--scale 0.5] [--samples 5000]
 //                           [--near 2] [--far 80] [--scene-depth 15] [--prior-points 0] [--prior-noise 0.1]
-//                           [--max-rel-per-px 0.1] [--best-k 3] [--dense 1] [--stride 0]
+//                           [--max-rel-per-px 0.1] [--best-k 3] [--dense 1] [--stride 0] [--anchor 0.7] [--fill 1]
 //                           [--json FILE] [--save DIR]
 //
 // --stride S: also the depth a run from one camera gives its keyframes (multiview_depth.hpp: the sweep
@@ -50,6 +50,9 @@ struct Options {
   std::string dataset = "kitti:../shared/data/kitti_seq1", reference = "stereo", json, save;
   size_t best_k = 3, keyframes = 5, first = 10, every = 20, window = 6, neighbours = 4, samples = 5000, prior_points = 0;
   size_t stride = 0, dense = 1;
+  long ahead = -1;  // later frames the neighbours may come from (-1: the window)
+  double anchor = MultiviewDepthConfig().anchor_confidence;
+  size_t fill = 1;  // the membrane fill of pixels without depth (run has it indoors only)
   double scale = 0.5, near = 2, far = 80, scene_depth = 15, prior_noise = 0.1, max_rel = 0.1;
 };
 
@@ -73,6 +76,9 @@ Options parse(int argc, char** argv) {
     else if (a == "--first") o.first = size_t(num());
     else if (a == "--every") o.every = std::max<size_t>(1, size_t(num()));
     else if (a == "--window") o.window = size_t(num());
+    else if (a == "--ahead") o.ahead = long(num());
+    else if (a == "--anchor") o.anchor = num();
+    else if (a == "--fill") o.fill = size_t(num());
     else if (a == "--neighbours") o.neighbours = size_t(num());
     else if (a == "--samples") o.samples = size_t(num());
     else if (a == "--prior-points") o.prior_points = size_t(num());
@@ -189,7 +195,7 @@ int run(const Options& o) {
     // Candidates within the window; the chosen ones by baseline and overlap.
     std::vector<SE3> cand;
     std::vector<size_t> index;
-    const size_t lo = k > o.window ? k - o.window : 0, hi = std::min(d->size() - 1, k + o.window);
+    const size_t lo = k > o.window ? k - o.window : 0, hi = std::min(d->size() - 1, k + (o.ahead < 0 ? o.window : size_t(o.ahead)));
     for (size_t j = lo; j <= hi; ++j) cand.push_back(poses[j]), index.push_back(j);
     const std::vector<size_t> chosen = select_sweep_neighbours(
         f.camera, cand, k - lo, {.count = o.neighbours, .scene_depth = o.scene_depth});
@@ -281,6 +287,8 @@ int run(const Options& o) {
       }
       MultiviewDepthConfig mc;
       mc.stride = int(o.stride);
+      mc.anchor_confidence = o.anchor;
+      mc.fill_holes = o.fill != 0;
       mc.sweep = cfg;
       const MapPointPrior prior(mc.min_prior_points, mc.densify);
       t0 = wall_seconds(), c0 = cpu_seconds();

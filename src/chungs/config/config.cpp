@@ -173,6 +173,9 @@ void fields(V& v, MultiviewDepthConfig& c) {
   v("min_prior_points", c.min_prior_points, "tracker map points in view for a prior (else the wide sweep)");
   v("min_confidence", c.min_confidence, "spread depth below this confidence is dropped");
   v("keep_keyframes", c.keep_keyframes, "recent keyframes kept (images) to choose neighbours from");
+  v("anchor_confidence", c.anchor_confidence,
+    "second pass: matches this confident, spread edge-aware, narrow the sweep of the rest (0: one pass)");
+  v("anchor_width", c.anchor_width, "second pass: its prior is spread on the image reduced to this width (pixels)");
   v("scene_depth", c.choice.scene_depth,
     "metres, a typical depth of a view: the neighbour choice's before the run knows its depth, "
     "and one camera's tracked map unit (its first keyframe's median depth is set to this)");

@@ -17,6 +17,9 @@ void MultiviewDepthConfig::validate() const {
     fail("multiview: refine_neighbours ", refine_neighbours, " (1 to 8)");
   if (!(min_confidence >= 0 && min_confidence <= 1)) fail("multiview: min_confidence ", min_confidence, " (0 to 1)");
   if (keep_keyframes < 2 || keep_keyframes > 1000) fail("multiview: keep_keyframes ", keep_keyframes, " (2 to 1000)");
+  if (!(anchor_confidence >= 0 && anchor_confidence <= 1))
+    fail("multiview: anchor_confidence ", anchor_confidence, " (0 to 1; 0: one pass)");
+  if (anchor_width < 16 || anchor_width > 100000) fail("multiview: anchor_width ", anchor_width, " (16 to 100000)");
   for (const auto& [key, r] : {std::pair{"refine_rgbd_range", refine_rgbd_range},
                                 std::pair{"refine_stereo_range", refine_stereo_range}})
     if (!(r > 0 && r <= 10)) fail("multiview: ", key, " is an inverse depth in 1/m, above 0 and at most 10; got ", r);
@@ -25,6 +28,49 @@ void MultiviewDepthConfig::validate() const {
   sweep.validate();
   densify.validate();
 }
+
+namespace {
+
+// The image averaged over f x f blocks (the last ones partial): the guide of a coarse spread.
+Image8 box_downscale(const Image8& image, int f) {
+  const int w = (image.width() + f - 1) / f, h = (image.height() + f - 1) / f, c = image.channels();
+  Image8 out(w, h, c);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int k = 0; k < c; ++k) {
+        int sum = 0, n = 0;
+        for (int yy = y * f; yy < std::min((y + 1) * f, image.height()); ++yy)
+          for (int xx = x * f; xx < std::min((x + 1) * f, image.width()); ++xx) sum += image(xx, yy, k), ++n;
+        out(x, y, k) = uint8_t((sum + n / 2) / n);
+      }
+  return out;
+}
+
+// The second pass's prior: the anchors spread edge-aware on the image reduced to at most `width` pixels
+// across, read back at full size from the nearest coarse pixel.
+DensePrior anchor_prior(const Image8& image, const std::vector<DepthSample>& anchors, const DensifyConfig& config,
+                        int width) {
+  const int f = std::max(1, (image.width() + width - 1) / width);
+  if (f == 1) return densify_prior(image, anchors, config);
+  std::vector<DepthSample> coarse;
+  coarse.reserve(anchors.size());
+  // Pixel centres at integers: x in the full image is (x + 0.5) / f - 0.5 in the coarse one.
+  for (DepthSample a : anchors) {
+    a.x = (a.x + 0.5f) / float(f) - 0.5f, a.y = (a.y + 0.5f) / float(f) - 0.5f;
+    coarse.push_back(a);
+  }
+  const DensePrior small = densify_prior(box_downscale(image, f), coarse, config);
+  DensePrior out{ImageF(image.width(), image.height(), 1, 0.0f), ImageF(image.width(), image.height(), 1, 0.0f)};
+  for (int y = 0; y < image.height(); ++y)
+    for (int x = 0; x < image.width(); ++x) {
+      const int cx = std::min(x / f, small.inv_depth.width() - 1), cy = std::min(y / f, small.inv_depth.height() - 1);
+      out.inv_depth(x, y) = small.inv_depth(cx, cy);
+      out.confidence(x, y) = small.confidence(cx, cy);
+    }
+  return out;
+}
+
+}  // namespace
 
 std::optional<DensePrior> MapPointPrior::prior(const Image8& image, const std::vector<DepthSample>& points) const {
   if (points.size() < std::max<size_t>(min_points_, 1)) return std::nullopt;
@@ -78,7 +124,32 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
   for (int y = s / 2; y < h; y += s)
     for (int x = s / 2; x < w; x += s) grid.push_back({x, y});
   out.swept = grid.size();
-  const std::vector<SweepSample> swept = plane_sweep_at(sin, grid, sweep);
+  std::vector<SweepSample> swept = plane_sweep_at(sin, grid, sweep);
+  if (config.anchor_confidence > 0) {
+    std::vector<DepthSample> anchors;
+    for (size_t i = 0; i < grid.size(); ++i)
+      if (swept[i].depth > 0 && swept[i].confidence >= float(config.anchor_confidence))
+        anchors.push_back({float(grid[i].x), float(grid[i].y), swept[i].depth, swept[i].confidence});
+    for (const DepthSample& p : in.points)
+      if (p.depth > 0 && std::isfinite(p.depth)) anchors.push_back(p);
+    if (anchors.size() >= std::max<size_t>(config.min_prior_points, 1)) {
+      const DensePrior around = anchor_prior(image, anchors, config.densify, config.anchor_width);
+      const float trusted = float(sweep.min_prior_confidence);
+      auto narrow = [&](const ImageF* conf, const SweepPixel& px) {
+        return conf && (*conf)(px.x, px.y) >= trusted;
+      };
+      std::vector<SweepPixel> again;
+      std::vector<size_t> at;
+      for (size_t i = 0; i < grid.size(); ++i)
+        if (!narrow(prior ? &prior->confidence : nullptr, grid[i]) && narrow(&around.confidence, grid[i]))
+          again.push_back(grid[i]), at.push_back(i);
+      PlaneSweepInput second = sin;
+      second.prior_inv_depth = &around.inv_depth, second.prior_confidence = &around.confidence;
+      const std::vector<SweepSample> re = plane_sweep_at(second, again, sweep);
+      for (size_t k = 0; k < at.size(); ++k) swept[at[k]] = re[k];
+      out.reswept = again.size();
+    }
+  }
 
   std::vector<DepthSample> samples;
   samples.reserve(grid.size() + in.points.size());

@@ -53,11 +53,22 @@ struct MultiviewDepthConfig {
   size_t neighbours = 6;
   size_t min_prior_points = 20;  // map points in view below which there is no prior (the sweep goes wide)
   // Spread depth is kept where its confidence (prior_densify's, from the swept samples' support) is
-  // at least this: pixels far from any confident sample of their own surface get none. 0.25 kept
-  // untextured surfaces between edges that 0.5 left empty: +1.0 dB held-out on KITTI, +0.6 on the
-  // synthetic room, +2.9 on Replica office0 (bench/README.md).
-  double min_confidence = 0.25;
+  // at least this: pixels far from any confident sample of their own surface get none (indoors the
+  // membrane fill gives them depth). 0.25 kept untextured surfaces between edges that 0.5 left empty
+  // before that fill existed (+1.0 dB held-out on KITTI, +2.9 on Replica office0); with the fill and the
+  // second pass, 0.4 scored +0.1 to +0.4 dB over 0.25 on the room, Replica and KITTI (bench/README.md).
+  double min_confidence = 0.4;
   int keep_keyframes = 24;  // recent keyframes whose images the run keeps for the sweep
+  // A second pass: the first pass's matches of at least this confidence (with the map points), spread
+  // edge-aware, are the prior of a narrow sweep at the grid pixels the first pass swept wide, and its
+  // result replaces theirs. A wide sweep's winner is often a repeated texture's other copy; the
+  // surface's confident matches around it say where to look. 0: one pass. On the GPU, against one
+  // pass: held-out +0.5 dB on Replica and KITTI, +0.3 on 400 m streets, the room within its spread.
+  double anchor_confidence = 0.7;
+  // ... spread on the image reduced to at most this many pixels across: it only says where the narrow
+  // sweep looks, and spread at full size it cost more than the sweep itself on the GPU (1241x376: 2.6 s
+  // a keyframe, 1.1 s reduced, held-out PSNR the same or higher; bench/README.md).
+  int anchor_width = 320;
   // Pixels left without depth get the membrane interpolation of the others in inverse depth
   // (hole_fill.hpp), so that untextured walls get Gaussians. run turns it off where the sampler has a
   // fill depth (outdoors), since there they are mostly sky.
@@ -90,6 +101,7 @@ struct MultiviewDepth {
   ImageF depth;       // the poses' units along the optical axis, 0 where invalid; the reference's size
   ImageF confidence;  // (0, 1] where valid
   size_t swept = 0, matched = 0, valid = 0;  // grid pixels swept, of them given depth, pixels with depth
+  size_t reswept = 0;                        // grid pixels swept again around the first pass's anchors
   size_t filled = 0;                         // pixels given depth by fill_holes (not in valid)
   bool prior = false;  // whether a prior narrowed the sweep
 };

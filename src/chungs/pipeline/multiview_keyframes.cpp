@@ -193,6 +193,7 @@ std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vec
     ++sweeps_;
     with_prior_ += d.prior;
     swept_ += d.swept;
+    reswept_ += d.reswept;
     valid_share_ += double(d.valid) / double(std::max<size_t>(image.pixels(), 1));
     filled_share_ += double(d.filled) / double(std::max<size_t>(image.pixels(), 1));
     ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -248,6 +249,7 @@ nlohmann::json MultiviewKeyframes::report() const {
           {"prior_source", prior_ ? prior_->name() : "none"},
           {"mean_ms", ms_ / n},
           {"swept_pixels_per_keyframe", double(swept_) / n},
+          {"reswept_share", double(reswept_) / double(std::max<uint64_t>(swept_, 1))},
           {"valid_share", valid_share_ / n},
           {"filled_share", filled_share_ / n}};
 }

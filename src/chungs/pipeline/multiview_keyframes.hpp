@@ -81,7 +81,7 @@ class MultiviewKeyframes {
   // Totals for the report.
   size_t keyframes_ = 0, deferred_ = 0, late_ = 0, without_ = 0, with_prior_ = 0, sweeps_ = 0;
   double ms_ = 0, valid_share_ = 0, filled_share_ = 0;
-  uint64_t swept_ = 0;
+  uint64_t swept_ = 0, reswept_ = 0;
 };
 
 }  // namespace chungs
