@@ -289,6 +289,7 @@ int run(const Options& o) {
       mc.stride = int(o.stride);
       mc.anchor_confidence = o.anchor;
       mc.fill_holes = o.fill != 0;
+      mc.supervise_fill = true;  // the fill's depth positive, so that it is scored
       mc.sweep = cfg;
       const MapPointPrior prior(mc.min_prior_points, mc.densify);
       t0 = wall_seconds(), c0 = cpu_seconds();

@@ -37,7 +37,10 @@ struct Score {
 };
 
 // Over the textured pixels with ground truth, 6 px from the borders (the patch does not reach them).
-Score score(const Views& v, const ImageF& depth) {
+Score score(const Views& v, const ImageF& placed) {
+  // A fill's guess (negated) counts as depth here: it is where the Gaussians go.
+  ImageF depth = placed;
+  for (float& z : depth.vec()) z = std::abs(z);
   Score s;
   double sum = 0;
   size_t textured = 0;
@@ -71,12 +74,24 @@ TEST(MultiviewDepth, AGridSweepSpreadEdgeAwareCoversTheTexturedSurfaces) {
   EXPECT_GT(s.coverage, 0.8);
   EXPECT_LT(s.abs_rel, 0.05);
   const auto with_depth = [](const MultiviewDepth& m) {
+    return size_t(std::count_if(m.depth.vec().begin(), m.depth.vec().end(), [](float z) { return z != 0; }));
+  };
+  const auto measured = [](const MultiviewDepth& m) {
     return size_t(std::count_if(m.depth.vec().begin(), m.depth.vec().end(), [](float z) { return z > 0; }));
   };
   EXPECT_EQ(d.valid + d.filled, with_depth(d));
   EXPECT_EQ(with_depth(d), d.depth.pixels()) << "the fill gives every pixel depth";
+  EXPECT_GT(d.filled, 0u);
+  // The fill's depth is negated: a place for Gaussians, not a target for the depth loss ...
+  EXPECT_EQ(measured(d), d.valid);
   for (size_t i = 0; i < d.depth.pixels(); ++i)
-    ASSERT_EQ(d.depth.vec()[i] > 0, d.confidence.vec()[i] > 0) << "pixel " << i;
+    ASSERT_EQ(d.depth.vec()[i] != 0, d.confidence.vec()[i] > 0) << "pixel " << i;
+  // ... unless it is to supervise as well: the same depths, positive.
+  MultiviewDepthConfig supervised = config();
+  supervised.supervise_fill = true;
+  const MultiviewDepth ds = multiview_depth(v.input(), supervised, nullptr);
+  EXPECT_EQ(measured(ds), d.valid + d.filled);
+  for (size_t i = 0; i < d.depth.pixels(); ++i) ASSERT_EQ(ds.depth.vec()[i], std::abs(d.depth.vec()[i])) << "pixel " << i;
   // Without the fill, only the spread's confident pixels have depth, and the filled ones were not.
   MultiviewDepthConfig no_fill = config();
   no_fill.fill_holes = false;

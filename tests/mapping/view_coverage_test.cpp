@@ -28,12 +28,13 @@ Scene random_scene(unsigned seed) {
           Eigen::Vector3d(30 * U(rng), 30 * U(rng), 2 * U(rng)));
   for (float& d : s.depth.vec()) d = float(1.0 + 45.0 * (0.5 + 0.5 * U(rng)));
   for (size_t i = 0; i < s.depth.pixels(); i += 11) s.depth.data()[i] = i % 2 ? 0.f : NAN;  // no depth
+  for (size_t i = 5; i < s.depth.pixels(); i += 7) s.depth.data()[i] = -s.depth.data()[i];  // guesses: a surface
   return s;
 }
 
 // The chunk a pixel's surface lies in, or none.
 std::optional<ChunkId> chunk_seen(const Scene& s, int x, int y, double chunk_size, double fill) {
-  double z = s.depth(x, y);
+  double z = std::abs(double(s.depth(x, y)));
   if (!(z > 0) || !std::isfinite(z)) z = fill;
   if (!(z > 0)) return std::nullopt;
   return chunk_id_of(s.pose * s.camera.unproject(Eigen::Vector2d(x, y), z), chunk_size);

@@ -181,6 +181,8 @@ void fields(V& v, MultiviewDepthConfig& c) {
     "and one camera's tracked map unit (its first keyframe's median depth is set to this)");
   v("fill_holes", c.fill_holes,
     "pixels left without depth get a membrane fill of the others' inverse depth (not with a fill depth)");
+  v("supervise_fill", c.supervise_fill,
+    "the fill's depth is also the depth loss's target (else it only places Gaussians)");
   v("near", c.sweep.near, "wide sweep from (metres; a monocular tracker's unit is scaled to its points)");
   v("far", c.sweep.far, "... to (metres)");
   v("prior_range", c.sweep.prior_range, "sweep around a prior: its inverse depth x (1 -+ this)");

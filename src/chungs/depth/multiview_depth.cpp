@@ -184,7 +184,7 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
       if (kept.vec()[i] > 0 || !(full.vec()[i] > 0)) continue;
       const float z = 1.0f / full.vec()[i];
       if (!(z >= sweep.near && z <= sweep.far)) continue;
-      out.depth.vec()[i] = z;
+      out.depth.vec()[i] = config.supervise_fill ? z : -z;
       out.confidence.vec()[i] = guess;
       ++out.filled;
     }

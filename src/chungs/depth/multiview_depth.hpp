@@ -73,6 +73,12 @@ struct MultiviewDepthConfig {
   // (hole_fill.hpp), so that untextured walls get Gaussians. run turns it off where the sampler has a
   // fill depth (outdoors), since there they are mostly sky.
   bool fill_holes = true;
+  // Whether the fill's depth also serves as the depth loss's target. Off: it only places Gaussians (the
+  // keyframe's depth holds it negated, sampler.hpp), the loss scores the render against swept depth
+  // only. On the CPU, off: Replica office0 from one camera +0.69 dB held-out (a third to a half of its
+  // pixels are filled: sofa, walls, the image's borders), the synthetic room -0.29 (its fill is mostly
+  // flat walls, where the guess is good) (bench/README.md).
+  bool supervise_fill = false;
   // RGB-D and stereo input: the depth of each pixel the sampler draws is polished by the sweep against
   // `refine_neighbours` earlier keyframes over its inverse depth -+ the range (1/m; the paper's ranges) where
   // the sweep is confident (depth_refine.hpp). On: held-out +0.29 dB on KITTI stereo with ground-truth
@@ -98,7 +104,9 @@ struct MultiviewDepthInput {
 };
 
 struct MultiviewDepth {
-  ImageF depth;       // the poses' units along the optical axis, 0 where invalid; the reference's size
+  // The poses' units along the optical axis, 0 where invalid, negated where only the fill guessed it
+  // and config.supervise_fill is off; the reference's size.
+  ImageF depth;
   ImageF confidence;  // (0, 1] where valid
   size_t swept = 0, matched = 0, valid = 0;  // grid pixels swept, of them given depth, pixels with depth
   size_t reswept = 0;                        // grid pixels swept again around the first pass's anchors

@@ -147,6 +147,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
           continue;
         ++bs.candidates;
         float z = drow[x];
+        if (z < 0 && std::isfinite(z)) z = -z;  // a placement guess (sample_gaussians' contract)
         const bool filled = !(z > 0) || !std::isfinite(z);
         if (filled) {
           ++bs.no_depth;
