@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "chungs/common/error.hpp"
+#include "chungs/depth/guessed_depth.hpp"
 #include "chungs/depth/hole_fill.hpp"
 
 namespace chungs {
@@ -31,21 +32,6 @@ void MultiviewDepthConfig::validate() const {
 
 namespace {
 
-// The image averaged over f x f blocks (the last ones partial): the guide of a coarse spread.
-Image8 box_downscale(const Image8& image, int f) {
-  const int w = (image.width() + f - 1) / f, h = (image.height() + f - 1) / f, c = image.channels();
-  Image8 out(w, h, c);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int k = 0; k < c; ++k) {
-        int sum = 0, n = 0;
-        for (int yy = y * f; yy < std::min((y + 1) * f, image.height()); ++yy)
-          for (int xx = x * f; xx < std::min((x + 1) * f, image.width()); ++xx) sum += image(xx, yy, k), ++n;
-        out(x, y, k) = uint8_t((sum + n / 2) / n);
-      }
-  return out;
-}
-
 // The second pass's prior: the anchors spread edge-aware on the image reduced to at most `width` pixels
 // across, read back at full size from the nearest coarse pixel.
 DensePrior anchor_prior(const Image8& image, const std::vector<DepthSample>& anchors, const DensifyConfig& config,
@@ -59,7 +45,8 @@ DensePrior anchor_prior(const Image8& image, const std::vector<DepthSample>& anc
     a.x = (a.x + 0.5f) / float(f) - 0.5f, a.y = (a.y + 0.5f) / float(f) - 0.5f;
     coarse.push_back(a);
   }
-  const DensePrior small = densify_prior(box_downscale(image, f), coarse, config);
+  const DensePrior small = densify_prior(
+      box_downscale(image, f, (image.width() + f - 1) / f, (image.height() + f - 1) / f), coarse, config);
   DensePrior out{ImageF(image.width(), image.height(), 1, 0.0f), ImageF(image.width(), image.height(), 1, 0.0f)};
   for (int y = 0; y < image.height(); ++y)
     for (int x = 0; x < image.width(); ++x) {
@@ -134,19 +121,21 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
       if (p.depth > 0 && std::isfinite(p.depth)) anchors.push_back(p);
     if (anchors.size() >= std::max<size_t>(config.min_prior_points, 1)) {
       const DensePrior around = anchor_prior(image, anchors, config.densify, config.anchor_width);
+      // Where the first pass was narrow already (a confident prior), it stays.
       const float trusted = float(sweep.min_prior_confidence);
-      auto narrow = [&](const ImageF* conf, const SweepPixel& px) {
-        return conf && (*conf)(px.x, px.y) >= trusted;
-      };
       std::vector<SweepPixel> again;
       std::vector<size_t> at;
-      for (size_t i = 0; i < grid.size(); ++i)
-        if (!narrow(prior ? &prior->confidence : nullptr, grid[i]) && narrow(&around.confidence, grid[i]))
+      for (size_t i = 0; i < grid.size(); ++i) {
+        const auto [x, y] = grid[i];
+        if ((!prior || prior->confidence(x, y) < trusted) && around.confidence(x, y) >= trusted)
           again.push_back(grid[i]), at.push_back(i);
-      PlaneSweepInput second = sin;
-      second.prior_inv_depth = &around.inv_depth, second.prior_confidence = &around.confidence;
-      const std::vector<SweepSample> re = plane_sweep_at(second, again, sweep);
-      for (size_t k = 0; k < at.size(); ++k) swept[at[k]] = re[k];
+      }
+      if (!again.empty()) {
+        PlaneSweepInput second = sin;
+        second.prior_inv_depth = &around.inv_depth, second.prior_confidence = &around.confidence;
+        const std::vector<SweepSample> re = plane_sweep_at(second, again, sweep);
+        for (size_t k = 0; k < at.size(); ++k) swept[at[k]] = re[k];
+      }
       out.reswept = again.size();
     }
   }
@@ -184,7 +173,7 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
       if (kept.vec()[i] > 0 || !(full.vec()[i] > 0)) continue;
       const float z = 1.0f / full.vec()[i];
       if (!(z >= sweep.near && z <= sweep.far)) continue;
-      out.depth.vec()[i] = config.supervise_fill ? z : -z;
+      out.depth.vec()[i] = config.supervise_fill ? z : guessed_depth(z);
       out.confidence.vec()[i] = guess;
       ++out.filled;
     }

@@ -48,6 +48,20 @@ ImageF to_rgb(const ImageF& img) {
   return out;
 }
 
+Image8 box_downscale(const Image8& img, int k, int width, int height) {
+  const int ch = img.channels();
+  Image8 out(width, height, ch);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < ch; ++c) {
+        int sum = 0, cnt = 0;
+        for (int yy = y * k; yy < std::min((y + 1) * k, img.height()); ++yy)
+          for (int xx = x * k; xx < std::min((x + 1) * k, img.width()); ++xx) sum += img(xx, yy, c), ++cnt;
+        out(x, y, c) = uint8_t((sum + cnt / 2) / std::max(cnt, 1));
+      }
+  return out;
+}
+
 ImageF resize_bilinear(const ImageF& img, int width, int height) {
   if (width <= 0 || height <= 0) fail("resize: invalid target size ", width, "x", height);
   ImageF out(width, height, img.channels());

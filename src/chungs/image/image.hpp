@@ -63,5 +63,8 @@ Image8 to_gray(const Image8& img);
 ImageF to_rgb(const ImageF& img);                         // gray replicated; 3-channel copied
 // Bilinear resize with pixel centres aligned (no anti-aliasing: blur first for big downscales).
 ImageF resize_bilinear(const ImageF& img, int width, int height);
+// width x height pixels, each the rounded mean of the k x k block at (k x, k y), of its part inside
+// the image (a reduction by an integer factor; a block wholly outside gives 0).
+Image8 box_downscale(const Image8& img, int k, int width, int height);
 
 }  // namespace chungs

@@ -6,6 +6,7 @@
 #include <map>
 #include <unordered_map>
 
+#include "chungs/depth/guessed_depth.hpp"
 #include "chungs/mapping/log_probability.hpp"
 
 namespace chungs {
@@ -146,8 +147,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
         if (p <= 0 || counter_uniform(key, uint64_t(y) * uint64_t(image.width()) + uint64_t(x)) >= p)
           continue;
         ++bs.candidates;
-        float z = drow[x];
-        if (z < 0 && std::isfinite(z)) z = -z;  // a placement guess (sample_gaussians' contract)
+        float z = placement_depth(drow[x]);
         const bool filled = !(z > 0) || !std::isfinite(z);
         if (filled) {
           ++bs.no_depth;

@@ -102,8 +102,8 @@ using RefineDepths = std::function<void(std::vector<PixelDepth>&)>;
 
 // Samples Gaussians for a keyframe, at most one per pixel (run_mapping counts on it to tell whether
 // a dataset can fill the budget). image: float colour (1 or 3 channels, [0,1]); depth: metres,
-// 0 invalid, negative where it is a guess to place Gaussians at (its magnitude) and not a measurement
-// (the depth loss leaves those pixels out: multiview.supervise_fill), same size. Points falling in a chunk of `exclude` are not taken (the map holds that
+// 0 invalid, negative where a guess (depth/guessed_depth.hpp: placed at its magnitude), same size.
+// Points falling in a chunk of `exclude` are not taken (the map holds that
 // place but the render that set the probability left it out); of the rest at most max_new (0: no
 // cap; config.max_per_keyframe caps too), a uniform random subset. Returns batches by chunk in
 // ascending id order. seeds (world points, may be null): each one in front of the camera and inside

@@ -5,6 +5,7 @@
 #include <unordered_map>
 
 #include "chungs/common/error.hpp"
+#include "chungs/depth/guessed_depth.hpp"
 
 namespace chungs {
 
@@ -23,8 +24,7 @@ ViewCoverage::ViewCoverage(const ImageF& depth, const Camera& camera, const SE3&
       // The block's centre pixel, clamped into the image for a partial block at the border.
       const int x = std::min(bx * kBlock + kBlock / 2, width_ - 1),
                 y = std::min(by * kBlock + kBlock / 2, height_ - 1);
-      double z = depth(x, y);
-      if (z < 0 && std::isfinite(z)) z = -z;  // a placement guess still says where the surface is
+      double z = placement_depth(depth(x, y));  // a guess still says where the surface is
       if (!(z > 0) || !std::isfinite(z)) z = fill_depth;
       if (!(z > 0)) continue;
       const ChunkId id = chunk_id_of(pose * camera.unproject(Eigen::Vector2d(x, y), z), chunk_size);

@@ -30,24 +30,9 @@ std::vector<std::optional<SE3>> frame_poses(const Dataset& dataset, const std::s
 Image8 scale_image(const Image8& img, double factor) {
   if (factor == 1.0) return img;
   const int w = std::max(1, int(std::lround(img.width() * factor))), h = std::max(1, int(std::lround(img.height() * factor)));
-  const int ch = img.channels();
   const double inv = 1.0 / factor;
   const int k = int(std::lround(inv));
-  Image8 out(w, h, ch);
-  if (std::abs(inv - k) < 1e-9) {
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-        for (int c = 0; c < ch; ++c) {
-          int sum = 0, cnt = 0;
-          for (int dy = 0; dy < k; ++dy)
-            for (int dx = 0; dx < k; ++dx) {
-              const int xx = x * k + dx, yy = y * k + dy;
-              if (xx < img.width() && yy < img.height()) sum += img(xx, yy, c), ++cnt;
-            }
-          out(x, y, c) = uint8_t((sum + cnt / 2) / std::max(cnt, 1));
-        }
-    return out;
-  }
+  if (std::abs(inv - k) < 1e-9) return box_downscale(img, k, w, h);
   return to_u8(resize_bilinear(to_float(img), w, h));
 }
 
