@@ -88,6 +88,27 @@ TEST(Image, ConversionsRoundTrip) {
   EXPECT_THROW(Image8(3, 3, 5), Error);
 }
 
+// Each output pixel the rounded mean of its block's part inside the image, against a double reference
+// on random pixels; partial blocks at the right and bottom edges, and a block wholly outside gives 0.
+TEST(Image, BoxDownscaleAveragesEachBlocksPartInsideTheImage) {
+  std::mt19937 rng(7);
+  Image8 img(11, 7, 3);
+  for (auto& v : img.vec()) v = uint8_t(rng());
+  const Image8 out = box_downscale(img, 4, 3, 2);
+  ASSERT_EQ(out.width(), 3);
+  ASSERT_EQ(out.height(), 2);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 3; ++x)
+      for (int c = 0; c < 3; ++c) {
+        double sum = 0;
+        int n = 0;
+        for (int yy = 4 * y; yy < std::min(4 * y + 4, 7); ++yy)
+          for (int xx = 4 * x; xx < std::min(4 * x + 4, 11); ++xx) sum += img(xx, yy, c), ++n;
+        EXPECT_NEAR(out(x, y, c), sum / n, 0.5 + 1e-9) << x << "," << y << "," << c;
+      }
+  EXPECT_EQ(box_downscale(img, 4, 4, 1)(3, 0), 0);
+}
+
 // libpng's writer reported a full disk as "PNG write failed (Write Error)": the reason was lost.
 TEST(ImageIO, AFailedPngWriteGivesTheSystemsReason) {
   test::TempDir dir;
