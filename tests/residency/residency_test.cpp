@@ -258,6 +258,58 @@ TEST(Residency, PrefetchedChunksLoadWithoutWaiting) {
   for (int i = 0; i < 4; ++i) EXPECT_TRUE(test::same_bits(r.gathered(cid(i)), r.store->load(cid(i))));
 }
 
+namespace {
+// A rig whose read-ahead holds two of its 200-Gaussian chunks.
+void small_read_ahead(Rig& r) {
+  ResidencyConfig rc;
+  rc.budget_gaussians = 1000;
+  rc.async_io = true;
+  rc.prefetch_max_gaussians = 400;
+  r.res.reset();
+  r.res = std::make_unique<Residency>(*r.store, *r.pool, rc);
+}
+void wait_for_loads(const Rig& r, uint64_t n) {
+  for (int i = 0; i < 1000 && r.res->stats().loads < n; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+}
+}  // namespace
+
+// Picks several steps ahead name more chunks than the read-ahead holds: the reads for the nearest
+// steps stay and the rest wait for room (dropping the oldest reads, as before, threw away exactly
+// those the next pin needed).
+TEST(Residency, AFullReadAheadKeepsTheReadsForTheNearestStepsAndResumesOnceTheyAreTaken) {
+  Rig r({200, 200, 200, 200}, 1000, true);
+  small_read_ahead(r);
+  const std::vector<ChunkId> ids{cid(0), cid(1), cid(2), cid(3)};
+  r.res->prefetch(ids);
+  wait_for_loads(r, 2);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // time for reads that must not happen
+  EXPECT_EQ(r.res->stats().loads, 2u);
+  const std::vector<ChunkId> near{cid(0), cid(1)}, far{cid(2), cid(3)};
+  ASSERT_TRUE(r.res->pin(near).ok);
+  EXPECT_EQ(r.res->stats().prefetch_hits, 2u);
+  EXPECT_EQ(r.res->stats().sync_loads, 0u);
+  r.res->prefetch(far);  // the next step's prediction: the rest fits now
+  wait_for_loads(r, 4);
+  ASSERT_TRUE(r.res->pin(far).ok);
+  const IoStats s = r.res->stats();
+  EXPECT_EQ(s.prefetch_hits, 4u);
+  EXPECT_EQ(s.sync_loads, 0u);
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(test::same_bits(r.gathered(cid(i)), r.store->load(cid(i))));
+}
+
+TEST(Residency, ReadsAheadThatTheLatestPredictionNoLongerNamesGiveWay) {
+  Rig r({200, 200, 200, 200}, 1000, true);
+  small_read_ahead(r);
+  r.res->prefetch(std::vector<ChunkId>{cid(0), cid(1)});
+  wait_for_loads(r, 2);
+  const std::vector<ChunkId> now{cid(2), cid(3)};
+  r.res->prefetch(now);
+  wait_for_loads(r, 4);
+  ASSERT_TRUE(r.res->pin(now).ok);
+  EXPECT_EQ(r.res->stats().prefetch_hits, 2u);
+  EXPECT_EQ(r.res->stats().sync_loads, 0u);
+}
+
 TEST(Residency, SetBudgetEvictsDownAndRefusesBelowThePinnedSet) {
   Rig r({300, 300, 300}, 1000);
   const std::vector<ChunkId> ids{cid(0), cid(1), cid(2)};

@@ -41,7 +41,8 @@ void fields(V& v, ResidencyConfig& c) {
   v("budget_gaussians", c.budget_gaussians, "Gaussians resident in (GPU) memory at most");
   v("eviction_hysteresis", c.eviction_hysteresis, "fraction of the budget evicted beyond the shortfall");
   v("async_io", c.async_io, "background prefetch and write-behind");
-  v("prefetch_max_gaussians", c.prefetch_max_gaussians, "host read-ahead, Gaussians; 0: 1/32 of the budget");
+  v("prefetch_max_gaussians", c.prefetch_max_gaussians,
+    "host read-ahead, Gaussians; 0: 1/32 of the budget, at least 65536 or the budget");
   v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: 1/8 of the budget");
   v("flush_threads", c.flush_threads, "threads writing modified chunks at a checkpoint the caller waits for");
   v("checkpoint_threads", c.checkpoint_threads, "threads writing a checkpoint behind the optimiser");
@@ -121,6 +122,8 @@ void fields(V& v, MapperConfig& c) {
   v("holdout_every", c.holdout_every, "frame i is held out (never trained) when i % n == n - 1; 0: none");
   v("frame_lookahead", c.frame_lookahead,
     "frames read ahead; keyframes are loaded and depth computed on their own threads (0: current frame only)");
+  v("read_ahead_steps", c.read_ahead_steps,
+    "steps whose keyframes are drawn ahead, their chunks and images read in the background");
   v("resolution", c.resolution, "image scale factor for mapping (1 = full resolution)");
   v("depth", c.depth, "auto | sensor | stereo | multiview (one camera: plane sweep against earlier keyframes) | none (= multiview for run)");
   v("checkpoint_seconds", c.checkpoint_seconds, "seconds between checkpoints (resume points; 0: off) ...");

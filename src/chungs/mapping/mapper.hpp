@@ -7,6 +7,7 @@
 // The pool, the renderer and the optimiser live in an OptimBackend (config.mapper.device: host or
 // GPU). Not thread-safe: one thread drives it.
 #pragma once
+#include <deque>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -206,7 +207,16 @@ class Mapper {
   size_t keyframes_in_checkpoint_ = 0;
   void recover_checkpoint_files();
   void remove_keyframes_after_checkpoint();
-  std::optional<uint32_t> next_pick_;  // the selector's pick for the next step (prefetched)
+  // The selector's picks for the next steps (mapper.read_ahead_steps), each with the chunks its view
+  // loads, which are read ahead in the background with its images.
+  struct PickAhead {
+    uint32_t keyframe;
+    std::vector<ChunkId> chunks;
+  };
+  std::deque<PickAhead> picks_ahead_;
+  void draw_pick_ahead();
+  void give_back_picks_ahead();
+  uint32_t window_pick_ahead();  // the first window pick drawn ahead (taken from the list), or a new one
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
   StrayPool stray_pool_;  // not saved: a resumed run starts it empty
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views

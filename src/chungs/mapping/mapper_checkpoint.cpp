@@ -63,6 +63,9 @@ void Mapper::checkpoint(const nlohmann::json& run_state, bool behind) {
     k.uses = selector_.usage(k.id).uses;
     k.last_loss = selector_.usage(k.id).last_loss;
   }
+  // The picks drawn ahead are not steps yet: a resumed run draws them again.
+  for (const PickAhead& p : picks_ahead_)
+    if (KeyframeRecord* k = mutable_keyframe(p.keyframe)) k->uses += 1;
   const fs::path keyframes_file = checkpoint_file(folder_, seq, "keyframes.txt");
   const fs::path state_file = checkpoint_file(folder_, seq, "run_state.json");
   const fs::path sky_file = checkpoint_file(folder_, seq, "sky.bin");

@@ -26,6 +26,8 @@ void MapperConfig::validate() const {
     fail("mapper: holdout_every must be 0 or >= 2, got ", holdout_every);
   if (frame_lookahead < 0 || frame_lookahead > 64)
     fail("mapper: frame_lookahead must be in [0, 64], got ", frame_lookahead);
+  if (read_ahead_steps < 1 || read_ahead_steps > 64)
+    fail("mapper: read_ahead_steps must be in [1, 64], got ", read_ahead_steps);
   if (!(resolution > 0 && resolution <= 1)) fail("mapper: resolution must be in (0, 1], got ", resolution);
   if (depth != "auto" && depth != "sensor" && depth != "stereo" && depth != "multiview" && depth != "none")
     fail("mapper: depth must be auto, sensor, stereo, multiview or none, got '", depth, "'");

@@ -23,6 +23,8 @@ struct MapperConfig {
   int holdout_every = 8;            // frame i is never trained on when i % n == n - 1 (0: none)
   int frame_lookahead = 4;          // frames read ahead, each keyframe loaded (and its depth computed) on
                                     // its own thread while the map trains (0: only the current frame)
+  int read_ahead_steps = 4;         // steps whose keyframes are drawn ahead, their chunks and images read in
+                                    // the background (a view's chunk loads outlast one step on the GPU)
   double resolution = 1.0;          // images (and intrinsics) scaled by this before mapping
   std::string depth = "auto";       // auto | sensor | stereo | multiview | none (run: as multiview)
   // A checkpoint (the resume point) is due every checkpoint_seconds, or every checkpoint_every

@@ -47,6 +47,7 @@ PoseCorrectionStats Mapper::correct_poses(const std::vector<std::pair<uint32_t, 
     stats = apply_pose_correction(*residency_, store_->chunk_size(), pc, candidates, keyframe_chunks_);
   stats.keyframes = new_poses.size();
 
+  if (!new_poses.empty()) give_back_picks_ahead();  // drawn with the views' old chunks
   // The keyframes follow; re-adding them to the selector keeps their usage but would make the
   // last one re-added define the training cell, so the newest keyframe is re-added last.
   for (const auto& [id, pose] : new_poses) {

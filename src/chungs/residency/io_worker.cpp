@@ -79,8 +79,11 @@ void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks)
   {
     std::lock_guard lock(mutex_);
     prefetch_queue_.clear();
-    for (const auto& c : chunks)
+    wanted_.clear();
+    for (const auto& c : chunks) {
+      wanted_.insert(c.first);
       if (!staged_.count(c.first) && !pending_.count(c.first) && reading_ != c.first) prefetch_queue_.push_back(c);
+    }
   }
   work_cv_.notify_one();
 }
@@ -186,11 +189,20 @@ bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
     const auto [id, count] = prefetch_queue_.front();
     prefetch_queue_.pop_front();
     if (staged_.count(id) || pending_.count(id)) continue;
-    // Make room by dropping the oldest unclaimed reads; give up on chunks that can never fit.
+    // Make room by dropping the oldest reads the latest prediction no longer names; give up on
+    // chunks that can never fit. Reads it still names are for nearer steps than this one (the list
+    // is in the order of use): when only those are left, reading further ahead waits for the next
+    // prediction, which comes once a step has taken some of them.
     if (count > prefetch_max_) continue;
-    while (staged_gaussians_ + count > prefetch_max_ && !staged_order_.empty()) {
-      const ChunkId old = staged_order_.front();
-      staged_order_.pop_front();
+    while (staged_gaussians_ + count > prefetch_max_) {
+      const auto stale = std::find_if(staged_order_.begin(), staged_order_.end(),
+                                      [&](ChunkId c) { return !wanted_.count(c); });
+      if (stale == staged_order_.end()) {
+        prefetch_queue_.clear();
+        return false;
+      }
+      const ChunkId old = *stale;
+      staged_order_.erase(stale);
       if (auto it = staged_.find(old); it != staged_.end()) {
         staged_gaussians_ -= it->second->size();
         staged_.erase(it);

@@ -18,6 +18,7 @@
 #include <optional>
 #include <thread>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "chungs/store/chunk_store.hpp"
@@ -37,7 +38,8 @@ class IoWorker {
   // Queues the chunk's new content (an empty block removes the chunk). Blocks while the queue
   // holds more than the write-behind limit (counted as a wait). Rethrows a failed background write.
   void write_behind(ChunkId id, Block data);
-  // Replaces the prediction list: chunks (with their Gaussian counts) to read ahead, first first.
+  // Replaces the prediction list: chunks (with their Gaussian counts) to read ahead, first needed
+  // first. Reads it names are kept when the read-ahead limit is reached; the others are dropped.
   void prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks);
   // The chunk's current content; an absent chunk gives an empty block. Never stale (see above).
   Block take(ChunkId id, Source* source = nullptr);
@@ -74,6 +76,7 @@ class IoWorker {
   std::deque<std::pair<ChunkId, uint64_t>> prefetch_queue_;
   std::unordered_map<ChunkId, Block> staged_;     // prefetched, not yet taken
   std::deque<ChunkId> staged_order_;              // oldest first, for dropping when over the limit
+  std::unordered_set<ChunkId> wanted_;            // named by the latest prefetch() (kept staged)
   size_t staged_gaussians_ = 0;
   std::optional<ChunkId> reading_;                // prefetch read in flight
   std::exception_ptr error_;

@@ -33,10 +33,11 @@ struct ResidencyConfig {
   double eviction_hysteresis = 0.05;    // evict this fraction of the budget beyond the shortfall
   bool async_io = true;                 // background prefetch and write-behind
   // Host memory for chunks in flight, in Gaussians (~0.7 kB each with Adam state), so that host
-  // memory stays in proportion to the budget, not the map. 0: automatic, at least 10 000. Read-ahead
-  // (1/32 of the budget) only needs the chunks of the next few steps, and it fills only once the
-  // drive comes back to evicted chunks: a larger one raises the resident set minutes after the
-  // budget is reached. Write-behind (1/8) must take one eviction's burst (the hysteresis, 1/20).
+  // memory stays in proportion to the budget, not the map. 0: automatic. Read-ahead only needs the
+  // chunks of the next few steps, and it fills only once the drive comes back to evicted chunks: a
+  // larger one raises the resident set minutes after the budget is reached. It is 1/32 of the
+  // budget, but at least 65 536 (or the budget, if smaller), so that the next steps' views fit.
+  // Write-behind (1/8, at least 10 000) must take one eviction's burst (the hysteresis, 1/20).
   size_t prefetch_max_gaussians = 0;      // read ahead into host memory at most this many
   size_t write_behind_max_gaussians = 0;  // queued for writing before eviction waits
   int flush_threads = 8;  // threads writing the modified resident chunks at flush() (async_io only)
@@ -93,7 +94,9 @@ class Residency {
   void mark_dirty(ChunkId id);
   void mark_dirty(std::span<const ChunkId> ids);
 
-  // Hint: chunks likely needed by the next steps; non-resident ones are read in the background.
+  // Hint: chunks likely needed by the next steps, in the order of use (replaces the last hint).
+  // Non-resident ones are read in the background; resident ones are evicted only when nothing
+  // else can make room, the one needed last first.
   void prefetch(std::span<const ChunkId> ids);
   // Evicts one unpinned resident chunk now (writing it behind when dirty).
   void evict(ChunkId id);
@@ -122,6 +125,7 @@ class Residency {
   bool set_budget(size_t gaussians);
 
   bool is_resident(ChunkId id) const { return resident_.count(id) > 0; }
+  bool all_resident() const { return resident_.size() >= catalogue_.size(); }  // the whole map in the budget
   bool is_pinned(ChunkId id) const;
   bool is_dirty(ChunkId id) const;
   const std::vector<uint32_t>& slots(ChunkId id) const;  // throws when not resident
@@ -183,6 +187,9 @@ class Residency {
   uint64_t catalogue_version_ = 0;
   std::unordered_map<ChunkId, Resident> resident_;
   std::list<ChunkId> lru_;
+  std::vector<ChunkId> hint_;                          // the latest prefetch(), in the order of use
+  std::unordered_map<ChunkId, size_t> hint_rank_;      // its chunks: place in hint_
+  void queue_reads_ahead();
   size_t resident_gaussians_ = 0, pinned_gaussians_ = 0, peak_resident_ = 0;
   std::unique_ptr<IoWorker> io_;
   std::unique_ptr<CheckpointWriter> checkpoint_;  // in flight (begin_checkpoint)
