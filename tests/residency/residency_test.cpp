@@ -310,6 +310,28 @@ TEST(Residency, ReadsAheadThatTheLatestPredictionNoLongerNamesGiveWay) {
   EXPECT_EQ(r.res->stats().sync_loads, 0u);
 }
 
+// The prefetch hint names the chunks of the next steps: eviction takes the others first, oldest
+// first, and of the named ones (when nothing else makes room) the one needed last.
+TEST(Residency, EvictionSparesTheChunksTheNextStepsNeedAndTakesTheOneNeededLastFirst) {
+  Rig r({200, 200, 200, 200, 200}, 600);
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(r.pin1(cid(i)).ok);
+    r.unpin1(cid(i));
+  }
+  r.res->prefetch(std::vector<ChunkId>{cid(0)});  // the oldest is needed next
+  ASSERT_TRUE(r.pin1(cid(3)).ok);
+  r.unpin1(cid(3));
+  EXPECT_TRUE(r.res->is_resident(cid(0)));
+  EXPECT_FALSE(r.res->is_resident(cid(1)));
+  // All resident chunks named: the one named last goes, whatever its age.
+  r.res->prefetch(std::vector<ChunkId>{cid(3), cid(0), cid(2)});
+  ASSERT_TRUE(r.pin1(cid(4)).ok);
+  EXPECT_TRUE(r.res->is_resident(cid(0)));
+  EXPECT_FALSE(r.res->is_resident(cid(2)));
+  EXPECT_TRUE(r.res->is_resident(cid(3)));
+  r.unpin1(cid(4));
+}
+
 TEST(Residency, SetBudgetEvictsDownAndRefusesBelowThePinnedSet) {
   Rig r({300, 300, 300}, 1000);
   const std::vector<ChunkId> ids{cid(0), cid(1), cid(2)};
