@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "chungs/geometry/camera.hpp"
@@ -18,6 +19,8 @@ struct Quad {
   double cell = 0.15;            // texture lattice spacing, metres
   uint32_t seed = 1;
   bool flat = false;             // one gray level: no texture at all
+  double gain = 1, offset = 0;   // the texture's gray levels scaled and shifted
+  double level = 128;            // the gray level of a flat quad
 };
 
 inline double lattice(uint32_t seed, int64_t i, int64_t j) {
@@ -59,8 +62,9 @@ struct SweepScene {
           if (a < 0 || a > 1 || b < 0 || b > 1) continue;
           best = t;
           const double s = a * q.u.norm() / q.cell, tt = b * q.v.norm() / q.cell;
-          value = q.flat ? 128.0
-                         : 40 + 130 * value_noise(q.seed, s, tt) + 60 * value_noise(q.seed + 7, 2.3 * s, 2.3 * tt);
+          value = q.flat ? q.level
+                         : q.offset + q.gain * (40 + 130 * value_noise(q.seed, s, tt) +
+                                                60 * value_noise(q.seed + 7, 2.3 * s, 2.3 * tt));
         }
         if (best < 1e30) depth(x, y) = float(best);  // t along a ray with camera z = 1 is the depth
         gray(x, y) = uint8_t(std::clamp(std::lround(value + (noise > 0 ? N(rng) : 0.0)), 0l, 255l));
@@ -84,12 +88,12 @@ inline SE3 translated(double x, double y, double z) { return SE3(Eigen::Quaterni
 // upwards and forwards (the last puts the epipole inside the image). input<T>() fills the camera,
 // reference and neighbours that the plane sweep's and the multiview depth's inputs share.
 struct SweepViews {
-  SweepScene scene = wall_box_scene();
+  SweepScene scene;
   Image8 ref;
   ImageF gt;
   std::vector<Image8> images;
   std::vector<SE3> poses;
-  SweepViews() {
+  explicit SweepViews(SweepScene s = wall_box_scene()) : scene(std::move(s)) {
     ImageF unused;
     scene.render(SE3(), ref, gt, 1.5, 1);
     poses = {translated(0.35, 0, 0), translated(-0.2, 0.25, 0.1), translated(0.05, -0.05, 0.6)};
