@@ -259,12 +259,12 @@ TEST(Residency, PrefetchedChunksLoadWithoutWaiting) {
 }
 
 namespace {
-// A rig whose read-ahead holds two of its 200-Gaussian chunks.
-void small_read_ahead(Rig& r) {
+// The rig's residency again, with background I/O, a budget of 1000 and this read-ahead limit.
+void with_read_ahead(Rig& r, size_t prefetch_max) {
   ResidencyConfig rc;
   rc.budget_gaussians = 1000;
   rc.async_io = true;
-  rc.prefetch_max_gaussians = 400;
+  rc.prefetch_max_gaussians = prefetch_max;
   r.res.reset();
   r.res = std::make_unique<Residency>(*r.store, *r.pool, rc);
 }
@@ -278,7 +278,7 @@ void wait_for_loads(const Rig& r, uint64_t n) {
 // those the next pin needed).
 TEST(Residency, AFullReadAheadKeepsTheReadsForTheNearestStepsAndResumesOnceTheyAreTaken) {
   Rig r({200, 200, 200, 200}, 1000, true);
-  small_read_ahead(r);
+  with_read_ahead(r, 400);  // two of its 200-Gaussian chunks
   const std::vector<ChunkId> ids{cid(0), cid(1), cid(2), cid(3)};
   r.res->prefetch(ids);
   wait_for_loads(r, 2);
@@ -299,7 +299,7 @@ TEST(Residency, AFullReadAheadKeepsTheReadsForTheNearestStepsAndResumesOnceTheyA
 
 TEST(Residency, ReadsAheadThatTheLatestPredictionNoLongerNamesGiveWay) {
   Rig r({200, 200, 200, 200}, 1000, true);
-  small_read_ahead(r);
+  with_read_ahead(r, 400);  // two of its 200-Gaussian chunks
   r.res->prefetch(std::vector<ChunkId>{cid(0), cid(1)});
   wait_for_loads(r, 2);
   const std::vector<ChunkId> now{cid(2), cid(3)};
@@ -391,12 +391,7 @@ TEST(Residency, AFailedBackgroundWriteThatARetryMendsIsStillReported) {
 // the disk had failed a read.
 TEST(Residency, AFailedReadAheadIsReportedAndTheChunkIsReadAgainWhenNeeded) {
   Rig r({100, 100}, 1000, true);
-  ResidencyConfig rc;
-  rc.budget_gaussians = 1000;
-  rc.async_io = true;
-  rc.prefetch_max_gaussians = 1000;
-  r.res.reset();
-  r.res = std::make_unique<Residency>(*r.store, *r.pool, rc);
+  with_read_ahead(r, 1000);
   const GaussianBlock stored = r.store->load(cid(1));
   const auto chunks = r.dir / "chunks";
   std::filesystem::rename(chunks, r.dir / "chunks.away");
