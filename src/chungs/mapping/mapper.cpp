@@ -418,10 +418,7 @@ StepStats Mapper::step() {
   const uint32_t keyframe = picks_ahead_.front().keyframe;
   if (!residency_->all_resident()) {  // else nothing to read, and nothing is evicted
     std::vector<ChunkId> wanted;  // in the order of use, this step's first (what is staged for it stays)
-    std::unordered_set<ChunkId> named;
-    for (const PickAhead& p : picks_ahead_)
-      for (ChunkId id : p.chunks)
-        if (named.insert(id).second) wanted.push_back(id);
+    for (const PickAhead& p : picks_ahead_) wanted.insert(wanted.end(), p.chunks.begin(), p.chunks.end());
     residency_->prefetch(wanted);
   }
   picks_ahead_.pop_front();

@@ -385,9 +385,10 @@ void Residency::mark_dirty(std::span<const ChunkId> ids) {
 }
 
 void Residency::prefetch(std::span<const ChunkId> ids) {
-  hint_.assign(ids.begin(), ids.end());
+  hint_.clear();
   hint_rank_.clear();
-  for (size_t i = 0; i < hint_.size(); ++i) hint_rank_.emplace(hint_[i], i);
+  for (ChunkId id : ids)  // a chunk named twice counts where it is first needed
+    if (hint_rank_.emplace(id, hint_.size()).second) hint_.push_back(id);
   queue_reads_ahead();
 }
 

@@ -94,7 +94,8 @@ class Residency {
   void mark_dirty(ChunkId id);
   void mark_dirty(std::span<const ChunkId> ids);
 
-  // Hint: chunks likely needed by the next steps, in the order of use (replaces the last hint).
+  // Hint: chunks likely needed by the next steps, in the order of use, repeats allowed (replaces the
+  // last hint).
   // Non-resident ones are read in the background; resident ones are evicted only when nothing
   // else can make room, the one needed last first.
   void prefetch(std::span<const ChunkId> ids);
