@@ -128,6 +128,54 @@ TEST(PlaneSweep, TexturelessAreasAreDroppedByTheCostTestsAlone) {
   for (const SweepSample& s : plane_sweep_at(v.input(), flat, swept(1.0, 20.0))) EXPECT_EQ(s.depth, 0.0f);
 }
 
+// The reference's right side seen by one neighbour only: the two others are turned 15 degrees to the
+// left, as the keyframes a camera turning right leaves behind. With min_views 1 that side gets depth
+// from the one neighbour, as exact as the rest; requiring best_k (2) views left it without.
+TEST(PlaneSweep, WhatOnlyOneNeighbourSeesGetsDepthFromIt) {
+  Views v;
+  const auto turned_left = [](double x, double y) {
+    return SE3(Eigen::Quaterniond(Eigen::AngleAxisd(-15.0 * M_PI / 180.0, Eigen::Vector3d::UnitY())),
+               Eigen::Vector3d(x, y, 0));
+  };
+  v.poses = {translated(0.35, 0, 0), turned_left(-0.3, 0), turned_left(-0.2, 0.2)};
+  ImageF unused;
+  for (size_t i = 0; i < v.poses.size(); ++i) v.scene.render(v.poses[i], v.images[i], unused, 1.5, unsigned(2 + i));
+  std::vector<SweepPixel> band;
+  size_t seen_by_turned = 0;
+  for (int y = 0; y < 120; ++y)
+    for (int x = 124; x < 160; ++x) {
+      if (!v.scored(x, y)) continue;
+      band.push_back({x, y});
+      const Eigen::Vector3d world = v.scene.camera.unproject(Eigen::Vector2d(x, y), v.gt(x, y));
+      for (size_t i = 1; i < v.poses.size(); ++i) {
+        const Eigen::Vector2d px = v.scene.camera.project(v.poses[i].inverse() * world);
+        seen_by_turned += px.x() >= 0 && px.x() < 160 && px.y() >= 0 && px.y() < 120;
+      }
+    }
+  ASSERT_GT(band.size(), 1000u);
+  ASSERT_EQ(seen_by_turned, 0u) << "the turned neighbours must not see the band";
+  PlaneSweepConfig c = swept(1.0, 20.0);
+  c.min_views = 2;
+  size_t kept = 0;
+  for (const SweepSample& s : plane_sweep_at(v.input(), band, c)) kept += s.depth > 0;
+  EXPECT_EQ(kept, 0u);
+  c.min_views = 1;
+  Score one;
+  double sum = 0;
+  const std::vector<SweepSample> got = plane_sweep_at(v.input(), band, c);
+  for (size_t i = 0; i < band.size(); ++i) {
+    if (!(got[i].depth > 0)) continue;
+    ++one.valid;
+    sum += std::abs(got[i].depth - v.gt(band[i].x, band[i].y)) / v.gt(band[i].x, band[i].y);
+  }
+  EXPECT_GT(double(one.valid), 0.7 * double(band.size())) << one.valid << " of " << band.size();
+  EXPECT_LT(sum / double(std::max<size_t>(one.valid, 1)), 0.02);
+  std::printf("seen by one neighbour: %zu of %zu pixels with depth, AbsRel %.4f (none with min_views 2)\n", one.valid,
+              band.size(), sum / double(std::max<size_t>(one.valid, 1)));
+  c.min_views = 3;  // above best_k
+  EXPECT_THROW(plane_sweep_at(v.input(), band, c), Error);
+}
+
 TEST(PlaneSweep, AConfidentPriorFarOffIsDroppedNotFollowed) {
   const Views v;
   ImageF prior(160, 120, 1, 0.0f);  // twice the true inverse depth: the truth lies outside +-20 %

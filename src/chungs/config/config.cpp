@@ -189,6 +189,9 @@ void fields(V& v, MultiviewDepthConfig& c) {
   v("near", c.sweep.near, "wide sweep from (metres; a monocular tracker's unit is scaled to its points)");
   v("far", c.sweep.far, "... to (metres)");
   v("prior_range", c.sweep.prior_range, "sweep around a prior: its inverse depth x (1 -+ this)");
+  v("best_k", c.sweep.best_k, "a depth hypothesis costs the mean of its best this many neighbours' costs");
+  v("min_views", c.sweep.min_views,
+    "fewest neighbours that must see a patch (1 to best_k); fewer than best_k: the mean of those that do");
   v("refine", c.refine,
     "RGB-D and stereo input: polish the depth of sampled pixels by a sweep against earlier keyframes");
   v("refine_neighbours", c.refine_neighbours, "refine: earlier keyframes swept against (1 to 8)");

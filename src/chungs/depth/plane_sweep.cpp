@@ -19,6 +19,7 @@ void PlaneSweepConfig::validate() const {
   if (patch_radius < 1 || patch_radius > ps::kMaxPatchRadius)
     fail("plane sweep: patch_radius ", patch_radius, " (1 to ", ps::kMaxPatchRadius, ")");
   if (best_k < 1 || best_k > ps::kMaxNeighbours) fail("plane sweep: best_k ", best_k, " (1 to ", ps::kMaxNeighbours, ")");
+  if (min_views < 1 || min_views > best_k) fail("plane sweep: min_views ", min_views, " (1 to best_k, ", best_k, ")");
   if (!positive(near) || !positive(far) || !(far > near)) fail("plane sweep: near ", near, " and far ", far, " m");
   if (!(prior_range > 0 && prior_range < 1)) fail("plane sweep: prior_range ", prior_range, " (between 0 and 1)");
   if (!(prior_abs_range >= 0) || !std::isfinite(prior_abs_range))
@@ -93,6 +94,7 @@ PreparedSweep prepare_sweep(const PlaneSweepInput& in, const PlaneSweepConfig& c
   }
   p.radius = cfg.patch_radius;
   p.best_k = cfg.best_k;
+  p.min_views = cfg.min_views;
   p.inv_near = float(1.0 / cfg.near), p.inv_far = float(1.0 / cfg.far);
   p.prior_range = float(cfg.prior_range);
   p.prior_abs_range = float(cfg.prior_abs_range);

@@ -23,6 +23,10 @@ struct PlaneSweepConfig {
   // Neighbour costs averaged per hypothesis (the best ones; fewer when fewer neighbours): 3 of 4 kept
   // more pixels and fewer gross errors than 2 of 4 on the street and KITTI (bench/README.md).
   int best_k = 3;
+  // Fewest neighbours that must see a patch: where fewer than best_k do, the mean is over those
+  // that do. 1: what only one earlier keyframe saw (the side a camera turns from, the edge of its
+  // view) still gets depth; requiring 3 left a third of Replica's views to the fill (bench/README.md).
+  int min_views = 1;
   double near = 0.5, far = 80.0;  // metres: the wide sweep where no confident prior exists
   double prior_range = 0.2;  // narrow sweep: prior inverse depth x (1 -+ range) (the paper: 0.2 mono)
   // > 0: the narrow sweep is the prior's inverse depth -+ this instead (1 / the poses' unit), clipped

@@ -78,6 +78,7 @@ struct Problem {
   int neighbours = 0;
   int radius = 3;
   int best_k = 3;
+  int min_views = 1;  // a patch seen by fewer than best_k neighbours scores over those that see it, down to this many
   float inv_near = 2.0f, inv_far = 0.0125f;  // the wide sweep, 1/m
   float prior_range = 0.2f;                   // the narrow sweep: prior * (1 -+ range)
   float prior_abs_range = 0.0f;  // > 0: the narrow sweep is prior -+ this instead, inside [inv_far, inv_near]
@@ -135,7 +136,8 @@ CHUNGS_PS_HD inline float patch_cost(const Problem& p, const Neighbour& n, int x
 }
 
 // Aggregated cost of one hypothesis: the mean of the best_k neighbour costs (occlusion in the
-// others does not count), kNoCost when fewer neighbours than that see the patch.
+// others does not count); where fewer neighbours see the patch, the mean of those that do, kNoCost
+// below min_views of them.
 CHUNGS_PS_HD inline float hypothesis_cost(const Problem& p, int x, int y, float rho, const float* rc, float rnorm,
                                           float ref_mean) {
   const int k = p.best_k < p.neighbours ? p.best_k : p.neighbours;
@@ -153,10 +155,10 @@ CHUNGS_PS_HD inline float hypothesis_cost(const Problem& p, int x, int y, float 
     if (at < k) best[at] = c;
     if (have < k) ++have;
   }
-  if (have < k || k == 0) return kNoCost;
+  if (have == 0 || have < (p.min_views < k ? p.min_views : k)) return kNoCost;
   float sum = 0;
-  for (int j = 0; j < k; ++j) sum = add(sum, best[j]);
-  return div(sum, float(k));
+  for (int j = 0; j < have; ++j) sum = add(sum, best[j]);
+  return div(sum, float(have));
 }
 
 // The guide neighbour's epipolar segment: position start + t/last * delta along one image axis,
