@@ -258,6 +258,9 @@ TEST(MultiviewDepth, BadSettingsAndInputsAreRefusedByName) {
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.stride = 0; }, "stride");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.neighbours = 9; }, "neighbours");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.refine_neighbours = 0; }, "refine_neighbours");
+  refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.refresh_after = c.keep_keyframes; }, "refresh_after");
+  static const ImageF small(10, 10, 1, -1.0f);
+  refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.again = &small; }, "earlier depth");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.min_confidence = 1.5; }, "min_confidence");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.anchor_confidence = -0.1; }, "anchor_confidence");
   refused([](MultiviewDepthConfig& c, MultiviewDepthInput&) { c.anchor_width = 8; }, "anchor_width");
@@ -267,6 +270,54 @@ TEST(MultiviewDepth, BadSettingsAndInputsAreRefusedByName) {
   refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.units_per_metre = 0; }, "units_per_metre");
   refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.neighbours.clear(); }, "neighbour");
   refused([](MultiviewDepthConfig&, MultiviewDepthInput& in) { in.reference.image = nullptr; }, "reference");
+}
+
+// Made again (MultiviewDepthInput::again): only the earlier depth's guesses are swept, with its
+// measured pixels as anchors; the result holds the guesses that got depth, at the true depth, and
+// nothing where the earlier depth measured or had nothing.
+TEST(MultiviewDepth, MadeAgainOnlyTheGuessesAreSweptAndOnlyTheyGetDepth) {
+  const Views v;
+  const int w = v.gt.width(), h = v.gt.height();
+  ImageF earlier(w, h, 1, 0.0f);
+  size_t guessed_grid = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float z = v.gt(x, y);
+      if (!(z > 0) || y >= 100) continue;  // the bottom rows: nothing before
+      const bool guess = x < 64;
+      earlier(x, y) = guess ? -1.5f * z : z;  // the guesses half as far again as the truth
+      guessed_grid += guess && x % 4 == 2 && y % 4 == 2;
+    }
+  MultiviewDepthInput in = v.input();
+  in.again = &earlier;
+  const MultiviewDepth d = multiview_depth(in, config(), nullptr);
+  EXPECT_EQ(d.swept, guessed_grid);
+  EXPECT_EQ(d.filled, 0u);
+  size_t valid = 0, textured_guesses = 0;
+  double sum = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float z = d.depth(x, y);
+      ASSERT_GE(z, 0.0f) << "no guesses in the result";
+      if (!(earlier(x, y) < 0)) {
+        ASSERT_EQ(z, 0.0f) << x << "," << y << ": only guesses get depth";
+        continue;
+      }
+      if (x >= 6 && y >= 6 && !v.flat(x, y)) ++textured_guesses;
+      if (z > 0) ++valid, sum += std::abs(z - v.gt(x, y)) / v.gt(x, y);
+    }
+  EXPECT_EQ(valid, d.valid);
+  EXPECT_GT(double(valid), 0.8 * double(textured_guesses)) << valid << " of " << textured_guesses;
+  EXPECT_LT(sum / double(std::max<size_t>(valid, 1)), 0.05);
+  std::printf("made again: %zu guesses swept, %zu pixels given depth, AbsRel %.4f\n", d.swept, valid,
+              sum / double(std::max<size_t>(valid, 1)));
+  // Nothing guessed: nothing swept.
+  ImageF measured = earlier;
+  for (float& z : measured.vec()) z = std::abs(z);
+  in.again = &measured;
+  const MultiviewDepth none = multiview_depth(in, config(), nullptr);
+  EXPECT_EQ(none.swept, 0u);
+  EXPECT_EQ(none.valid, 0u);
 }
 
 }  // namespace

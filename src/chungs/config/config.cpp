@@ -184,6 +184,9 @@ void fields(V& v, MultiviewDepthConfig& c) {
     "and one camera's tracked map unit (its first keyframe's median depth is set to this)");
   v("fill_holes", c.fill_holes,
     "pixels left without depth get a membrane fill of the others' inverse depth (not with a fill depth)");
+  v("refresh_after", c.refresh_after,
+    "a keyframe's guessed (filled) pixels are swept again this many keyframes later, with the later "
+    "ones as neighbours; new depth replaces the guesses and moves their Gaussians (0: never)");
   v("supervise_fill", c.supervise_fill,
     "the fill's depth is also the depth loss's target (else it only places Gaussians)");
   v("near", c.sweep.near, "wide sweep from (metres; a monocular tracker's unit is scaled to its points)");

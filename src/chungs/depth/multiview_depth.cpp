@@ -18,6 +18,8 @@ void MultiviewDepthConfig::validate() const {
     fail("multiview: refine_neighbours ", refine_neighbours, " (1 to 8)");
   if (!(min_confidence >= 0 && min_confidence <= 1)) fail("multiview: min_confidence ", min_confidence, " (0 to 1)");
   if (keep_keyframes < 2 || keep_keyframes > 1000) fail("multiview: keep_keyframes ", keep_keyframes, " (2 to 1000)");
+  if (refresh_after < 0 || refresh_after >= keep_keyframes)
+    fail("multiview: refresh_after ", refresh_after, " (0 to keep_keyframes - 1, ", keep_keyframes - 1, ")");
   if (!(anchor_confidence >= 0 && anchor_confidence <= 1))
     fail("multiview: anchor_confidence ", anchor_confidence, " (0 to 1; 0: one pass)");
   if (anchor_width < 16 || anchor_width > 100000) fail("multiview: anchor_width ", anchor_width, " (16 to 100000)");
@@ -89,6 +91,9 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
   if (!in.reference.image || in.reference.image->empty()) fail("multiview: the reference has no image");
   const Image8& image = *in.reference.image;
   const int w = image.width(), h = image.height();
+  if (in.again && (in.again->width() != w || in.again->height() != h || in.again->channels() != 1))
+    fail("multiview: the earlier depth is ", in.again->width(), "x", in.again->height(), "x", in.again->channels(),
+         ", the reference ", w, "x", h);
   PlaneSweepConfig sweep = config.sweep;
   sweep.near *= in.units_per_metre;
   sweep.far *= in.units_per_metre;
@@ -96,8 +101,22 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
   MultiviewDepth out;
   out.depth = ImageF(w, h, 1, 0.0f);
   out.confidence = ImageF(w, h, 1, 0.0f);
+  // The grid starts half a stride in, so its points sit at the centres of stride x stride blocks.
+  // Made again, only its guesses are swept; its measured grid pixels join the map points.
+  const int s = sweep.cuda ? config.cuda_stride : config.stride;
+  std::vector<DepthSample> points = in.points;
+  std::vector<SweepPixel> grid;
+  for (int y = s / 2; y < h; y += s)
+    for (int x = s / 2; x < w; x += s) {
+      const float before = in.again ? (*in.again)(x, y) : -1.0f;
+      if (before < 0)
+        grid.push_back({x, y});
+      else if (before > 0 && std::isfinite(before))
+        points.push_back({float(x), float(y), before, 1.0f});
+    }
+  if (grid.empty()) return out;
   std::optional<DensePrior> prior;
-  if (prior_source) prior = prior_source->prior(image, in.points);
+  if (prior_source) prior = prior_source->prior(image, in.points);  // the earlier depth narrows the second pass only
   out.prior = prior.has_value();
 
   PlaneSweepInput sin;
@@ -105,11 +124,6 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
   sin.reference = in.reference;
   sin.neighbours = in.neighbours;
   if (prior) sin.prior_inv_depth = &prior->inv_depth, sin.prior_confidence = &prior->confidence;
-  // The grid starts half a stride in, so its points sit at the centres of stride x stride blocks.
-  const int s = sweep.cuda ? config.cuda_stride : config.stride;
-  std::vector<SweepPixel> grid;
-  for (int y = s / 2; y < h; y += s)
-    for (int x = s / 2; x < w; x += s) grid.push_back({x, y});
   out.swept = grid.size();
   std::vector<SweepSample> swept = plane_sweep_at(sin, grid, sweep);
   if (config.anchor_confidence > 0) {
@@ -117,7 +131,7 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
     for (size_t i = 0; i < grid.size(); ++i)
       if (swept[i].depth > 0 && swept[i].confidence >= float(config.anchor_confidence))
         anchors.push_back({float(grid[i].x), float(grid[i].y), swept[i].depth, swept[i].confidence});
-    for (const DepthSample& p : in.points)
+    for (const DepthSample& p : points)
       if (p.depth > 0 && std::isfinite(p.depth)) anchors.push_back(p);
     if (anchors.size() >= std::max<size_t>(config.min_prior_points, 1)) {
       const DensePrior around = anchor_prior(image, anchors, config.densify, config.anchor_width);
@@ -141,7 +155,7 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
   }
 
   std::vector<DepthSample> samples;
-  samples.reserve(grid.size() + in.points.size());
+  samples.reserve(grid.size() + points.size());
   for (size_t i = 0; i < grid.size(); ++i)
     if (swept[i].depth > 0 && std::isfinite(swept[i].depth)) {
       samples.push_back({float(grid[i].x), float(grid[i].y), swept[i].depth, std::max(swept[i].confidence, 1e-3f)});
@@ -149,7 +163,7 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
     }
   if (samples.empty()) return out;  // nothing matched: no depth rather than the points alone
   // The map points were measured over several views: they join the swept samples, at full weight.
-  for (const DepthSample& p : in.points)
+  for (const DepthSample& p : points)
     if (p.depth > 0 && std::isfinite(p.depth) && p.depth >= sweep.near && p.depth <= sweep.far) samples.push_back(p);
 
   const DensePrior dense = densify_prior(image, samples, config.densify);
@@ -160,12 +174,13 @@ MultiviewDepth multiview_depth(const MultiviewDepthInput& in, const MultiviewDep
       if (!(inv > 0) || !std::isfinite(inv) || c < float(config.min_confidence)) continue;
       const float z = 1.0f / inv;
       if (!(z >= sweep.near && z <= sweep.far)) continue;
+      if (in.again && !((*in.again)(x, y) < 0)) continue;  // measured before: not this result's
       out.depth(x, y) = z;
       out.confidence(x, y) = c;
       kept(x, y) = 1.0f / z;
       ++out.valid;
     }
-  if (config.fill_holes && out.valid > 0 && out.valid < image.pixels()) {
+  if (config.fill_holes && !in.again && out.valid > 0 && out.valid < image.pixels()) {
     const ImageF full = fill_holes_membrane(kept);
     // Below every spread pixel's confidence: a filled pixel is a guess from its surroundings.
     const float guess = float(std::max(config.min_confidence, 0.01) / 2);

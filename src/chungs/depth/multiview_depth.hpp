@@ -59,6 +59,12 @@ struct MultiviewDepthConfig {
   // second pass, 0.4 scored +0.1 to +0.4 dB over 0.25 on the room, Replica and KITTI (bench/README.md).
   double min_confidence = 0.4;
   int keep_keyframes = 24;  // recent keyframes whose images the run keeps for the sweep
+  // A keyframe's guessed pixels are swept again in the load of the keyframe this many later, with the
+  // keyframes after it among the candidates: what only later views see (the side a camera turns to)
+  // then gets depth, which replaces the guesses in the keyframe's depth target and moves the
+  // Gaussians placed at them (Mapper::redepth). 0: never. 2 scored +0.6 dB held-out on Replica office0
+  // and the room from one camera, 1 nothing (bench/README.md).
+  int refresh_after = 2;
   // A second pass: the first pass's matches of at least this confidence (with the map points), spread
   // edge-aware, are the prior of a narrow sweep at the grid pixels the first pass swept wide, and its
   // result replaces theirs. A wide sweep's winner is often a repeated texture's other copy; the
@@ -103,6 +109,10 @@ struct MultiviewDepthInput {
   // Map units per metre (1 for metric poses; a monocular tracker's unit is its first keyframe's median
   // depth): sweep.near / far are metres and are scaled by it.
   double units_per_metre = 1.0;
+  // The reference's depth made before (MultiviewDepth::depth: negative where the fill guessed): the
+  // guesses are swept again, now against these neighbours, with the measured pixels as anchors. The
+  // result holds depth only at guessed pixels the sweep and spread now give depth (0 elsewhere, no fill).
+  const ImageF* again = nullptr;
 };
 
 struct MultiviewDepth {

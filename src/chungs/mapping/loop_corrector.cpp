@@ -256,6 +256,8 @@ class Corrector {
           rotate_sh(sh_of(kf, d->second), block.sh_degree, &p.sh[size_t(kShFloats) * i]);
         ++stats_.gaussians_moved;
       }
+      const bool reshaped = corr_.reshape && corr_.reshape(block, i);
+      stats_.gaussians_moved += reshaped;
       if (junction) {
         p.opacity[i] = corr_.reset_opacity_logit;
         for (GaussianParams* m : {&block.adam_m, &block.adam_v}) {
@@ -275,7 +277,7 @@ class Corrector {
       // of its chunk earlier: afterwards each lies in the chunk of its position.
       const ChunkId dest = chunk_of(m, c);
       if (dest == c) {
-        if (d == corr_.delta.end() && !junction) continue;
+        if (d == corr_.delta.end() && !junction && !reshaped) continue;
         stay.append(block, i);
         stay_slots.push_back(slots[i]);
       } else {

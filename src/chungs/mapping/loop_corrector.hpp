@@ -13,6 +13,7 @@
 // capacity); when they do not fit, chunks are visited one at a time under the normal budget.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <span>
 #include <unordered_map>
@@ -57,6 +58,9 @@ struct PoseCorrection {
   std::unordered_set<uint32_t> junction;    // keyframes whose Gaussians are reset for refinement
   float reset_opacity_logit = 0;            // opacity logit given to junction Gaussians
   bool allow_batch = true;                  // false: always one chunk at a time
+  // Changes of single Gaussians besides the keyframes' rigid ones (Mapper::redepth): changes Gaussian
+  // i of the block in place and says whether it did.
+  std::function<bool(GaussianBlock& block, size_t i)> reshape;
 };
 
 // Applies the correction to the Gaussians in `candidates` (chunks of the map; unknown ones are

@@ -19,6 +19,7 @@ struct KeyframeRecord {
   SE3 pose;  // camera-to-world
   int uses = 0;
   double last_loss = 0;
+  uint32_t depth_version = 0;  // bumped when its stored depth changes (Mapper::redepth); not saved
 };
 
 void write_keyframe_records(const std::filesystem::path& file, const std::vector<KeyframeRecord>& records,

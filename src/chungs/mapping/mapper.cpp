@@ -494,8 +494,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
     const auto t1 = clock::now();
     // Pruning runs on the step that completes `every` iterations, as before the backend split.
     const bool prune = config_.prune.every > 0 && (iterations_ + 1) % uint64_t(config_.prune.every) == 0;
-    // Keyframe ids are never reused within a map, so the id names the images.
-    const StepTargets targets{uint64_t(kf.id) + 1, config_.loss.lambda_depth > 0,
+    // Keyframe ids are never reused within a map, so the id and the depth's version name the images.
+    const StepTargets targets{(uint64_t(kf.depth_version) << 32) + uint64_t(kf.id) + 1, config_.loss.lambda_depth > 0,
                               [&] {
                                 const auto tl = clock::now();
                                 auto images = keyframe_store_->get(kf.id);

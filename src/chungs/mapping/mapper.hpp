@@ -61,6 +61,17 @@ class Mapper {
   // only; the keyframe keeps being trained without a depth target. Throws Error for an unknown frame
   // or a depth of another size.
   SampleStats add_late_depth(uint64_t frame, const ImageF& depth);
+  // A later depth for the guessed pixels of frame's keyframe (negative in its stored depth: one
+  // camera's fill). Where `fresh` is positive at a guess, the stored depth takes it (a depth-loss
+  // target from now on), and the keyframe's Gaussians at such a pixel, unless the optimiser has moved
+  // them off their guess by more than a quarter, slide along the keyframe's ray to the new depth,
+  // their size scaled alike. Returns the pixels replaced. Throws Error for an unknown frame or a depth
+  // of another size.
+  size_t redepth(uint64_t frame, const ImageF& fresh);
+  struct RedepthTotals {
+    uint64_t keyframes = 0, pixels = 0, gaussians_moved = 0;
+  };
+  const RedepthTotals& redepth_totals() const { return redepth_totals_; }
   // Measured depth (RGB-D, stereo): from now on the depths of the pixels a sampling draws are polished
   // by the plane sweep against earlier keyframes over their inverse depth -+ inv_range (1/m; 0: off;
   // mapping/sample_refine.hpp). The run sets it from config.multiview.refine and the depth's kind.
@@ -218,6 +229,7 @@ class Mapper {
   void give_back_picks_ahead();
   uint32_t window_pick_ahead();  // the first window pick drawn ahead (taken from the list), or a new one
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint
+  RedepthTotals redepth_totals_;
   StrayPool stray_pool_;  // not saved: a resumed run starts it empty
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views
   std::unordered_map<uint32_t, ViewCoverage> coverage_;             // of the cell's views (partial steps)

@@ -28,6 +28,8 @@ struct MappingFrame {
   // Multiview depth: earlier keyframes whose depth waited for a neighbour, computed with this one's
   // load (frame index, depth at the mapping resolution).
   std::vector<std::pair<size_t, ImageF>> late_depth;
+  // An earlier keyframe's guessed depths made again with this one (frame index, depth at its guesses).
+  std::vector<std::pair<size_t, ImageF>> refresh_depth;
 };
 
 // Median of the finite positive values (0 when there are none).

@@ -27,7 +27,32 @@ struct MultiviewKeyframes::Entry {
   // released once its depth is computed.
   std::vector<std::shared_ptr<Entry>> earlier;
   double scene_depth = 0;
+  // Its depth as computed, kept (under mutex_) until the keyframe that makes its guesses again takes
+  // it; depth_known is ready once its load got that far (or failed) on every path.
+  std::shared_ptr<const ImageF> depth;
+  std::promise<void> depth_done;
+  std::shared_future<void> depth_known = depth_done.get_future().share();
+  bool depth_set = false;  // under mutex_
+  std::shared_ptr<Entry> refresh;  // the earlier keyframe whose guesses this one's load sweeps again
 };
+
+namespace {
+
+bool has_guesses(const ImageF& depth) {
+  return std::any_of(depth.vec().begin(), depth.vec().end(), [](float z) { return z < 0; });
+}
+
+}  // namespace
+
+void MultiviewKeyframes::depth_known(Entry& e, std::shared_ptr<const ImageF> depth) {
+  {
+    std::lock_guard lock(mutex_);
+    if (e.depth_set) return;
+    e.depth_set = true;
+    e.depth = std::move(depth);
+  }
+  e.depth_done.set_value();
+}
 
 MultiviewKeyframes::MultiviewKeyframes(const Dataset& dataset, double resolution, const MultiviewDepthConfig& config,
                                        bool cuda, bool metric, std::shared_ptr<const DepthPriorSource> prior)
@@ -81,6 +106,15 @@ void MultiviewKeyframes::seen(const FeedItem& item) {
   const bool alone = choose(*item.pose, earlier, scene_depth_).empty();
   const auto e = add(item.frame, item.keyframe_id, *item.pose, true);
   e->points = item.map_points;
+  if (config_.refresh_after > 0) {
+    // The keyframe refresh_after mapped keyframes back, if its depth came from its own load.
+    int back = config_.refresh_after;
+    for (auto it = before.rbegin(); it != before.rend(); ++it)
+      if ((*it)->mapped && --back == 0) {
+        if (!(*it)->alone) e->refresh = *it;
+        break;
+      }
+  }
   e->earlier = std::move(before);
   e->scene_depth = scene_depth_;
   ++keyframes_;
@@ -142,12 +176,14 @@ void MultiviewKeyframes::failed(size_t frame, std::exception_ptr error) {
     if (!e || e->published) return;
     e->published = true;
     e->earlier.clear();
+    e->refresh.reset();
   }
   e->promise.set_exception(error);
+  depth_known(*e, nullptr);
 }
 
 std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vector<std::shared_ptr<Entry>>& candidates,
-                                                const Image8& image, double scene_depth) {
+                                                const Image8& image, double scene_depth, const ImageF* again) {
   const auto t0 = std::chrono::steady_clock::now();
   SE3 ref_pose;
   std::vector<SE3> poses;
@@ -173,9 +209,9 @@ std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vec
   }
   {
     std::lock_guard lock(mutex_);
-    units_per_metre_ = upm;
+    if (!again) units_per_metre_ = upm;
     chosen = choose(ref_pose, poses, scene_depth);
-    if (chosen.empty()) ++without_;
+    if (chosen.empty() && !again) ++without_;
   }
   if (chosen.empty()) return std::nullopt;
   std::vector<std::shared_ptr<const Image8>> held;  // keeps the neighbours' images alive
@@ -187,7 +223,17 @@ std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vec
   }
   if (in.neighbours.empty()) return std::nullopt;
   in.units_per_metre = upm;
+  in.again = again;
   const MultiviewDepth d = multiview_depth(in, config_, prior_.get());
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (again) {
+    std::lock_guard lock(mutex_);
+    ++refreshed_;
+    refreshed_share_ += double(d.valid) / double(std::max<size_t>(image.pixels(), 1));
+    refresh_ms_ += ms;
+    if (d.valid == 0) return std::nullopt;
+    return d.depth;
+  }
   {
     std::lock_guard lock(mutex_);
     ++sweeps_;
@@ -196,7 +242,7 @@ std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vec
     reswept_ += d.reswept;
     valid_share_ += double(d.valid) / double(std::max<size_t>(image.pixels(), 1));
     filled_share_ += double(d.filled) / double(std::max<size_t>(image.pixels(), 1));
-    ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    ms_ += ms;
   }
   return d.depth;
 }
@@ -215,7 +261,15 @@ MultiviewKeyframes::Result MultiviewKeyframes::depth(size_t frame, const Image8&
   }
   e->promise.set_value(std::make_shared<const Image8>(image));
   Result r;
-  if (!e->alone) r.depth = sweep(*e, before, image, e->scene_depth);
+  try {
+    if (!e->alone) r.depth = sweep(*e, before, image, e->scene_depth);
+  } catch (...) {
+    depth_known(*e, nullptr);  // a later load waiting to make its guesses again goes on without
+    throw;
+  }
+  depth_known(*e, r.depth && config_.refresh_after > 0 && has_guesses(*r.depth)
+                      ? std::make_shared<const ImageF>(*r.depth)
+                      : nullptr);
   for (size_t p : e->late) {
     // The pending keyframe against the ones this keyframe's registration knew, this one included.
     std::shared_ptr<Entry> pe;
@@ -232,6 +286,23 @@ MultiviewKeyframes::Result MultiviewKeyframes::depth(size_t frame, const Image8&
       r.late.emplace_back(p, std::move(*d));
       std::lock_guard lock(mutex_);
       ++late_;
+    }
+  }
+  if (const std::shared_ptr<Entry> p = std::move(e->refresh)) {
+    // Its loader started before this one's (registered earlier), so the wait ends.
+    p->depth_known.wait();
+    std::shared_ptr<const ImageF> earlier;
+    {
+      std::lock_guard lock(mutex_);
+      earlier = std::move(p->depth);  // taken once: the image is freed after this sweep
+    }
+    const auto img = earlier ? image_of(*p) : nullptr;
+    if (img) {
+      std::vector<std::shared_ptr<Entry>> others;
+      for (const auto& x : before)
+        if (x != p) others.push_back(x);
+      others.push_back(e);
+      if (auto d = sweep(*p, others, *img, e->scene_depth, earlier.get())) r.refresh.emplace_back(p->frame, std::move(*d));
     }
   }
   return r;
@@ -251,7 +322,10 @@ nlohmann::json MultiviewKeyframes::report() const {
           {"swept_pixels_per_keyframe", double(swept_) / n},
           {"reswept_share", double(reswept_) / double(std::max<uint64_t>(swept_, 1))},
           {"valid_share", valid_share_ / n},
-          {"filled_share", filled_share_ / n}};
+          {"filled_share", filled_share_ / n},
+          {"refreshed", refreshed_},
+          {"refreshed_share", refreshed_share_ / double(std::max<uint64_t>(refreshed_, 1))},
+          {"refresh_mean_ms", refresh_ms_ / double(std::max<uint64_t>(refreshed_, 1))}};
 }
 
 }  // namespace chungs

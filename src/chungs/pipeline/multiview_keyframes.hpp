@@ -12,6 +12,11 @@
 // a usable neighbour among the earlier ones is pending; the first later keyframe with which it has one
 // computes its depth too (after its own), and the run samples it then (Mapper::add_late_depth).
 //
+// The guesses (the fill) of a keyframe are swept again in the load of the keyframe
+// config.refresh_after mapped keyframes later, against the candidates that one's registration knew
+// (itself and the keyframes between included): the load waits for the earlier keyframe's depth,
+// whose load started first. Which keyframe a load refreshes is fixed at its registration.
+//
 // What a keyframe's sweeps choose from is fixed when it is registered: the keyframes before it and the
 // scene depth known then. A load runs whenever a worker takes it, by which time the run may have
 // registered later keyframes (pushing the oldest out of the window) and learnt a newer scene depth;
@@ -50,6 +55,9 @@ class MultiviewKeyframes {
   struct Result {
     std::optional<ImageF> depth;                       // none: no neighbour yet (deferred or none at all)
     std::vector<std::pair<size_t, ImageF>> late;       // earlier keyframes' deferred depth (frame, depth)
+    // An earlier keyframe's guesses made again (config.refresh_after): depth at the guessed pixels the
+    // sweep now gives depth, 0 elsewhere (frame, depth; Mapper::redepth).
+    std::vector<std::pair<size_t, ImageF>> refresh;
   };
   // A loader thread: frame's image (the mapping resolution) is published for later sweeps, then its
   // depth computed. Call exactly once per registered keyframe, or failed() when its load failed.
@@ -62,8 +70,11 @@ class MultiviewKeyframes {
   struct Entry;
   std::shared_ptr<Entry> find(size_t frame) const;  // under mutex_
   std::shared_ptr<const Image8> image_of(Entry& e);
+  // again: the reference's earlier depth, whose guesses alone are swept (MultiviewDepthInput::again);
+  // none comes back when no guess got depth.
   std::optional<ImageF> sweep(const Entry& ref, const std::vector<std::shared_ptr<Entry>>& candidates,
-                              const Image8& image, double scene_depth);
+                              const Image8& image, double scene_depth, const ImageF* again = nullptr);
+  void depth_known(Entry& e, std::shared_ptr<const ImageF> depth);  // once per entry, later calls ignored
   // scene_depth: the median depth the choice's triangulation angle refers to (0: unknown yet).
   std::vector<size_t> choose(const SE3& ref, const std::vector<SE3>& others, double scene_depth) const;
 
@@ -82,6 +93,8 @@ class MultiviewKeyframes {
   size_t keyframes_ = 0, deferred_ = 0, late_ = 0, without_ = 0, with_prior_ = 0, sweeps_ = 0;
   double ms_ = 0, valid_share_ = 0, filled_share_ = 0;
   uint64_t swept_ = 0, reswept_ = 0;
+  uint64_t refreshed_ = 0;  // sweeps of earlier keyframes' guesses
+  double refreshed_share_ = 0, refresh_ms_ = 0;
 };
 
 }  // namespace chungs

@@ -262,6 +262,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
           MultiviewKeyframes::Result r = multiview->depth(i, m.frame.left);
           m.depth = std::move(r.depth);
           m.late_depth = std::move(r.late);
+          m.refresh_depth = std::move(r.refresh);
           if (m.depth) m.median_depth = median_valid_depth(*m.depth);
         }
         if (log_lag) {
@@ -338,6 +339,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
           const SampleStats ls = mapper.add_late_depth(frame, depth);
           if (!(m.median_depth > 0)) m.median_depth = median_valid_depth(depth);
           log::debug("frame ", frame, ": ", ls.kept, " new Gaussians from depth computed with frame ", i);
+        }
+        for (const auto& [frame, depth] : m.refresh_depth) {
+          const auto& kfs = mapper.keyframes();
+          if (std::any_of(kfs.begin(), kfs.end(), [&](const auto& k) { return k.frame == frame; }))
+            mapper.redepth(frame, depth);  // else dropped (real-time pacing)
         }
         feed->set_scene_depth(m.median_depth);
         if (multiview) multiview->set_scene_depth(m.median_depth);
@@ -420,7 +426,12 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                          {"gaussians", mapper.total_gaussians()}};
   report["resolution"] = {info.camera.width * mc.resolution, info.camera.height * mc.resolution};
   report["depth"] = depth_mode_name(mode);
-  if (multiview) report["multiview"] = multiview->report();
+  if (multiview) {
+    report["multiview"] = multiview->report();
+    const Mapper::RedepthTotals& rt = mapper.redepth_totals();
+    report["multiview"]["redepth"] = {
+        {"keyframes", rt.keyframes}, {"pixels", rt.pixels}, {"gaussians_moved", rt.gaussians_moved}};
+  }
   if (mapper.depth_refinement() > 0) {
     const SampleRefineTotals& r = mapper.refine_totals();
     report["depth_refinement"] = {{"inv_range", mapper.depth_refinement()},
