@@ -323,11 +323,14 @@ void Mapper::set_depth_refinement(double inv_range) {
   refine_range_ = inv_range;
 }
 
+KeyframeRecord& Mapper::keyframe_of_frame(uint64_t frame) {
+  for (auto it = keyframes_.rbegin(); it != keyframes_.rend(); ++it)
+    if (it->frame == frame) return *it;
+  fail("mapper: no keyframe of frame ", frame, " to give depth to");
+}
+
 SampleStats Mapper::add_late_depth(uint64_t frame, const ImageF& depth) {
-  const KeyframeRecord* kf = nullptr;
-  for (auto it = keyframes_.rbegin(); it != keyframes_.rend() && !kf; ++it)
-    if (it->frame == frame) kf = &*it;
-  if (!kf) fail("mapper: no keyframe of frame ", frame, " to give depth to");
+  const KeyframeRecord* kf = &keyframe_of_frame(frame);
   const std::shared_ptr<const KeyframeImages> images = keyframe_store_->get(kf->id);
   if (!depth.same_size(images->color) || depth.channels() != 1)
     fail("mapper: frame ", frame, ": depth ", depth.width(), "x", depth.height(), " does not match the image ",

@@ -212,6 +212,7 @@ class Mapper {
   KeyframeRecord* mutable_keyframe(uint32_t id) {
     return const_cast<KeyframeRecord*>(std::as_const(*this).find_keyframe(id));
   }
+  KeyframeRecord& keyframe_of_frame(uint64_t frame);  // the newest of that frame; throws Error when none
   uint64_t checkpoint_seq_ = 0;  // the last committed checkpoint (see recover_checkpoint_files)
   // Keyframes the newest checkpoint begun (or the one resumed) names: those after them are removed
   // on close, since no committed checkpoint can name them.

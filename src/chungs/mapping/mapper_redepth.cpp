@@ -7,10 +7,7 @@
 namespace chungs {
 
 size_t Mapper::redepth(uint64_t frame, const ImageF& fresh) {
-  KeyframeRecord* kf = nullptr;
-  for (auto it = keyframes_.rbegin(); it != keyframes_.rend() && !kf; ++it)
-    if (it->frame == frame) kf = &*it;
-  if (!kf) fail("mapper: no keyframe of frame ", frame, " to give depth to");
+  KeyframeRecord* kf = &keyframe_of_frame(frame);
   const std::shared_ptr<const KeyframeImages> images = keyframe_store_->get(kf->id);
   const ImageF& old = images->depth;
   if (fresh.width() != images->color.width() || fresh.height() != images->color.height() || fresh.channels() != 1)
