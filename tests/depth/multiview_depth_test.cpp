@@ -103,7 +103,9 @@ TEST(MultiviewDepth, AGridSweepSpreadEdgeAwareCoversTheTexturedSurfaces) {
   EXPECT_EQ(spread.valid, with_depth(spread));
   EXPECT_EQ(spread.valid, d.valid);
   for (size_t i = 0; i < d.depth.pixels(); ++i) {
-    if (spread.depth.vec()[i] > 0) ASSERT_EQ(spread.depth.vec()[i], d.depth.vec()[i]) << "pixel " << i;
+    if (spread.depth.vec()[i] > 0) {
+      ASSERT_EQ(spread.depth.vec()[i], d.depth.vec()[i]) << "pixel " << i;
+    }
   }
   // The untextured patch lies on the wall: where the spread reaches it, it carries the wall's depth,
   // which is the patch's (the sweep alone keeps none of it).
