@@ -17,6 +17,7 @@
 #include "chungs/pipeline/frame_source.hpp"
 #include "chungs/pipeline/memory_flatness.hpp"
 #include "chungs/pipeline/multiview_keyframes.hpp"
+#include "chungs/pipeline/multiview_mapping.hpp"
 #include "chungs/pipeline/pacing_summary.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/pipeline/pose_updates.hpp"
@@ -329,22 +330,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       } else {
         MappingFrame m;
         timed(frames_wait_ms, [&] { m = entry->frame.get(); });
-        // Earlier keyframes whose depth waited for a neighbour (one camera) first: they are older.
-        for (const auto& late : m.late_depth) {
-          const size_t frame = late.first;
-          const ImageF& depth = late.second;
-          const auto& kfs = mapper.keyframes();
-          if (std::none_of(kfs.begin(), kfs.end(), [&](const auto& k) { return k.frame == frame; }))
-            continue;  // dropped (real-time pacing)
-          const SampleStats ls = mapper.add_late_depth(frame, depth);
-          if (!(m.median_depth > 0)) m.median_depth = median_valid_depth(depth);
-          log::debug("frame ", frame, ": ", ls.kept, " new Gaussians from depth computed with frame ", i);
-        }
-        for (const auto& [frame, depth] : m.refresh_depth) {
-          const auto& kfs = mapper.keyframes();
-          if (std::any_of(kfs.begin(), kfs.end(), [&](const auto& k) { return k.frame == frame; }))
-            mapper.redepth(frame, depth);  // else dropped (real-time pacing)
-        }
+        give_earlier_keyframes_depth(mapper, m, i);
         feed->set_scene_depth(m.median_depth);
         if (multiview) multiview->set_scene_depth(m.median_depth);
         const SampleStats ss = mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera,
@@ -426,12 +412,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                          {"gaussians", mapper.total_gaussians()}};
   report["resolution"] = {info.camera.width * mc.resolution, info.camera.height * mc.resolution};
   report["depth"] = depth_mode_name(mode);
-  if (multiview) {
-    report["multiview"] = multiview->report();
-    const Mapper::RedepthTotals& rt = mapper.redepth_totals();
-    report["multiview"]["redepth"] = {
-        {"keyframes", rt.keyframes}, {"pixels", rt.pixels}, {"gaussians_moved", rt.gaussians_moved}};
-  }
+  if (multiview) report["multiview"] = multiview_report(*multiview, mapper);
   if (mapper.depth_refinement() > 0) {
     const SampleRefineTotals& r = mapper.refine_totals();
     report["depth_refinement"] = {{"inv_range", mapper.depth_refinement()},
