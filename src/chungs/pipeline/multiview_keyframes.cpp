@@ -44,7 +44,7 @@ bool has_guesses(const ImageF& depth) {
 
 }  // namespace
 
-void MultiviewKeyframes::depth_known(Entry& e, std::shared_ptr<const ImageF> depth) {
+void MultiviewKeyframes::publish_depth(Entry& e, std::shared_ptr<const ImageF> depth) {
   {
     std::lock_guard lock(mutex_);
     if (e.depth_set) return;
@@ -179,7 +179,7 @@ void MultiviewKeyframes::failed(size_t frame, std::exception_ptr error) {
     e->refresh.reset();
   }
   e->promise.set_exception(error);
-  depth_known(*e, nullptr);
+  publish_depth(*e, nullptr);
 }
 
 std::optional<ImageF> MultiviewKeyframes::sweep(const Entry& ref, const std::vector<std::shared_ptr<Entry>>& candidates,
@@ -264,25 +264,28 @@ MultiviewKeyframes::Result MultiviewKeyframes::depth(size_t frame, const Image8&
   try {
     if (!e->alone) r.depth = sweep(*e, before, image, e->scene_depth);
   } catch (...) {
-    depth_known(*e, nullptr);  // a later load waiting to make its guesses again goes on without
+    publish_depth(*e, nullptr);  // a later load waiting to make its guesses again goes on without
     throw;
   }
-  depth_known(*e, r.depth && config_.refresh_after > 0 && has_guesses(*r.depth)
+  publish_depth(*e, r.depth && config_.refresh_after > 0 && has_guesses(*r.depth)
                       ? std::make_shared<const ImageF>(*r.depth)
                       : nullptr);
-  for (size_t p : e->late) {
-    // The pending keyframe against the ones this keyframe's registration knew, this one included.
-    std::shared_ptr<Entry> pe;
+  // An earlier keyframe against the ones this keyframe's registration knew, this one included.
+  const auto others_than = [&](const std::shared_ptr<Entry>& earlier) {
     std::vector<std::shared_ptr<Entry>> others;
+    for (const auto& x : before)
+      if (x != earlier) others.push_back(x);
+    others.push_back(e);
+    return others;
+  };
+  for (size_t p : e->late) {
+    std::shared_ptr<Entry> pe;
     for (const auto& x : before)
       if (x->frame == p && x->mapped) pe = x;
     if (!pe) continue;
-    for (const auto& x : before)
-      if (x != pe) others.push_back(x);
-    others.push_back(e);
     const auto img = image_of(*pe);
     if (!img) continue;
-    if (auto d = sweep(*pe, others, *img, e->scene_depth)) {
+    if (auto d = sweep(*pe, others_than(pe), *img, e->scene_depth)) {
       r.late.emplace_back(p, std::move(*d));
       std::lock_guard lock(mutex_);
       ++late_;
@@ -297,13 +300,9 @@ MultiviewKeyframes::Result MultiviewKeyframes::depth(size_t frame, const Image8&
       earlier = std::move(p->depth);  // taken once: the image is freed after this sweep
     }
     const auto img = earlier ? image_of(*p) : nullptr;
-    if (img) {
-      std::vector<std::shared_ptr<Entry>> others;
-      for (const auto& x : before)
-        if (x != p) others.push_back(x);
-      others.push_back(e);
-      if (auto d = sweep(*p, others, *img, e->scene_depth, earlier.get())) r.refresh.emplace_back(p->frame, std::move(*d));
-    }
+    if (img)
+      if (auto d = sweep(*p, others_than(p), *img, e->scene_depth, earlier.get()))
+        r.refresh.emplace_back(p->frame, std::move(*d));
   }
   return r;
 }

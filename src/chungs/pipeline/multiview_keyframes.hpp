@@ -74,7 +74,7 @@ class MultiviewKeyframes {
   // none comes back when no guess got depth.
   std::optional<ImageF> sweep(const Entry& ref, const std::vector<std::shared_ptr<Entry>>& candidates,
                               const Image8& image, double scene_depth, const ImageF* again = nullptr);
-  void depth_known(Entry& e, std::shared_ptr<const ImageF> depth);  // once per entry, later calls ignored
+  void publish_depth(Entry& e, std::shared_ptr<const ImageF> depth);  // once per entry, later calls ignored
   // scene_depth: the median depth the choice's triangulation angle refers to (0: unknown yet).
   std::vector<size_t> choose(const SE3& ref, const std::vector<SE3>& others, double scene_depth) const;
 
