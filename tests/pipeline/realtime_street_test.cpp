@@ -79,14 +79,6 @@ TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFlo
     EXPECT_LT(double(c->report["chunk_io"]["waited_loads"].get<uint64_t>()), 0.6 * steps);
     // Keyframes outside the window keep being trained, on the resident part of their views.
     EXPECT_GT(c->pacing()["training_window"]["partial_step_share"].get<double>(), 0.0);
-    // A pick outside it that would cover too little is replaced when it is drawn, mostly, so that the
-    // window keyframe trained instead is read ahead like the others (found at its step, it is not).
-    const uint64_t too_small = c->pacing()["training_window"]["partial_too_small"].get<uint64_t>();
-    const uint64_t late = c->pacing()["training_window"]["partial_too_small_late"].get<uint64_t>();
-    std::printf("picks outside the window covering too little: %llu, found at the step %llu\n",
-                (unsigned long long)too_small, (unsigned long long)late);
-    EXPECT_GT(too_small, 0u);
-    EXPECT_LT(double(late), 0.5 * double(too_small));
   }
   // Below what one view needs: the farthest chunks stay out of each render, and their screen area
   // is not sampled again.

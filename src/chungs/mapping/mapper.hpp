@@ -153,9 +153,6 @@ class Mapper {
     // Steps on a keyframe outside the window, on the resident part of its view; and picks outside
     // it whose resident part covered too little, trained on a window keyframe instead.
     uint64_t partial_steps = 0, partial_too_small = 0;
-    // Of those, the ones found at the step rather than when drawn ahead: the window keyframe trained
-    // instead had not been read ahead for that step.
-    uint64_t partial_too_small_late = 0;
     // Steps on a window keyframe whose view needs more than the budget, scored without the pixels
     // that its left-out (farthest) chunks would have drawn.
     uint64_t trimmed_steps = 0;
@@ -230,8 +227,6 @@ class Mapper {
   };
   std::deque<PickAhead> picks_ahead_;
   void draw_pick_ahead();
-  // Keeps the resident ones of `chunks` (sorted) and returns the share of the keyframe's view they cover.
-  double resident_share(const KeyframeRecord& kf, std::vector<ChunkId>& chunks);
   void give_back_picks_ahead();
   uint32_t window_pick_ahead();  // the first window pick drawn ahead (taken from the list), or a new one
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint

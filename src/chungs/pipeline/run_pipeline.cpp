@@ -463,7 +463,6 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                                {"partial_step_share",
                                 double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
                                {"partial_too_small", w.partial_too_small},
-                               {"partial_too_small_late", w.partial_too_small_late},
                                {"trimmed_step_share",
                                 double(w.trimmed_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))}};
     }
