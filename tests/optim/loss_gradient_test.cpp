@@ -84,8 +84,12 @@ double direct_ssim(const Image<double>& x, const Image<double>& y) {
 }
 
 TEST(Losses, SsimMatchesDirectWindowSumAndIsOneForIdenticalImages) {
+  // Widths where no pixel, one pixel and many pixels have the whole window inside the image.
+  for (const int w : {7, 11, 23}) {
+    const Image<double> a = random_image(w, 17, 3, 3), b = random_image(w, 17, 3, 4);
+    EXPECT_NEAR(ssim_loss_term(a, b), direct_ssim(a, b), 1e-12) << w << " wide";
+  }
   const Image<double> a = random_image(23, 17, 3, 3), b = random_image(23, 17, 3, 4);
-  EXPECT_NEAR(ssim_loss_term(a, b), direct_ssim(a, b), 1e-12);
   EXPECT_NEAR(ssim_loss_term(a, a), 1.0, 1e-12);
   Image<double> g(23, 17, 3);
   ssim_loss_term(a, a, &g);
