@@ -96,28 +96,52 @@ struct PixelResult {
   float depth = 0, confidence = 0;
 };
 
-// Projects (x, y) at inverse depth rho into neighbour n; false behind it.
-CHUNGS_PS_HD inline bool project(const Neighbour& n, float x, float y, float rho, float& u, float& v) {
-  const float hx = add(add(add(mul(n.H[0], x), mul(n.H[1], y)), n.H[2]), mul(rho, n.e[0]));
-  const float hy = add(add(add(mul(n.H[3], x), mul(n.H[4], y)), n.H[5]), mul(rho, n.e[1]));
-  const float hz = add(add(add(mul(n.H[6], x), mul(n.H[7], y)), n.H[8]), mul(rho, n.e[2]));
+// The homogeneous point as a division makes it a pixel; false behind the neighbour.
+CHUNGS_PS_HD inline bool dehomogenise(float hx, float hy, float hz, float& u, float& v) {
   if (!(hz > 1e-6f)) return false;
   u = div(hx, hz), v = div(hy, hz);
   return true;
 }
 
+// Row k of H (x, y, 1): the part of a homogeneous coordinate that does not depend on the plane.
+CHUNGS_PS_HD inline float h_row(const Neighbour& n, int k, float x, float y) {
+  return add(add(mul(n.H[3 * k], x), mul(n.H[3 * k + 1], y)), n.H[3 * k + 2]);
+}
+
+// Projects (x, y) at inverse depth rho into neighbour n; false behind it.
+CHUNGS_PS_HD inline bool project(const Neighbour& n, float x, float y, float rho, float& u, float& v) {
+  return dehomogenise(add(h_row(n, 0, x, y), mul(rho, n.e[0])), add(h_row(n, 1, x, y), mul(rho, n.e[1])),
+                      add(h_row(n, 2, x, y), mul(rho, n.e[2])), u, v);
+}
+
+// On the host, the plane-free parts of a patch's homogeneous coordinates in each neighbour are worked out
+// once per pixel (`rows`: 3 per patch pixel, kMaxPatch pixels per neighbour) instead of once per
+// hypothesis; every hypothesis then adds its plane's term, so the sums are those of project() to the
+// bit. On the GPU such a table would live in local memory, so the kernel projects directly.
+CHUNGS_PS_HD inline void patch_rows(const Neighbour& n, int x, int y, int r, float* rows) {
+  int i = 0;
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx, ++i)
+      for (int k = 0; k < 3; ++k) rows[3 * i + k] = h_row(n, k, float(x + dx), float(y + dy));
+}
+
 // 1 - ZNCC between the centred reference patch `rc` (norm rnorm) and neighbour n's patch on the plane
-// of inverse depth rho; kNoCost where a sample falls outside the neighbour or behind it.
+// of inverse depth rho; kNoCost where a sample falls outside the neighbour or behind it. `rows`: the
+// patch's patch_rows() in n, or null to project directly.
 CHUNGS_PS_HD inline float patch_cost(const Problem& p, const Neighbour& n, int x, int y, float rho, const float* rc,
-                                     float rnorm, float ref_mean) {
+                                     float rnorm, float ref_mean, const float* rows) {
   const int r = p.radius, side = 2 * r + 1;
   const float count = float(side * side);
+  const float re0 = mul(rho, n.e[0]), re1 = mul(rho, n.e[1]), re2 = mul(rho, n.e[2]);
   float s = 0, s2 = 0, sc = 0;
   int i = 0;
   for (int dy = -r; dy <= r; ++dy)
     for (int dx = -r; dx <= r; ++dx, ++i) {
       float u, v;
-      if (!project(n, float(x + dx), float(y + dy), rho, u, v)) return kNoCost;
+      const bool seen = rows ? dehomogenise(add(rows[3 * i], re0), add(rows[3 * i + 1], re1),
+                                            add(rows[3 * i + 2], re2), u, v)
+                             : project(n, float(x + dx), float(y + dy), rho, u, v);
+      if (!seen) return kNoCost;
       if (!(u >= 0.0f && v >= 0.0f && u < float(p.width - 1) && v < float(p.height - 1))) return kNoCost;
       const float fu = floorf(u), fv = floorf(v);
       const int iu = int(fu), iv = int(fv);
@@ -139,12 +163,13 @@ CHUNGS_PS_HD inline float patch_cost(const Problem& p, const Neighbour& n, int x
 // others does not count); where fewer neighbours see the patch, the mean of those that do, kNoCost
 // below min_views of them.
 CHUNGS_PS_HD inline float hypothesis_cost(const Problem& p, int x, int y, float rho, const float* rc, float rnorm,
-                                          float ref_mean) {
+                                          float ref_mean, const float* rows) {
   const int k = p.best_k < p.neighbours ? p.best_k : p.neighbours;
   float best[kMaxNeighbours];
   int have = 0;
   for (int j = 0; j < p.neighbours; ++j) {
-    const float c = patch_cost(p, p.nb[j], x, y, rho, rc, rnorm, ref_mean);
+    const float c =
+        patch_cost(p, p.nb[j], x, y, rho, rc, rnorm, ref_mean, rows ? rows + 3 * kMaxPatch * j : nullptr);
     if (c >= kNoCost) continue;
     // Insertion into the sorted best list (ascending, stable).
     int at = have < k ? have : k;
@@ -249,10 +274,16 @@ CHUNGS_PS_HD inline PixelResult sweep_pixel(const Problem& p, int x, int y, floa
   if (count < p.min_hypotheses) count = p.min_hypotheses;
   g.last = float(count - 1);
 
+#ifdef __CUDA_ARCH__
+  const float* rows = nullptr;
+#else
+  float rows[3 * kMaxPatch * kMaxNeighbours];
+  for (int j = 0; j < p.neighbours; ++j) patch_rows(p.nb[j], x, y, r, rows + 3 * kMaxPatch * j);
+#endif
   int best = 0;
   for (i = 0; i < count; ++i) {
     const float rho_i = guide_rho(g, float(i));
-    costs[i] = rho_i > 0.0f ? hypothesis_cost(p, x, y, rho_i, rc, rnorm, mean) : kNoCost;
+    costs[i] = rho_i > 0.0f ? hypothesis_cost(p, x, y, rho_i, rc, rnorm, mean, rows) : kNoCost;
     if (costs[i] < costs[best]) best = i;
   }
   const float cbest = costs[best];
