@@ -127,7 +127,7 @@ CHUNGS_PS_HD inline void patch_rows(const Neighbour& n, int x, int y, int r, flo
 
 // 1 - ZNCC between the centred reference patch `rc` (norm rnorm) and neighbour n's patch on the plane
 // of inverse depth rho; kNoCost where a sample falls outside the neighbour or behind it. `rows`: the
-// patch's patch_rows() in n, or null to project directly.
+// patch's patch_rows() in n, or null to work them out here (as project() does).
 CHUNGS_PS_HD inline float patch_cost(const Problem& p, const Neighbour& n, int x, int y, float rho, const float* rc,
                                      float rnorm, float ref_mean, const float* rows) {
   const int r = p.radius, side = 2 * r + 1;
@@ -137,11 +137,11 @@ CHUNGS_PS_HD inline float patch_cost(const Problem& p, const Neighbour& n, int x
   int i = 0;
   for (int dy = -r; dy <= r; ++dy)
     for (int dx = -r; dx <= r; ++dx, ++i) {
+      const float X = float(x + dx), Y = float(y + dy);
+      const auto plane_free = [&](int k) { return rows ? rows[3 * i + k] : h_row(n, k, X, Y); };
       float u, v;
-      const bool seen = rows ? dehomogenise(add(rows[3 * i], re0), add(rows[3 * i + 1], re1),
-                                            add(rows[3 * i + 2], re2), u, v)
-                             : project(n, float(x + dx), float(y + dy), rho, u, v);
-      if (!seen) return kNoCost;
+      if (!dehomogenise(add(plane_free(0), re0), add(plane_free(1), re1), add(plane_free(2), re2), u, v))
+        return kNoCost;
       if (!(u >= 0.0f && v >= 0.0f && u < float(p.width - 1) && v < float(p.height - 1))) return kNoCost;
       const float fu = floorf(u), fv = floorf(v);
       const int iu = int(fu), iv = int(fv);
