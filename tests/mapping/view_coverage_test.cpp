@@ -6,6 +6,9 @@
 
 #include <cmath>
 #include <random>
+#include <algorithm>
+#include <map>
+#include <numeric>
 #include <set>
 
 #include "chungs/common/error.hpp"
@@ -74,6 +77,37 @@ TEST(ViewCoverage, MaskFollowsTheChunkEachBlockCentreSees) {
     EXPECT_LT(in, blocks);
     EXPECT_DOUBLE_EQ(v.coverage([](ChunkId) { return true; }) < 1.0, fill == 0.0)
         << "without a fill depth, pixels with no depth are never covered";
+  }
+}
+
+TEST(ViewCoverage, CoreIsTheFewestLargestChunksShowingTheShare) {
+  const Scene s = random_scene(9);
+  const ViewCoverage v(s.depth, s.camera, s.pose, 5.0, 35.0);
+  const std::vector<uint32_t> n = v.blocks_per_chunk();
+  ASSERT_EQ(n.size(), v.chunks().size());
+  ASSERT_GT(n.size(), 10u);
+  // Blocks per chunk against the per-pixel reference at the block centres.
+  std::map<ChunkId, uint32_t> ref;
+  const int B = ViewCoverage::kBlock;
+  for (int y = 0; y < 37; y += B)
+    for (int x = 0; x < 61; x += B)
+      if (const auto c = chunk_seen(s, std::min(x + B / 2, 60), std::min(y + B / 2, 36), 5.0, 35.0)) ++ref[*c];
+  for (size_t i = 0; i < n.size(); ++i) EXPECT_EQ(n[i], ref[v.chunks()[i]]);
+  const double total = std::accumulate(n.begin(), n.end(), 0.0);
+  for (double share : {0.3, 0.6, 0.9, 1.0}) {
+    const std::vector<ChunkId> core = v.core(share);
+    ASSERT_TRUE(std::is_sorted(core.begin(), core.end()));
+    double in = 0;
+    uint32_t least_in = UINT32_MAX, most_out = 0;
+    for (size_t i = 0; i < n.size(); ++i)
+      if (std::binary_search(core.begin(), core.end(), v.chunks()[i]))
+        in += n[i], least_in = std::min(least_in, n[i]);
+      else
+        most_out = std::max(most_out, n[i]);
+    EXPECT_GE(in, share * total) << share;
+    EXPECT_LT(in - least_in, share * total) << share << ": one chunk fewer would do";
+    EXPECT_GE(least_in, most_out) << share << ": a smaller chunk taken before a larger one";
+    EXPECT_EQ(core.size() == n.size(), share == 1.0 || most_out == 0) << share;
   }
 }
 

@@ -19,6 +19,10 @@ void KeyframeSelectorConfig::validate() const {
     fail("keyframe selector: budget_share must be in (0, 1], got ", budget_share);
   if (!(min_partial_coverage >= 0 && min_partial_coverage <= 1))
     fail("keyframe selector: min_partial_coverage must be in [0, 1], got ", min_partial_coverage);
+  if (!(best_view_share >= 0 && best_view_share <= 1))
+    fail("keyframe selector: best_view_share must be in [0, 1], got ", best_view_share);
+  if (!(core_share > 0 && core_share <= 1))
+    fail("keyframe selector: core_share must be in (0, 1], got ", core_share);
 }
 
 KeyframeSelector::KeyframeSelector(const KeyframeSelectorConfig& config) : config_(config) { config_.validate(); }

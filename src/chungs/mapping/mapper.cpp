@@ -197,12 +197,18 @@ RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
 
 // New Gaussians for keyframe `id` where its image has detail the render of the map lacks.
 SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& depth, const Camera& camera,
-                                const SE3& pose, uint64_t cap, const std::vector<Eigen::Vector3d>* seeds) {
+                                const SE3& pose, uint64_t cap, const std::vector<Eigen::Vector3d>* seeds,
+                                const std::vector<ChunkId>* not_sampled, const std::vector<ChunkId>* core) {
   using clock = std::chrono::steady_clock;
   SampleStats stats;
   const ImageF target = to_rgb_float(color);
   std::vector<ChunkId> left_out;
-  const std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out);
+  std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out);
+  // Beyond the view's core only what is resident is drawn (selector.core_share), and so sampled.
+  if (core && !residency_->all_resident())
+    std::erase_if(shown, [&](ChunkId c) {
+      return !residency_->is_resident(c) && !std::binary_search(core->begin(), core->end(), c);
+    });
   // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
   const auto t1 = clock::now();
   const ImageF prob = with_pinned_slots(*residency_, shown, slots_, [&](const std::vector<uint32_t>& slots) {
@@ -217,6 +223,7 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
     if (count > 0) exclude.insert(chunk);
   for (ChunkId chunk : shown)
     if (exclude.erase(chunk)) established.insert(chunk);
+  if (not_sampled) exclude.insert(not_sampled->begin(), not_sampled->end());
   const bool pooling = config_.sampler.stray_wait_keyframes > 0;
   std::vector<ChunkBatch> strays;
   RefineDepths refine;
@@ -295,10 +302,21 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
                 "(keyframes_without_depth)");
   }
   if (!config_.sampler.map_point_seeds || (seeds && seeds->empty())) seeds = nullptr;
+  // What a view gone from the window showed better is not sampled again from this one either.
+  std::optional<ViewCoverage> coverage;
+  std::vector<ChunkId> shown_better;
+  std::vector<ChunkId> core;
+  const bool cores = config_.selector.core_share < 1;
+  if ((config_.selector.best_view_share > 0 || cores) && depth) {
+    coverage.emplace(*depth, camera, pose, store_->chunk_size(), config_.sampler.fill_depth);
+    shown_better = chunks_shown_better(id, *coverage);
+    if (cores) core = coverage->core(config_.selector.core_share);
+  }
   if (depth || seeds) {
     // Seeds need no depth map: without one (a keyframe whose depth comes later) only they are taken.
     const ImageF none = depth ? ImageF() : ImageF(color.width(), color.height(), 1, 0.0f);
-    stats = sample_view(id, color, depth ? *depth : none, camera, pose, new_gaussian_cap(color), seeds);
+    stats = sample_view(id, color, depth ? *depth : none, camera, pose, new_gaussian_cap(color), seeds,
+                        &shown_better, coverage && cores ? &core : nullptr);
   }
   steps_at_last_keyframe_ = steps_at_last_sampling_ = iterations_;
   KeyframeRecord rec;
@@ -311,6 +329,11 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   give_back_picks_ahead();  // they predate this keyframe (and may lie in the cell it just left)
   rec.uses = selector_.usage(id).uses;
   keyframes_.push_back(rec);
+  if (coverage) {
+    best_views_.note(id, *coverage);
+    coverage_.insert_or_assign(id, std::move(*coverage));
+    if (cores) core_chunks_.insert_or_assign(id, std::move(core));
+  }
   update_training_window();
   ++keyframe_times_.keyframes;
   keyframe_times_.total_ms += ms_since(t0);
@@ -356,7 +379,9 @@ void Mapper::resample(const KeyframeRecord& kf) {
                                                      uint64_t(rate * (double(images->color.pixels()) / 1e5) *
                                                               double(config_.sampler.resample_every)))
                                 : 0;
-  sample_view(kf.id, images->color, images->depth, kf.camera, kf.pose, cap);
+  const bool cores = config_.selector.core_share < 1 && !residency_->all_resident();
+  sample_view(kf.id, images->color, images->depth, kf.camera, kf.pose, cap, nullptr,
+              cores ? &core_chunks_of(kf) : nullptr);
 }
 
 double Mapper::rate_steps_per_keyframe() const {
@@ -386,7 +411,13 @@ void Mapper::draw_pick_ahead() {
   // ahead all the same (they are scored, and its coverage is built from its depth): on a 2 km street
   // under a 300 k budget, 432 keyframe reads had waited, 0.85 s of the optimiser's time.
   if (const KeyframeRecord* k = find_keyframe(p.keyframe)) {
-    if (selector_.in_window(k->id)) p.chunks = visible_chunks(k->camera, k->pose);
+    if (selector_.in_window(k->id)) {
+      p.chunks = visible_chunks(k->camera, k->pose);
+      if (config_.selector.core_share < 1 && !residency_->all_resident()) {  // only the core is loaded
+        const std::vector<ChunkId>& core = core_chunks_of(*k);
+        std::erase_if(p.chunks, [&](ChunkId c) { return !std::binary_search(core.begin(), core.end(), c); });
+      }
+    }
     keyframe_store_->prefetch(k->id);
   }
   picks_ahead_.push_back(std::move(p));
@@ -463,8 +494,14 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   std::vector<ChunkId> left_out;
   std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose, &left_out);
   step_times_.cull_ms += ms_since(t0);
+  const std::vector<ChunkId> shown_better = config_.selector.best_view_share > 0 && selector_.restricted()
+                                                ? chunks_shown_better(kf.id, coverage_of(kf))
+                                                : std::vector<ChunkId>();
+  const auto trained = [&](ChunkId c) { return !std::binary_search(shown_better.begin(), shown_better.end(), c); };
   // Outside the window: the resident part of the view, scored only where it explains the image.
   std::optional<Image8> pixel_mask;
+  bool part_of_view = false;  // a partial or trimmed view
+  std::vector<ChunkId> beyond_core_drawn;
   if (!whole_view && !selector_.in_window(kf.id)) {
     std::erase_if(chunks, [&](ChunkId c) { return !residency_->is_resident(c); });
     std::sort(chunks.begin(), chunks.end());
@@ -475,20 +512,53 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
       selector_.give_back(kf.id);
       return step_keyframe(window_pick_ahead());
     }
-    pixel_mask = coverage.mask(rendered);
+    pixel_mask = coverage.mask([&](ChunkId c) { return rendered(c) && trained(c); });
     ++window_stats_.partial_steps;
-  } else if (!left_out.empty()) {
-    // A view that needs more than the budget is drawn without its farthest chunks. Unmasked, their
-    // pixels would teach the sky and the near Gaussians' edges to paint the far street.
-    std::sort(left_out.begin(), left_out.end());
-    pixel_mask = coverage_of(kf).mask(
-        [&](ChunkId c) { return !std::binary_search(left_out.begin(), left_out.end(), c); }, true);
-    ++window_stats_.trimmed_steps;
+    part_of_view = true;
+  } else {
+    // Beyond its core, a view draws what is resident and leaves out the pixels of the rest.
+    size_t beyond_core = 0;
+    if (!whole_view && config_.selector.core_share < 1 && !residency_->all_resident()) {
+      const std::vector<ChunkId>& core = core_chunks_of(kf);
+      const size_t before = left_out.size();
+      std::erase_if(chunks, [&](ChunkId c) {
+        if (std::binary_search(core.begin(), core.end(), c)) return false;
+        (residency_->is_resident(c) ? beyond_core_drawn : left_out).push_back(c);
+        return true;
+      });
+      beyond_core = left_out.size() - before;
+    }
+    if (!left_out.empty()) {
+      // A view that needs more than the budget is drawn without its farthest chunks. Unmasked, their
+      // pixels would teach the sky and the near Gaussians' edges to paint the far street.
+      const bool over_budget = left_out.size() > beyond_core;
+      std::sort(left_out.begin(), left_out.end());
+      pixel_mask = coverage_of(kf).mask(
+          [&](ChunkId c) { return !std::binary_search(left_out.begin(), left_out.end(), c) && trained(c); }, true);
+      if (over_budget) {
+        ++window_stats_.trimmed_steps;
+        part_of_view = true;
+      } else {
+        ++window_stats_.beyond_core_steps;
+      }
+    } else if (!shown_better.empty()) {
+      pixel_mask = coverage_of(kf).mask(trained, true);
+    }
   }
+  if (!shown_better.empty()) ++window_stats_.best_view_steps;
   const auto tp = clock::now();
   auto t2 = tp;
-  const PinResult pr = residency_->pin(chunks, !pixel_mask);
+  const PinResult pr = residency_->pin(chunks, !part_of_view);
   if (!pr.ok) fail("mapper: cannot make the chunks of keyframe ", kf.id, " resident: ", pr.message);
+  if (!beyond_core_drawn.empty()) {
+    // Drawn because they are resident, but not kept so for this view's sake: the window's cores are.
+    const PinResult more = residency_->pin(beyond_core_drawn, false);
+    if (!more.ok) {
+      residency_->unpin(chunks);
+      fail("mapper: cannot pin the resident chunks of keyframe ", kf.id, ": ", more.message);
+    }
+    chunks.insert(chunks.end(), beyond_core_drawn.begin(), beyond_core_drawn.end());
+  }
   step_times_.pin_ms += ms_since(tp);
   try {
     slots_.clear();
@@ -542,13 +612,13 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   residency_->unpin(chunks);
   // Only once the sampler has been idle that long: keyframes arriving at least that often are sampled
   // on arrival and their steps add nothing, so fast intakes keep their maps and budgets as they were.
-  if (!pixel_mask && config_.sampler.resample_every > 0 &&
+  if (!part_of_view && config_.sampler.resample_every > 0 &&
       iterations_ - steps_at_last_sampling_ >= uint64_t(config_.sampler.resample_every)) {
     steps_at_last_sampling_ = iterations_;
     resample(kf);
   }
   // A partial step's loss counts pixels it could not explain: not a measure of the keyframe.
-  if (!pixel_mask) selector_.report_loss(kf.id, st.loss);
+  if (!part_of_view) selector_.report_loss(kf.id, st.loss);
   step_times_.bookkeeping_ms += ms_since(t2);
   ++step_times_.steps;
   step_times_.total_ms += ms_since(t0);

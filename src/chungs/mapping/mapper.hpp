@@ -25,6 +25,7 @@
 #include "chungs/mapping/sample_refine.hpp"
 #include "chungs/mapping/sampler.hpp"
 #include "chungs/mapping/stray_pool.hpp"
+#include "chungs/mapping/best_views.hpp"
 #include "chungs/mapping/view_coverage.hpp"
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
@@ -156,6 +157,10 @@ class Mapper {
     // Steps on a window keyframe whose view needs more than the budget, scored without the pixels
     // that its left-out (farthest) chunks would have drawn.
     uint64_t trimmed_steps = 0;
+    // Steps that left out chunks their view shows far smaller than a view gone from the window did.
+    uint64_t best_view_steps = 0;
+    // Steps on a window keyframe that left out chunks beyond its core that were not resident.
+    uint64_t beyond_core_steps = 0;
     double keyframes = 0, cell_keyframes = 0, reach_m = 0;  // sums over the narrowed updates
   };
   const WindowStats& window_stats() const { return window_stats_; }
@@ -178,7 +183,9 @@ class Mapper {
   AdamConfig step_rates(const Camera& camera) const;
   void resample(const KeyframeRecord& kf);
   SampleStats sample_view(uint32_t id, const Image8& color, const ImageF& depth, const Camera& camera,
-                          const SE3& pose, uint64_t cap, const std::vector<Eigen::Vector3d>* seeds = nullptr);
+                          const SE3& pose, uint64_t cap, const std::vector<Eigen::Vector3d>* seeds = nullptr,
+                          const std::vector<ChunkId>* not_sampled = nullptr,
+                          const std::vector<ChunkId>* core = nullptr);
   // One optimisation step on the given keyframe: on its whole view (loading what it needs) when it is
   // in the training window or `whole_view`, else on the resident part (view_coverage.hpp).
   StepStats step_keyframe(uint32_t keyframe, bool whole_view = false);
@@ -234,6 +241,11 @@ class Mapper {
   StrayPool stray_pool_;  // not saved: a resumed run starts it empty
   std::unordered_map<uint32_t, std::vector<ChunkId>> view_chunks_;  // chunks of the cell's views
   std::unordered_map<uint32_t, ViewCoverage> coverage_;             // of the cell's views (partial steps)
+  BestViews best_views_;  // of the map's chunks (selector.best_view_share)
+  std::unordered_map<uint32_t, std::vector<ChunkId>> core_chunks_;  // of the cell's views, sorted (core_share)
+  const std::vector<ChunkId>& core_chunks_of(const KeyframeRecord& kf);
+  // The chunks of the view that a step leaves out under best_view_share (empty: none), sorted.
+  std::vector<ChunkId> chunks_shown_better(uint32_t keyframe, const ViewCoverage& coverage) const;
   bool loop_batch_allowed_ = true;
   bool sky_on_ = false;  // the backend holds a sky (render/sky.hpp), saved with each checkpoint
   uint64_t nonfinite_losses_ = 0;  // steps whose loss was NaN or infinite (warned once)

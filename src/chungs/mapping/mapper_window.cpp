@@ -15,6 +15,7 @@ void Mapper::update_training_window() {
   const std::unordered_set<uint32_t> in_cell(cell.begin(), cell.end());
   std::erase_if(view_chunks_, [&](const auto& kv) { return !in_cell.count(kv.first); });
   std::erase_if(coverage_, [&](const auto& kv) { return !in_cell.count(kv.first); });
+  std::erase_if(core_chunks_, [&](const auto& kv) { return !in_cell.count(kv.first); });
   const Eigen::Vector3d at = keyframes_.back().pose.t;
   std::vector<WindowKeyframe> keyframes;
   keyframes.reserve(cell.size());
@@ -28,7 +29,8 @@ void Mapper::update_training_window() {
       culler_->set_chunks_from(residency_->catalogue(), residency_->catalogue_version());
       it = view_chunks_.emplace(id, culler_->cull(k->camera, k->pose)).first;
     }
-    keyframes.push_back({id, (k->pose.t - at).norm(), &it->second});
+    keyframes.push_back(
+        {id, (k->pose.t - at).norm(), config_.selector.core_share < 1 ? &core_chunks_of(*k) : &it->second});
   }
   const uint64_t room = uint64_t(double(residency_->budget()) * config_.selector.budget_share);
   std::vector<uint32_t> window =
@@ -45,6 +47,18 @@ void Mapper::update_training_window() {
     window_stats_.reach_m += reach;
     selector_.restrict_to(std::move(window));
   }
+}
+
+const std::vector<ChunkId>& Mapper::core_chunks_of(const KeyframeRecord& kf) {
+  auto it = core_chunks_.find(kf.id);
+  if (it == core_chunks_.end()) it = core_chunks_.emplace(kf.id, coverage_of(kf).core(config_.selector.core_share)).first;
+  return it->second;
+}
+
+std::vector<ChunkId> Mapper::chunks_shown_better(uint32_t keyframe, const ViewCoverage& coverage) const {
+  const double share = config_.selector.best_view_share;
+  if (!(share > 0) || !selector_.restricted()) return {};
+  return best_views_.shown_better(keyframe, coverage, share, [&](uint32_t k) { return selector_.in_window(k); });
 }
 
 }  // namespace chungs

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <unordered_map>
 
 #include "chungs/common/error.hpp"
@@ -41,6 +42,30 @@ std::vector<bool> ViewCoverage::accepted(const std::function<bool(ChunkId)>& ren
   std::vector<bool> ok(chunks_.size());
   for (size_t i = 0; i < chunks_.size(); ++i) ok[i] = rendered(chunks_[i]);
   return ok;
+}
+
+std::vector<uint32_t> ViewCoverage::blocks_per_chunk() const {
+  std::vector<uint32_t> n(chunks_.size(), 0);
+  for (uint16_t b : blocks_)
+    if (b != kNone) ++n[b];
+  return n;
+}
+
+std::vector<ChunkId> ViewCoverage::core(double share) const {
+  const std::vector<uint32_t> blocks = blocks_per_chunk();
+  std::vector<size_t> order(blocks.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return blocks[a] > blocks[b]; });
+  const double total = std::accumulate(blocks.begin(), blocks.end(), 0.0);
+  std::vector<ChunkId> out;
+  double shown = 0;
+  for (size_t i : order) {
+    if (shown >= share * total) break;
+    shown += blocks[i];
+    out.push_back(chunks_[i]);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 double ViewCoverage::coverage(const std::function<bool(ChunkId)>& rendered) const {

@@ -40,6 +40,11 @@ class ViewCoverage {
   // view trimmed of its farthest chunks still draws its sky there).
   Image8 mask(const std::function<bool(ChunkId)>& rendered, bool unseen = false) const;
   bool empty() const { return blocks_.empty(); }
+  // Blocks per chunk, in the order of chunks().
+  std::vector<uint32_t> blocks_per_chunk() const;
+  // The fewest chunks, those on the most blocks first, that together show at least `share` of the
+  // blocks that see a chunk (ties: the earlier in chunks()); sorted.
+  std::vector<ChunkId> core(double share) const;
 
  private:
   std::vector<bool> accepted(const std::function<bool(ChunkId)>& rendered) const;

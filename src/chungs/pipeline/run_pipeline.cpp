@@ -464,7 +464,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                                 double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
                                {"partial_too_small", w.partial_too_small},
                                {"trimmed_step_share",
-                                double(w.trimmed_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))}};
+                                double(w.trimmed_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
+                               {"best_view_step_share",
+                                double(w.best_view_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
+                               {"beyond_core_step_share",
+                                double(w.beyond_core_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))}};
     }
     report["pacing"] = pj;
   }
