@@ -443,6 +443,8 @@ def config_cases():
         ("sampler_stride_zero", "sampler:\n  stride: 0\n", "stride"),
         ("sampler_density_negative", "sampler:\n  density: -1\n", "density"),
         ("selector_budget_share_2", "selector:\n  budget_share: 2\n", "budget_share"),
+        ("selector_best_view_share_nan", "selector:\n  best_view_share: .nan\n", "best_view_share"),
+        ("selector_core_share_zero", "selector:\n  core_share: 0\n", "core_share"),
         ("stereo_disparities_1000", "stereo:\n  num_disparities: 1000\n", "num_disparities"),
         ("stereo_max_depth_below_min", "stereo:\n  min_depth: 10\n  max_depth: 1\n", "max_depth"),
         ("sky_width_zero", "sky:\n  width: 0\n", "width"),

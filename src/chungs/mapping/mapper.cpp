@@ -413,10 +413,12 @@ void Mapper::draw_pick_ahead() {
   if (const KeyframeRecord* k = find_keyframe(p.keyframe)) {
     if (selector_.in_window(k->id)) {
       p.chunks = visible_chunks(k->camera, k->pose);
-      if (config_.selector.core_share < 1 && !residency_->all_resident()) {  // only the core is loaded
-        const std::vector<ChunkId>& core = core_chunks_of(*k);
-        std::erase_if(p.chunks, [&](ChunkId c) { return !std::binary_search(core.begin(), core.end(), c); });
-      }
+      // Only the core is loaded; a view whose coverage is not built yet predicts all it sees, since
+      // building it here would wait for the images that the prefetch below reads.
+      const std::vector<ChunkId>* core =
+          config_.selector.core_share < 1 && !residency_->all_resident() ? known_core(*k) : nullptr;
+      if (core)
+        std::erase_if(p.chunks, [&](ChunkId c) { return !std::binary_search(core->begin(), core->end(), c); });
     }
     keyframe_store_->prefetch(k->id);
   }
