@@ -5,9 +5,8 @@
 namespace chungs {
 
 void BestViews::note(uint32_t keyframe, const ViewCoverage& coverage) {
-  const std::vector<uint32_t> blocks = coverage.blocks_per_chunk();
+  const std::vector<uint32_t>& blocks = coverage.blocks_per_chunk();
   for (size_t i = 0; i < blocks.size(); ++i) {
-    if (blocks[i] == 0) continue;
     Best& b = best_[coverage.chunks()[i]];
     if (blocks[i] > b.blocks) b = {blocks[i], keyframe};
   }
@@ -16,7 +15,7 @@ void BestViews::note(uint32_t keyframe, const ViewCoverage& coverage) {
 std::vector<ChunkId> BestViews::shown_better(uint32_t keyframe, const ViewCoverage& coverage, double share,
                                              const std::function<bool(uint32_t)>& in_window) const {
   std::vector<ChunkId> out;
-  const std::vector<uint32_t> blocks = coverage.blocks_per_chunk();
+  const std::vector<uint32_t>& blocks = coverage.blocks_per_chunk();
   for (size_t i = 0; i < blocks.size(); ++i) {
     const auto it = best_.find(coverage.chunks()[i]);
     if (it == best_.end() || it->second.keyframe == keyframe) continue;

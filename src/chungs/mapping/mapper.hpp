@@ -245,6 +245,8 @@ class Mapper {
   std::unordered_map<uint32_t, std::vector<ChunkId>> core_chunks_;  // of the cell's views, sorted (core_share)
   const std::vector<ChunkId>& core_chunks_of(const KeyframeRecord& kf);
   const std::vector<ChunkId>* known_core(const KeyframeRecord& kf);  // null: its coverage is not built
+  // Views load only their cores (selector.core_share) while the map exceeds the budget.
+  bool loads_cores() const { return config_.selector.core_share < 1 && !residency_->all_resident(); }
   // The chunks of the view that a step leaves out under best_view_share (empty: none), sorted.
   std::vector<ChunkId> chunks_shown_better(uint32_t keyframe, const ViewCoverage& coverage) const;
   bool loop_batch_allowed_ = true;

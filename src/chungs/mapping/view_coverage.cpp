@@ -33,8 +33,10 @@ ViewCoverage::ViewCoverage(const ImageF& depth, const Camera& camera, const SE3&
       if (fresh) {
         if (chunks_.size() >= kNone) fail("view coverage: the view sees more than ", kNone - 1, " chunks");
         chunks_.push_back(id);
+        blocks_per_chunk_.push_back(0);
       }
       blocks_[size_t(by) * bw_ + bx] = it->second;
+      ++blocks_per_chunk_[it->second];
     }
 }
 
@@ -44,15 +46,8 @@ std::vector<bool> ViewCoverage::accepted(const std::function<bool(ChunkId)>& ren
   return ok;
 }
 
-std::vector<uint32_t> ViewCoverage::blocks_per_chunk() const {
-  std::vector<uint32_t> n(chunks_.size(), 0);
-  for (uint16_t b : blocks_)
-    if (b != kNone) ++n[b];
-  return n;
-}
-
 std::vector<ChunkId> ViewCoverage::core(double share) const {
-  const std::vector<uint32_t> blocks = blocks_per_chunk();
+  const std::vector<uint32_t>& blocks = blocks_per_chunk_;
   std::vector<size_t> order(blocks.size());
   std::iota(order.begin(), order.end(), size_t(0));
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return blocks[a] > blocks[b]; });

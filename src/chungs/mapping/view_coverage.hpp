@@ -41,7 +41,7 @@ class ViewCoverage {
   Image8 mask(const std::function<bool(ChunkId)>& rendered, bool unseen = false) const;
   bool empty() const { return blocks_.empty(); }
   // Blocks per chunk, in the order of chunks().
-  std::vector<uint32_t> blocks_per_chunk() const;
+  const std::vector<uint32_t>& blocks_per_chunk() const { return blocks_per_chunk_; }
   // The fewest chunks, those on the most blocks first, that together show at least `share` of the
   // blocks that see a chunk (ties: the earlier in chunks()); sorted.
   std::vector<ChunkId> core(double share) const;
@@ -50,6 +50,7 @@ class ViewCoverage {
   std::vector<bool> accepted(const std::function<bool(ChunkId)>& rendered) const;
   int width_ = 0, height_ = 0, bw_ = 0, bh_ = 0;
   std::vector<ChunkId> chunks_;
+  std::vector<uint32_t> blocks_per_chunk_;
   std::vector<uint16_t> blocks_;  // bw_ x bh_, row-major
 };
 

@@ -1,0 +1,226 @@
+// Mapper's step loop: the picks drawn ahead and their chunks read in the background, and one
+// optimisation step on a keyframe's view: whole, its core, the resident part of it (partial views), or
+// without the pixels that views gone from the window showed better.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "chungs/common/log.hpp"
+#include "chungs/common/stopwatch.hpp"
+#include "chungs/mapping/mapper.hpp"
+
+namespace chungs {
+
+void Mapper::draw_pick_ahead() {
+  const PickScope scope = config_.selector.partial_views ? PickScope::cell : PickScope::window;
+  PickAhead p{selector_.pick(rng_, scope), {}};
+  // A pick outside the window loads no chunk: its step uses what is resident. Its images are read
+  // ahead all the same (they are scored, and its coverage is built from its depth): on a 2 km street
+  // under a 300 k budget, 432 keyframe reads had waited, 0.85 s of the optimiser's time.
+  if (const KeyframeRecord* k = find_keyframe(p.keyframe)) {
+    if (selector_.in_window(k->id)) {
+      p.chunks = visible_chunks(k->camera, k->pose);
+      // Only the core is loaded; a view whose coverage is not built yet predicts all it sees, since
+      // building it here would wait for the images that the prefetch below reads.
+      const std::vector<ChunkId>* core = loads_cores() ? known_core(*k) : nullptr;
+      if (core)
+        std::erase_if(p.chunks, [&](ChunkId c) { return !std::binary_search(core->begin(), core->end(), c); });
+    }
+    keyframe_store_->prefetch(k->id);
+  }
+  picks_ahead_.push_back(std::move(p));
+}
+
+void Mapper::give_back_picks_ahead() {
+  for (const PickAhead& p : picks_ahead_) selector_.give_back(p.keyframe);
+  picks_ahead_.clear();
+}
+
+uint32_t Mapper::window_pick_ahead() {
+  // A window keyframe drawn ahead has its chunks read already (or in flight); one drawn now waits
+  // for all of them: on a 2 km street under a 100 k budget 43 % of the steps came here, and two
+  // thirds of the chunk loads waited on the disk.
+  const auto it = std::find_if(picks_ahead_.begin(), picks_ahead_.end(),
+                               [&](const PickAhead& p) { return selector_.in_window(p.keyframe); });
+  if (it == picks_ahead_.end()) return selector_.pick(rng_, PickScope::window);
+  const uint32_t id = it->keyframe;
+  picks_ahead_.erase(it);
+  return id;
+}
+
+StepStats Mapper::step() {
+  if (keyframes_.empty()) fail("mapper: an optimisation step needs at least one keyframe");
+  const auto t0 = std::chrono::steady_clock::now();
+  residency_->advance_checkpoint();
+  // The keyframes of the next steps are drawn now and their chunks read in the background while
+  // the steps before them run, so that their pins find them in host memory instead of waiting on
+  // the disk: a view's ~20 chunk loads under a 100 k budget take longer than one GPU step.
+  const size_t ahead = size_t(config_.mapper.read_ahead_steps);
+  while (picks_ahead_.size() <= ahead) draw_pick_ahead();
+  const uint32_t keyframe = picks_ahead_.front().keyframe;
+  if (!residency_->all_resident()) {  // else nothing to read, and nothing is evicted
+    std::vector<ChunkId> wanted;  // in the order of use, this step's first (what is staged for it stays)
+    for (const PickAhead& p : picks_ahead_) wanted.insert(wanted.end(), p.chunks.begin(), p.chunks.end());
+    residency_->prefetch(wanted);
+  }
+  picks_ahead_.pop_front();
+  step_times_.pick_ms += ms_since(t0);
+  return step_keyframe(keyframe);
+}
+
+const ViewCoverage& Mapper::coverage_of(const KeyframeRecord& kf) {
+  auto it = coverage_.find(kf.id);
+  if (it == coverage_.end()) {
+    const std::shared_ptr<const KeyframeImages> images = keyframe_store_->get(kf.id);
+    ViewCoverage built;  // no depth map: nothing known of where its pixels look
+    if (!images->depth.empty())
+      built = ViewCoverage(images->depth, kf.camera, kf.pose, store_->chunk_size(), config_.sampler.fill_depth);
+    it = coverage_.emplace(kf.id, std::move(built)).first;
+  }
+  return it->second;
+}
+
+
+StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  StepStats st;
+  st.keyframe = keyframe;
+  const KeyframeRecord* found = find_keyframe(keyframe);
+  if (!found) fail("mapper: no keyframe ", keyframe, " to train on");
+  const KeyframeRecord& kf = *found;
+  std::vector<ChunkId> left_out;
+  std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose, &left_out);
+  step_times_.cull_ms += ms_since(t0);
+  const std::vector<ChunkId> shown_better = config_.selector.best_view_share > 0 && selector_.restricted()
+                                                ? chunks_shown_better(kf.id, coverage_of(kf))
+                                                : std::vector<ChunkId>();
+  const auto trained = [&](ChunkId c) { return !std::binary_search(shown_better.begin(), shown_better.end(), c); };
+  // Outside the window: the resident part of the view, scored only where it explains the image.
+  std::optional<Image8> pixel_mask;
+  bool part_of_view = false;  // a partial or trimmed view
+  std::vector<ChunkId> beyond_core_drawn;
+  if (!whole_view && !selector_.in_window(kf.id)) {
+    std::erase_if(chunks, [&](ChunkId c) { return !residency_->is_resident(c); });
+    std::sort(chunks.begin(), chunks.end());
+    const auto rendered = [&](ChunkId c) { return std::binary_search(chunks.begin(), chunks.end(), c); };
+    const ViewCoverage& coverage = coverage_of(kf);
+    if (coverage.coverage(rendered) < config_.selector.min_partial_coverage) {
+      ++window_stats_.partial_too_small;
+      selector_.give_back(kf.id);
+      return step_keyframe(window_pick_ahead());
+    }
+    pixel_mask = coverage.mask([&](ChunkId c) { return rendered(c) && trained(c); });
+    ++window_stats_.partial_steps;
+    part_of_view = true;
+  } else {
+    // Beyond its core, a view draws what is resident and leaves out the pixels of the rest.
+    size_t beyond_core = 0;
+    if (!whole_view && loads_cores()) {
+      const std::vector<ChunkId>& core = core_chunks_of(kf);
+      const size_t before = left_out.size();
+      std::erase_if(chunks, [&](ChunkId c) {
+        if (std::binary_search(core.begin(), core.end(), c)) return false;
+        (residency_->is_resident(c) ? beyond_core_drawn : left_out).push_back(c);
+        return true;
+      });
+      beyond_core = left_out.size() - before;
+    }
+    if (!left_out.empty()) {
+      // A view that needs more than the budget is drawn without its farthest chunks. Unmasked, their
+      // pixels would teach the sky and the near Gaussians' edges to paint the far street.
+      const bool over_budget = left_out.size() > beyond_core;
+      std::sort(left_out.begin(), left_out.end());
+      pixel_mask = coverage_of(kf).mask(
+          [&](ChunkId c) { return !std::binary_search(left_out.begin(), left_out.end(), c) && trained(c); }, true);
+      if (over_budget) {
+        ++window_stats_.trimmed_steps;
+        part_of_view = true;
+      } else {
+        ++window_stats_.beyond_core_steps;
+      }
+    } else if (!shown_better.empty()) {
+      pixel_mask = coverage_of(kf).mask(trained, true);
+    }
+  }
+  if (!shown_better.empty()) ++window_stats_.best_view_steps;
+  const auto tp = clock::now();
+  auto t2 = tp;
+  const PinResult pr = residency_->pin(chunks, !part_of_view);
+  if (!pr.ok) fail("mapper: cannot make the chunks of keyframe ", kf.id, " resident: ", pr.message);
+  if (!beyond_core_drawn.empty()) {
+    // Drawn because they are resident, but not kept so for this view's sake: the window's cores are.
+    const PinResult more = residency_->pin(beyond_core_drawn, false);
+    if (!more.ok) {
+      residency_->unpin(chunks);
+      fail("mapper: cannot pin the resident chunks of keyframe ", kf.id, ": ", more.message);
+    }
+    chunks.insert(chunks.end(), beyond_core_drawn.begin(), beyond_core_drawn.end());
+  }
+  step_times_.pin_ms += ms_since(tp);
+  try {
+    slots_.clear();
+    residency_->append_slots(chunks, slots_);
+    step_times_.chunks_ms += ms_since(t0);
+    const auto t1 = clock::now();
+    // Pruning runs on the step that completes `every` iterations, as before the backend split.
+    const bool prune = config_.prune.every > 0 && (iterations_ + 1) % uint64_t(config_.prune.every) == 0;
+    // Keyframe ids are never reused within a map, so the id and the depth's version name the images.
+    const StepTargets targets{(uint64_t(kf.depth_version) << 32) + uint64_t(kf.id) + 1, config_.loss.lambda_depth > 0,
+                              [&] {
+                                const auto tl = clock::now();
+                                auto images = keyframe_store_->get(kf.id);
+                                ++step_times_.keyframe_loads;
+                                step_times_.keyframe_load_ms += ms_since(tl);
+                                return images;
+                              },
+                              pixel_mask ? &*pixel_mask : nullptr};
+    const LossTerms terms =
+        backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
+                       step_rates(kf.camera), prune ? &config_.prune : nullptr,
+                       to_prune_);
+    step_times_.backend_ms += ms_since(t1);
+    t2 = clock::now();
+    if (!std::isfinite(terms.total) && nonfinite_losses_++ == 0)
+      log::warn("keyframe ", kf.id, ": a step's loss is not finite (", terms.total, ", L1 ", terms.l1, ", SSIM ",
+                terms.ssim, ", depth ", terms.depth, "): the render or the target holds a non-finite value");
+    st.loss = terms.total;
+    st.rendered = slots_.size();
+    st.chunks = chunks.size();
+    if (!slots_.empty()) residency_->mark_dirty(chunks);
+    ++iterations_;
+    if (!to_prune_.empty()) {
+      const std::vector<uint32_t>& gone = to_prune_;
+      // Which chunk holds each pruned slot: mark them in a pool-sized byte map and let each chunk of the
+      // view drop its marked slots in one pass (hashing every slot of the view, then searching each
+      // chunk's list, had made pruning's bookkeeping 0.3 ms and more of every step on KITTI).
+      if (prune_marks_.size() < backend_->pool().capacity()) prune_marks_.assign(backend_->pool().capacity(), 0);
+      for (uint32_t s : gone) prune_marks_.at(s) = 1;
+      size_t found = 0;
+      for (ChunkId c : chunks) found += residency_->remove_marked_slots(c, prune_marks_);
+      for (uint32_t s : gone) prune_marks_[s] = 0;
+      if (found != gone.size()) fail("mapper: pruning selected slots outside the rendered chunks");
+      st.pruned = gone.size();
+      pruned_total_ += gone.size();
+    }
+  } catch (...) {
+    residency_->unpin(chunks);
+    throw;
+  }
+  residency_->unpin(chunks);
+  // Only once the sampler has been idle that long: keyframes arriving at least that often are sampled
+  // on arrival and their steps add nothing, so fast intakes keep their maps and budgets as they were.
+  if (!part_of_view && config_.sampler.resample_every > 0 &&
+      iterations_ - steps_at_last_sampling_ >= uint64_t(config_.sampler.resample_every)) {
+    steps_at_last_sampling_ = iterations_;
+    resample(kf);
+  }
+  // A partial step's loss counts pixels it could not explain: not a measure of the keyframe.
+  if (!part_of_view) selector_.report_loss(kf.id, st.loss);
+  step_times_.bookkeeping_ms += ms_since(t2);
+  ++step_times_.steps;
+  step_times_.total_ms += ms_since(t0);
+  return st;
+}
+
+}  // namespace chungs
