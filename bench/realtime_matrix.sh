@@ -10,6 +10,7 @@
 # poses); the 2 km street at 620x188 x {anytime 72 km/h, anytime 36 km/h, fixed 30 steps per
 # keyframe} x {default budget, 300 000, 100 000} (the three budgets of a pacing side by side on the one
 # GPU, so they share it alike); the 10 km drive at 72 km/h runs alone, after KITTI.
+# On 4 GPUs or more the runs are spread over them instead, each alone on its GPU (see lanes below).
 # Env: BUNDLE (default .gpu/rt, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/rt`), DATA (a
 # folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1,
 # SKIP_KITTI=1, EXTRA_ARGS (words added to every run, e.g. "--config FILE"), PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none;
@@ -40,9 +41,48 @@ cell() {  # cell NAME ARGS...: one mapping run in $work/NAME
 
 street() { echo "synth-street:length=$1,width=620,height=188,seed=$seed"; }
 
+# On a host of 4 GPUs or more (unless SIDE_BY_SIDE=1) every run has a GPU to itself: four lanes run at
+# once, each a list of runs one after another on its GPU (lane 0: KITTI, then the drive). Steps taken
+# under anytime pacing depend on the GPU's share, so runs alone compare with runs alone only.
+on() {  # on GPU NAME ARGS...: a cell on GPU number GPU alone
+  local gpu=$1
+  shift
+  CUDA_VISIBLE_DEVICES=$gpu cell "$@"
+}
+
+lanes() {
+  local s2k a36=(--pacing anytime) a72=(--pacing anytime --speed 2)
+  s2k=$(street 2000)
+  {
+    if [[ ${SKIP_KITTI:-0} != 1 ]]; then
+      on 0 kitti_anytime --dataset "kitti:$data/kitti_seq1" --pacing anytime
+      on 0 kitti_anytime_track --dataset "kitti:$data/kitti_seq1" --pacing anytime --poses track
+    fi
+    [[ ${SKIP_DRIVE:-0} == 1 ]] || on 0 drive10k_a72 --dataset "$(street 10000)" "${a72[@]}"
+  } &
+  { on 1 a36_default --dataset "$s2k" "${a36[@]}"; on 1 a36_b300k --dataset "$s2k" "${a36[@]}" --budget 300000; } &
+  {
+    on 2 a36_b100k --dataset "$s2k" "${a36[@]}" --budget 100000
+    on 2 a72_default --dataset "$s2k" "${a72[@]}"
+    on 2 a72_b300k --dataset "$s2k" "${a72[@]}" --budget 300000
+  } &
+  {
+    on 3 fixed_default --dataset "$s2k"
+    on 3 fixed_b300k --dataset "$s2k" --budget 300000
+    on 3 fixed_b100k --dataset "$s2k" --budget 100000
+    on 3 a72_b100k --dataset "$s2k" "${a72[@]}" --budget 100000
+  } &
+  wait
+}
+
 all() {
   "$bin" info >"$work/info.txt" 2>&1
   nvidia-smi >"$work/nvidia-smi.txt" 2>&1
+  if [[ ${SIDE_BY_SIDE:-0} != 1 && ${PACINGS:-} == "" ]] && (($(nvidia-smi -L | grep -c '^GPU') >= 4)); then
+    lanes
+    touch "$work/done"
+    return
+  fi
   if [[ ${SKIP_KITTI:-0} != 1 ]]; then
     cell kitti_anytime --dataset "kitti:$data/kitti_seq1" --pacing anytime
     cell kitti_anytime_track --dataset "kitti:$data/kitti_seq1" --pacing anytime --poses track
