@@ -302,9 +302,28 @@ TEST(LoopCorrector, IndexRoundTripsThroughJsonAndRejectsGarbage) {
   idx.add(3, chunk_id({1, -2, 3}));
   idx.add(3, chunk_id({1, -2, 3}));
   idx.add(7, chunk_id({-100, 0, 5}));
-  const auto back = KeyframeChunkIndex::from_json(idx.to_json());
-  EXPECT_EQ(back.to_json(), idx.to_json());
+  idx.add(12, chunk_id({4, 5, -6}));
+  idx.add(12, chunk_id({-4, 5, 6}));
+  TextPieces pieces;
+  idx.append_json(pieces);
+  const std::string text = pieces.str();
+  // Keyframes in numeric order (12 after 7), each list sorted: the text the tree would dump.
+  const nlohmann::json j = nlohmann::json::parse(text);
+  EXPECT_EQ(j.size(), 3u);
+  EXPECT_EQ(j.at("12").size(), 2u);
+  EXPECT_LT(text.find("\"7\""), text.find("\"12\""));
+  const auto back = KeyframeChunkIndex::from_json(j);
+  TextPieces again;
+  back.append_json(again);
+  EXPECT_EQ(again.str(), text);
+  EXPECT_EQ(back.entries(), 4u);
   EXPECT_EQ(back.chunks_of(std::vector<uint32_t>{3, 7}).size(), 2u);
+  EXPECT_EQ(back.chunks_of(std::vector<uint32_t>{12}),
+            (std::vector<ChunkId>{std::min(chunk_id({4, 5, -6}), chunk_id({-4, 5, 6})),
+                                  std::max(chunk_id({4, 5, -6}), chunk_id({-4, 5, 6}))}));
+  TextPieces empty;
+  KeyframeChunkIndex().append_json(empty);
+  EXPECT_EQ(empty.str(), "{}");
   EXPECT_THROW(KeyframeChunkIndex::from_json(nlohmann::json{{"x1", {"10"}}}), Error);
   EXPECT_THROW(KeyframeChunkIndex::from_json(nlohmann::json{{"1", {"zz"}}}), Error);
   EXPECT_THROW(KeyframeChunkIndex::from_json(nlohmann::json::array()), Error);

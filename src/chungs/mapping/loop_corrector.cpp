@@ -43,20 +43,30 @@ std::vector<ChunkId> KeyframeChunkIndex::chunks_of(std::span<const uint32_t> key
   return out;
 }
 
-nlohmann::json KeyframeChunkIndex::to_json() const {
-  nlohmann::json j = nlohmann::json::object();
-  std::map<uint32_t, const std::vector<ChunkId>*> sorted;
-  for (const auto& [k, v] : chunks_) sorted.emplace(k, &v);
-  for (const auto& [k, v] : sorted) {
-    nlohmann::json a = nlohmann::json::array();
-    char buf[24];
-    for (ChunkId c : *v) {
-      std::snprintf(buf, sizeof buf, "%llx", (unsigned long long)c);
-      a.push_back(buf);
+void KeyframeChunkIndex::append_json(TextPieces& out) const {
+  std::vector<uint32_t> keyframes;
+  keyframes.reserve(chunks_.size());
+  for (const auto& kv : chunks_) keyframes.push_back(kv.first);
+  std::sort(keyframes.begin(), keyframes.end());
+  out += '{';
+  char buf[24];
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%s\"%u\":[", i ? "," : "", unsigned(keyframes[i]));
+    out += buf;
+    const std::vector<ChunkId>& list = chunks_.at(keyframes[i]);
+    for (size_t c = 0; c < list.size(); ++c) {
+      std::snprintf(buf, sizeof buf, "%s\"%llx\"", c ? "," : "", (unsigned long long)list[c]);
+      out += buf;
     }
-    j[std::to_string(k)] = std::move(a);
+    out += ']';
   }
-  return j;
+  out += '}';
+}
+
+size_t KeyframeChunkIndex::entries() const {
+  size_t n = 0;
+  for (const auto& kv : chunks_) n += kv.second.size();
+  return n;
 }
 
 KeyframeChunkIndex KeyframeChunkIndex::from_json(const nlohmann::json& j) {

@@ -20,6 +20,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "chungs/common/text_pieces.hpp"
 #include "chungs/geometry/se3.hpp"
 #include "chungs/residency/residency.hpp"
 
@@ -43,8 +44,11 @@ class KeyframeChunkIndex {
   std::vector<ChunkId> chunks_of(std::span<const uint32_t> keyframes) const;
   bool complete() const { return complete_; }
   void set_incomplete() { complete_ = false; }
-  // {"<keyframe>": [chunk ids as hex strings], ...}
-  nlohmann::json to_json() const;
+  // Appends {"<keyframe>": [chunk ids as hex strings], ...} (keyframes ascending) as JSON text. Text,
+  // not a JSON tree: a tree of a 10 km drive's index (~220 k ids) took ~30 MB at every checkpoint, and
+  // that peak, growing with the drive, raised the host memory's high-water mark at each one.
+  void append_json(TextPieces& out) const;
+  size_t entries() const;  // chunk ids listed, over all keyframes
   // Throws Error naming the entry on malformed input.
   static KeyframeChunkIndex from_json(const nlohmann::json& j);
 

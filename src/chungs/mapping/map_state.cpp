@@ -11,21 +11,26 @@
 
 namespace chungs {
 
-void write_keyframe_records(const std::filesystem::path& file, const std::vector<KeyframeRecord>& records,
-                            bool durable) {
+TextPieces keyframe_records_text(const std::vector<KeyframeRecord>& records) {
+  TextPieces out;
+  out += "# id frame stamp width height fx fy cx cy tx ty tz qx qy qz qw uses last_loss\n";
   std::ostringstream s;
   s.precision(17);
-  s << "# id frame stamp width height fx fy cx cy tx ty tz qx qy qz qw uses last_loss\n";
   for (const auto& r : records) {
     const auto& c = r.camera;
-    s << r.id << ' ' << r.frame << ' ' << r.stamp << ' ' << c.width << ' ' << c.height << ' ' << c.fx << ' ' << c.fy
-      << ' ' << c.cx << ' ' << c.cy << ' ' << r.pose.t.x() << ' ' << r.pose.t.y() << ' ' << r.pose.t.z() << ' '
-      << r.pose.q.x() << ' ' << r.pose.q.y() << ' ' << r.pose.q.z() << ' ' << r.pose.q.w() << ' ' << r.uses << ' '
-      << r.last_loss << '\n';
+    s.str("");
+    s << r.id << ' ' << r.frame << ' ' << r.stamp << ' ' << c.width << ' ' << c.height << ' ' << c.fx << ' '
+      << c.fy << ' ' << c.cx << ' ' << c.cy << ' ' << r.pose.t.x() << ' ' << r.pose.t.y() << ' '
+      << r.pose.t.z() << ' ' << r.pose.q.x() << ' ' << r.pose.q.y() << ' ' << r.pose.q.z() << ' '
+      << r.pose.q.w() << ' ' << r.uses << ' ' << r.last_loss << '\n';
+    out += s.view();
   }
-  const std::string text = s.str();
-  const ConstBuffer part{text.data(), text.size()};
-  write_file_atomically(file, std::span<const ConstBuffer>(&part, 1), durable);
+  return out;
+}
+
+void write_keyframe_records(const std::filesystem::path& file, const std::vector<KeyframeRecord>& records,
+                            bool durable) {
+  write_text_atomically(file, keyframe_records_text(records), durable);
 }
 
 std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& file) {
@@ -41,7 +46,8 @@ std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& f
     KeyframeRecord r;
     double t[3], q[4];
     ls >> r.id >> r.frame >> r.stamp >> r.camera.width >> r.camera.height >> r.camera.fx >> r.camera.fy >>
-        r.camera.cx >> r.camera.cy >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3] >> r.uses >> r.last_loss;
+        r.camera.cx >> r.camera.cy >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3] >> r.uses >>
+        r.last_loss;
     const std::string where = cat(file.string(), ":", lineno);
     if (!ls) fail(where, ": expected 18 numbers (a keyframe record)");
     // The writer stores unit quaternions; a zero one would normalise to NaNs and render nothing.
@@ -60,20 +66,32 @@ std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& f
   return out;
 }
 
-std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name) {
+std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint64_t seq,
+                                      const std::string& final_name) {
   return folder / cat("checkpoint-", seq, "-", final_name);
 }
 
-std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name) {
+std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq,
+                                     const std::string& final_name) {
   const std::filesystem::path pending = checkpoint_file(folder, seq, final_name);
   std::error_code ec;
   return seq > 0 && std::filesystem::exists(pending, ec) ? pending : folder / final_name;
 }
 
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable) {
-  const std::string text = j.dump(1) + "\n";
+  write_text_atomically(file, j.dump(1) + "\n", durable);
+}
+
+void write_text_atomically(const std::filesystem::path& file, const std::string& text, bool durable) {
   const ConstBuffer part{text.data(), text.size()};
   write_file_atomically(file, std::span<const ConstBuffer>(&part, 1), durable);
+}
+
+void write_text_atomically(const std::filesystem::path& file, const TextPieces& text, bool durable) {
+  std::vector<ConstBuffer> parts;
+  parts.reserve(text.pieces().size());
+  for (const std::string& p : text.pieces()) parts.push_back({p.data(), p.size()});
+  write_file_atomically(file, parts, durable);
 }
 
 nlohmann::json read_json_file(const std::filesystem::path& file) {

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
+#include "chungs/common/text_pieces.hpp"
 #include "chungs/geometry/camera.hpp"
 #include "chungs/geometry/se3.hpp"
 
@@ -24,6 +25,7 @@ struct KeyframeRecord {
 
 void write_keyframe_records(const std::filesystem::path& file, const std::vector<KeyframeRecord>& records,
                             bool durable);
+TextPieces keyframe_records_text(const std::vector<KeyframeRecord>& records);  // what the file holds
 // Throws Error "FILE:LINE: ..." on malformed lines.
 std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& file);
 
@@ -36,6 +38,8 @@ std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint6
 std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name);
 
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable);
+void write_text_atomically(const std::filesystem::path& file, const std::string& text, bool durable);
+void write_text_atomically(const std::filesystem::path& file, const TextPieces& text, bool durable);
 nlohmann::json read_json_file(const std::filesystem::path& file);
 // run_state.json as a checkpoint writes it: an object whose known keys have their types and ranges
 // (next_frame, iterations: whole numbers >= 0; seconds: finite >= 0; dataset, poses, rng: strings;

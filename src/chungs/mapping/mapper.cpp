@@ -88,8 +88,10 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     iterations_ = resumed_state_.value("iterations", uint64_t(0));
     steps_at_last_keyframe_ = steps_at_last_sampling_ = iterations_;
     try {
-      if (resumed_state_.contains("keyframe_chunks"))
+      if (resumed_state_.contains("keyframe_chunks")) {
         keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
+        resumed_state_["keyframe_chunks"] = true;  // its tree is ~30 MB after a 10 km drive: not kept
+      }
     } catch (const std::exception& e) {  // a JSON type error, or the index's own Error
       fail(file.string(), ": 'keyframe_chunks' is damaged (", e.what(), ")");
     }

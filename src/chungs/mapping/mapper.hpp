@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <string>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -94,10 +95,12 @@ class Mapper {
   // false: corrections visit one chunk at a time even when the chunks would fit (tests that path).
   void set_loop_batch_allowed(bool allowed) { loop_batch_allowed_ = allowed; }
 
-  // Writes every modified chunk, the manifest, the keyframe list and `run_state`. behind: the map
-  // as it is now is written while training goes on (Residency::begin_checkpoint); it is the
-  // resume point once committed, and the next checkpoint (or the destructor) waits for it.
-  void checkpoint(const nlohmann::json& run_state, bool behind = false);
+  // Writes every modified chunk, the manifest, the keyframe list and `run_state`, followed by the
+  // members in `more` (JSON text, ",\"key\":value" each: what grows with the run, kept out of JSON
+  // trees; see common/text_pieces.hpp). behind: the map as it is now is written while training goes
+  // on (Residency::begin_checkpoint); it is the resume point once committed, and the next
+  // checkpoint (or the destructor) waits for it.
+  void checkpoint(const nlohmann::json& run_state, bool behind = false, TextPieces more = {});
   const nlohmann::json& resumed_state() const { return resumed_state_; }
 
   const std::vector<KeyframeRecord>& keyframes() const { return keyframes_; }

@@ -55,7 +55,7 @@ void Mapper::recover_checkpoint_files() {
   }
 }
 
-void Mapper::checkpoint(const nlohmann::json& run_state, bool behind) {
+void Mapper::checkpoint(const nlohmann::json& run_state, bool behind, TextPieces more) {
   residency_->finish_checkpoint();  // its files are renamed, its sequence number is taken
   const uint64_t seq = checkpoint_seq_ + 1;
   keyframes_in_checkpoint_ = keyframes_.size();
@@ -72,19 +72,30 @@ void Mapper::checkpoint(const nlohmann::json& run_state, bool behind) {
   std::optional<SkyTexture> sky = sky_on_ ? backend_->sky() : std::nullopt;  // as it is now
   nlohmann::json j = run_state;
   j["iterations"] = iterations_;
-  j["keyframe_chunks"] = keyframe_chunks_.to_json();
   std::ostringstream s;
   s << rng_;
   j["rng"] = s.str();
   const bool durable = config_.store.durable;
   // Everything the commit names is written first, under numbered names (see above). Behind the
-  // caller this runs on a writer thread: hence the copies.
-  auto write_state = [this, keyframes_file, state_file, sky_file, durable, behind, records = keyframes_,
-                      j = std::move(j), sky = std::move(sky)] {
+  // caller this runs on a writer thread: hence the keyframe list as text now and the index's copy.
+  // What grows with the drive goes out in pieces of text, never as a JSON tree or one long string
+  // (common/text_pieces.hpp): with the heap never trimmed, a transient peak that grows at every
+  // checkpoint is host memory that grows with the drive.
+  auto write_state = [this, keyframes_file, state_file, sky_file, durable, behind,
+                      records = keyframe_records_text(keyframes_), j = std::move(j), index = keyframe_chunks_,
+                      more = std::move(more), sky = std::move(sky)]() mutable {
     // The keyframe list about to be committed must not name a keyframe whose file could be lost.
     keyframe_store_->commit(!behind);
-    write_keyframe_records(keyframes_file, records, durable);
-    write_json_atomically(state_file, j, durable);
+    write_text_atomically(keyframes_file, records, durable);
+    std::string head = j.dump();  // an object with at least "iterations" and "rng"
+    head.pop_back();              // its closing brace
+    TextPieces text;
+    text += head;
+    text += ",\"keyframe_chunks\":";
+    index.append_json(text);
+    text.splice(std::move(more));
+    text += "}\n";
+    write_text_atomically(state_file, text, durable);
     if (sky) write_sky_file(sky_file, *sky, durable);
   };
   auto publish = [this, keyframes_file, state_file, sky_file, durable, has_sky = sky_on_] {

@@ -3,14 +3,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <unordered_map>
 #include <mutex>
+#include <unordered_map>
 
 #include "chungs/common/heap.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/depth/learned_prior.hpp"
 #include "chungs/eval/report.hpp"
+#include "chungs/mapping/optim_backend.hpp"
 #include "chungs/pipeline/evaluation.hpp"
 #include "chungs/pipeline/frame_feed.hpp"
 #include "chungs/pipeline/frame_lookahead.hpp"
@@ -19,7 +20,6 @@
 #include "chungs/pipeline/multiview_keyframes.hpp"
 #include "chungs/pipeline/multiview_mapping.hpp"
 #include "chungs/pipeline/pacing_summary.hpp"
-#include "chungs/mapping/optim_backend.hpp"
 #include "chungs/pipeline/pose_updates.hpp"
 #include "chungs/pipeline/timeline.hpp"
 #include "chungs/pipeline/tracker_feed.hpp"
@@ -109,11 +109,12 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   std::vector<std::optional<SE3>> given;
   if (!tracked) given = frame_poses(*dataset, o.poses);
   // The LPIPS weights too: a bad file is refused now, not after the whole run.
-  const LpipsSetting lpips =
-      o.evaluate ? lpips_setting(mc.lpips_weights, "--lpips-weights or mapper.lpips_weights") : LpipsSetting{};
+  const LpipsSetting lpips = o.evaluate
+                                 ? lpips_setting(mc.lpips_weights, "--lpips-weights or mapper.lpips_weights")
+                                 : LpipsSetting{};
   if (lpips.metric && (width < kLpipsMinSide || height < kLpipsMinSide))
-    fail("dataset ", o.dataset, ": ", width, "x", height, " mapping images are below the ", kLpipsMinSide, "x",
-         kLpipsMinSide, " LPIPS needs (raise --resolution or drop --lpips-weights)");
+    fail("dataset ", o.dataset, ": ", width, "x", height, " mapping images are below the ", kLpipsMinSide,
+         "x", kLpipsMinSide, " LPIPS needs (raise --resolution or drop --lpips-weights)");
   // The learned depth model as well (the CLI hands it over loaded); it serves the multiview depth only.
   std::shared_ptr<const LearnedDepth> learned = o.mono_depth_model;
   if (!learned && !mc.mono_depth_model.empty()) {
@@ -165,9 +166,15 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const auto t0 = Clock::now();
   auto seconds = [&] { return carried_seconds + since(t0); };
   auto state = [&](size_t next_frame, bool finished) {
-    return nlohmann::json{
-        {"dataset", o.dataset}, {"poses", o.poses},     {"next_frame", next_frame},     {"frames", n},
-        {"finished", finished}, {"seconds", seconds()}, {"timeline", to_json(timeline)}};
+    return nlohmann::json{{"dataset", o.dataset}, {"poses", o.poses},     {"next_frame", next_frame},
+                          {"frames", n},          {"finished", finished}, {"seconds", seconds()}};
+  };
+  // The timeline grows with the run, so it goes to run_state.json as text (Mapper::checkpoint).
+  auto timeline_member = [&] {
+    TextPieces out;
+    out += ",\"timeline\":";
+    append_json(out, timeline);
+    return out;
   };
   // Frame i arrives (anytime pacing) at its dataset time divided by the speed factor.
   const double stamp0 = n ? dataset->timestamp(0) : 0;
@@ -198,8 +205,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   // fill depth, position learning rate, keyframe spacing) near their meaning: with a unit of "median depth
   // 1" (~15 m on KITTI) a 10 m chunk spanned 150 m and held-out PSNR fell 0.9 dB (bench/README.md).
   tracking::TrackerOptions tracker_options = o.tracker;
-  if (own_unit)
-    tracker_options.mono_init.target_median_depth = cfg.multiview.choice.scene_depth;
+  if (own_unit) tracker_options.mono_init.target_median_depth = cfg.multiview.choice.scene_depth;
   std::unique_ptr<FrameFeed> feed =
       tracked
           ? make_tracker_feed(*dataset, n, mc, tracker_options)
@@ -227,7 +233,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   if (mode == DepthMode::Multiview) {
     std::shared_ptr<const DepthPriorSource> prior =
         std::make_shared<MapPointPrior>(cfg.multiview.min_prior_points, cfg.multiview.densify);
-    if (learned) prior = learned_prior = std::make_shared<LearnedPrior>(learned, InverseDepthFitOptions{}, prior);
+    if (learned)
+      prior = learned_prior = std::make_shared<LearnedPrior>(learned, InverseDepthFitOptions{}, prior);
     MultiviewDepthConfig mv = cfg.multiview;
     // Outdoors the pixels without depth are mostly sky, which the sampler's fill depth puts far away; a
     // membrane between the buildings' depths would bring the sky down onto them.
@@ -240,7 +247,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     // Its cost is taken from the optimiser's thread; under a real-time intake that time is the steps
     // of the map, and what the trade gives there has not been measured: only fixed pacing refines.
     if (mc.pacing == "anytime")
-      log::info("multiview.refine: off under anytime pacing (it would take its time from the optimiser's steps)");
+      log::info(
+          "multiview.refine: off under anytime pacing (it would take its time from the optimiser's steps)");
     else if (info.camera.distorted())
       log::warn("multiview.refine: the camera is distorted (", info.camera.describe(),
                 "), which the plane sweep cannot use; the depth stays as measured");
@@ -333,8 +341,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         give_earlier_keyframes_depth(mapper, m, i);
         feed->set_scene_depth(m.median_depth);
         if (multiview) multiview->set_scene_depth(m.median_depth);
-        const SampleStats ss = mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera,
-                                                   *item->pose, item->seeds.empty() ? nullptr : &item->seeds);
+        const SampleStats ss =
+            mapper.add_keyframe(i, dataset->timestamp(i), m.frame.left, m.depth, m.frame.camera, *item->pose,
+                                item->seeds.empty() ? nullptr : &item->seeds);
         updates.added(item->keyframe_id, mapper.keyframes().back().id);
         added = true;
         log::debug("frame ", i, ": ", ss.kept, " new Gaussians (", ss.candidates, " drawn, ", ss.no_depth,
@@ -360,7 +369,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (added) ++keyframes_since_checkpoint;
     if (checkpoint_due() || applied.loop) {
       checkpoint_ms_at_last = mapper.io_stats().checkpoint_ms;
-      timed(checkpoint_call_ms, [&] { mapper.checkpoint(state(i + 1, false), /*behind=*/true); });
+      timed(checkpoint_call_ms,
+            [&] { mapper.checkpoint(state(i + 1, false), /*behind=*/true, timeline_member()); });
       keyframes_since_checkpoint = 0;
       last_checkpoint = seconds();
     }
@@ -376,7 +386,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const size_t done = stopped_at ? *stopped_at + 1 : n;  // frames the map covers
   if (mapper.keyframes().empty()) fail("dataset ", o.dataset, ": no frame with a pose became a keyframe");
   if (multiview && mapper.total_gaussians() == 0)
-    log::warn("dataset ", o.dataset, ": no keyframe got depth from its neighbours (one camera needs two keyframes "
+    log::warn("dataset ", o.dataset,
+              ": no keyframe got depth from its neighbours (one camera needs two keyframes "
               "that see the same textured scene from places apart), so the map is empty");
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
     Progress refine("refining", mc.final_iterations);
@@ -388,7 +399,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   }
   record(done ? done - 1 : 0);
   double final_checkpoint_ms = 0;
-  timed(final_checkpoint_ms, [&] { mapper.checkpoint(state(done, !stopped_at)); });
+  timed(final_checkpoint_ms,
+        [&] { mapper.checkpoint(state(done, !stopped_at), /*behind=*/false, timeline_member()); });
   const std::vector<std::optional<SE3>> poses = feed->final_poses();
   Trajectory traj;  // the poses the map was made on (after every correction), TUM format
   for (size_t i = 0; i < std::min(done, poses.size()); ++i)
@@ -456,19 +468,20 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (const Mapper::WindowStats& w = mapper.window_stats(); w.updates) {
       // How much of the selection cell the budget left trainable.
       const double n = double(std::max<uint64_t>(w.narrowed, 1));
-      pj["training_window"] = {{"narrowed_share", double(w.narrowed) / double(w.updates)},
-                               {"mean_keyframes", w.keyframes / n},
-                               {"mean_cell_keyframes", w.cell_keyframes / n},
-                               {"mean_reach_m", w.reach_m / n},
-                               {"partial_step_share",
-                                double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
-                               {"partial_too_small", w.partial_too_small},
-                               {"trimmed_step_share",
-                                double(w.trimmed_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
-                               {"best_view_step_share",
-                                double(w.best_view_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
-                               {"beyond_core_step_share",
-                                double(w.beyond_core_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))}};
+      pj["training_window"] = {
+          {"narrowed_share", double(w.narrowed) / double(w.updates)},
+          {"mean_keyframes", w.keyframes / n},
+          {"mean_cell_keyframes", w.cell_keyframes / n},
+          {"mean_reach_m", w.reach_m / n},
+          {"partial_step_share",
+           double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
+          {"partial_too_small", w.partial_too_small},
+          {"trimmed_step_share",
+           double(w.trimmed_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
+          {"best_view_step_share",
+           double(w.best_view_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
+          {"beyond_core_step_share",
+           double(w.beyond_core_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))}};
     }
     report["pacing"] = pj;
   }
@@ -488,12 +501,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                          {"keyframe_loads_per_step", double(t.keyframe_loads) / n},
                          {"bookkeeping", (t.total_ms - t.chunks_ms - t.backend_ms) / n}};
   }
-  report["time"] = {
-      {"mapping_s", map_seconds},
-      {"processing_fps", map_seconds > 0 ? double(done) / map_seconds : 0},
-      // Everything the optimiser thread lost to I/O (chunks, checkpoints, keyframes).
-      {"io_wait_ms", io_wait_ms},
-      {"io_wait_share", map_seconds > 0 ? io_wait_ms / 1000.0 / map_seconds : 0}};
+  report["time"] = {{"mapping_s", map_seconds},
+                    {"processing_fps", map_seconds > 0 ? double(done) / map_seconds : 0},
+                    // Everything the optimiser thread lost to I/O (chunks, checkpoints, keyframes).
+                    {"io_wait_ms", io_wait_ms},
+                    {"io_wait_share", map_seconds > 0 ? io_wait_ms / 1000.0 / map_seconds : 0}};
   {
     // Where the optimiser thread's mapping time went: steps, keyframes (the sampler's render, its
     // draws, handing them to residency), waiting for frames, timeline samples, checkpoints and pose

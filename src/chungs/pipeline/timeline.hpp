@@ -3,6 +3,9 @@
 #pragma once
 #include <filesystem>
 #include <nlohmann/json.hpp>
+
+#include "chungs/common/text_pieces.hpp"
+#include <string>
 #include <vector>
 
 namespace chungs {
@@ -27,6 +30,9 @@ struct TimelineSample {
 
 std::string timeline_csv(const std::vector<TimelineSample>& samples);
 nlohmann::json to_json(const std::vector<TimelineSample>& samples);
+// The same as JSON text, appended: what a checkpoint writes, without building the tree (see
+// KeyframeChunkIndex::append_json).
+void append_json(TextPieces& out, const std::vector<TimelineSample>& samples);
 std::vector<TimelineSample> timeline_from_json(const nlohmann::json& j);
 
 // Four stacked panels against time (minutes for runs over three minutes, else seconds):
