@@ -11,21 +11,20 @@
 
 namespace chungs {
 
-TextPieces keyframe_records_text(const std::vector<KeyframeRecord>& records) {
-  TextPieces out;
+void append_keyframe_records_header(TextPieces& out) {
   out += "# id frame stamp width height fx fy cx cy tx ty tz qx qy qz qw uses last_loss\n";
-  std::ostringstream s;
+}
+
+void append_keyframe_record(TextPieces& out, const KeyframeRecord& r) {
+  thread_local std::ostringstream s;
+  s.str("");
   s.precision(17);
-  for (const auto& r : records) {
-    const auto& c = r.camera;
-    s.str("");
-    s << r.id << ' ' << r.frame << ' ' << r.stamp << ' ' << c.width << ' ' << c.height << ' ' << c.fx << ' '
-      << c.fy << ' ' << c.cx << ' ' << c.cy << ' ' << r.pose.t.x() << ' ' << r.pose.t.y() << ' '
-      << r.pose.t.z() << ' ' << r.pose.q.x() << ' ' << r.pose.q.y() << ' ' << r.pose.q.z() << ' '
-      << r.pose.q.w() << ' ' << r.uses << ' ' << r.last_loss << '\n';
-    out += s.view();
-  }
-  return out;
+  const auto& c = r.camera;
+  s << r.id << ' ' << r.frame << ' ' << r.stamp << ' ' << c.width << ' ' << c.height << ' ' << c.fx << ' '
+    << c.fy << ' ' << c.cx << ' ' << c.cy << ' ' << r.pose.t.x() << ' ' << r.pose.t.y() << ' ' << r.pose.t.z()
+    << ' ' << r.pose.q.x() << ' ' << r.pose.q.y() << ' ' << r.pose.q.z() << ' ' << r.pose.q.w() << ' '
+    << r.uses << ' ' << r.last_loss << '\n';
+  out += s.view();
 }
 
 void write_keyframe_records(const std::filesystem::path& file, const std::vector<KeyframeRecord>& records,

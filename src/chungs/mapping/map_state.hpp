@@ -25,17 +25,29 @@ struct KeyframeRecord {
 
 void write_keyframe_records(const std::filesystem::path& file, const std::vector<KeyframeRecord>& records,
                             bool durable);
-TextPieces keyframe_records_text(const std::vector<KeyframeRecord>& records);  // what the file holds
+void append_keyframe_records_header(TextPieces& out);
+void append_keyframe_record(TextPieces& out, const KeyframeRecord& r);
+// What the file holds, for records in any container (a checkpoint's copy is a deque: no block as large as the
+// list).
+template <class Records>
+TextPieces keyframe_records_text(const Records& records) {
+  TextPieces out;
+  append_keyframe_records_header(out);
+  for (const KeyframeRecord& r : records) append_keyframe_record(out, r);
+  return out;
+}
 // Throws Error "FILE:LINE: ..." on malformed lines.
 std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& file);
 
 // A checkpoint's keyframe list, run state or sky under the numbered name it is written with before
 // the commit that names checkpoint `seq` (Mapper::checkpoint).
-std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name);
+std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint64_t seq,
+                                      const std::string& final_name);
 // The file as checkpoint `seq` commits it, for readers: its numbered copy while that still waits for
 // its final name (a run that failed between the commit and the renaming, which only a writer
 // finishes), else the file under its final name.
-std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq, const std::string& final_name);
+std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq,
+                                     const std::string& final_name);
 
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable);
 void write_text_atomically(const std::filesystem::path& file, const std::string& text, bool durable);

@@ -2,6 +2,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <sstream>
 
 #include "chungs/common/log.hpp"
@@ -77,16 +78,17 @@ void Mapper::checkpoint(const nlohmann::json& run_state, bool behind, TextPieces
   j["rng"] = s.str();
   const bool durable = config_.store.durable;
   // Everything the commit names is written first, under numbered names (see above). Behind the
-  // caller this runs on a writer thread: hence the keyframe list as text now and the index's copy.
+  // caller this runs on a writer thread: hence the copies of the keyframe list and the index.
   // What grows with the drive goes out in pieces of text, never as a JSON tree or one long string
   // (common/text_pieces.hpp): with the heap never trimmed, a transient peak that grows at every
   // checkpoint is host memory that grows with the drive.
   auto write_state = [this, keyframes_file, state_file, sky_file, durable, behind,
-                      records = keyframe_records_text(keyframes_), j = std::move(j), index = keyframe_chunks_,
-                      more = std::move(more), sky = std::move(sky)]() mutable {
+                      records = std::deque<KeyframeRecord>(keyframes_.begin(), keyframes_.end()),
+                      j = std::move(j), index = keyframe_chunks_, more = std::move(more),
+                      sky = std::move(sky)]() mutable {
     // The keyframe list about to be committed must not name a keyframe whose file could be lost.
     keyframe_store_->commit(!behind);
-    write_text_atomically(keyframes_file, records, durable);
+    write_text_atomically(keyframes_file, keyframe_records_text(records), durable);
     std::string head = j.dump();  // an object with at least "iterations" and "rng"
     head.pop_back();              // its closing brace
     TextPieces text;
