@@ -16,11 +16,10 @@
 #include "chungs/pipeline/frame_feed.hpp"
 #include "chungs/pipeline/frame_lookahead.hpp"
 #include "chungs/pipeline/frame_source.hpp"
-#include "chungs/pipeline/memory_flatness.hpp"
 #include "chungs/pipeline/multiview_keyframes.hpp"
 #include "chungs/pipeline/multiview_mapping.hpp"
-#include "chungs/pipeline/pacing_summary.hpp"
 #include "chungs/pipeline/pose_updates.hpp"
+#include "chungs/pipeline/run_report.hpp"
 #include "chungs/pipeline/timeline.hpp"
 #include "chungs/pipeline/tracker_feed.hpp"
 #include "chungs/store/atomic_file.hpp"
@@ -459,48 +458,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["pose_updates"] = updates.report();
   report["keyframes"] = mapper.keyframes().size();
   report["keyframes_without_depth"] = mapper.keyframes_without_depth();
-  {
-    // Whether the optimiser kept up: the figures a starving run shows first.
-    nlohmann::json pj = pacing_summary(timeline).to_json();
-    pj["min_steps_per_keyframe"] = mc.min_steps_per_keyframe;
-    pj["views_over_budget"] = mapper.views_over_budget();
-    if (mapper.views_over_budget()) pj["largest_view_gaussians"] = mapper.largest_view();
-    if (const Mapper::WindowStats& w = mapper.window_stats(); w.updates) {
-      // How much of the selection cell the budget left trainable.
-      const double n = double(std::max<uint64_t>(w.narrowed, 1));
-      pj["training_window"] = {
-          {"narrowed_share", double(w.narrowed) / double(w.updates)},
-          {"mean_keyframes", w.keyframes / n},
-          {"mean_cell_keyframes", w.cell_keyframes / n},
-          {"mean_reach_m", w.reach_m / n},
-          {"partial_step_share",
-           double(w.partial_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
-          {"partial_too_small", w.partial_too_small},
-          {"trimmed_step_share",
-           double(w.trimmed_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
-          {"best_view_step_share",
-           double(w.best_view_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))},
-          {"beyond_core_step_share",
-           double(w.beyond_core_steps) / double(std::max<uint64_t>(mapper.iterations(), 1))}};
-    }
-    report["pacing"] = pj;
-  }
+  report["pacing"] = pacing_report(mapper, timeline, mc.min_steps_per_keyframe);
   report["iterations"] = mapper.iterations();
-  if (const Mapper::StepTimes& t = mapper.step_times(); t.steps) {
-    // Per step, on the optimiser thread: drawing the next keyframe and reading its chunks ahead (pick,
-    // outside `mean`), culling and pinning its chunks, the backend's render, loss, backward and Adam
-    // (keyframe loads included), and the rest (dirty marks, pruning's bookkeeping).
-    const double n = double(t.steps);
-    report["step_ms"] = {{"mean", t.total_ms / n},
-                         {"pick", t.pick_ms / n},
-                         {"cull", t.cull_ms / n},
-                         {"pin", t.pin_ms / n},
-                         {"chunks", t.chunks_ms / n},
-                         {"backend", t.backend_ms / n},
-                         {"keyframe_load", t.keyframe_load_ms / n},
-                         {"keyframe_loads_per_step", double(t.keyframe_loads) / n},
-                         {"bookkeeping", (t.total_ms - t.chunks_ms - t.backend_ms) / n}};
-  }
+  if (mapper.step_times().steps) report["step_ms"] = step_report(mapper.step_times());
   report["time"] = {{"mapping_s", map_seconds},
                     {"processing_fps", map_seconds > 0 ? double(done) / map_seconds : 0},
                     // Everything the optimiser thread lost to I/O (chunks, checkpoints, keyframes).
@@ -540,59 +500,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["gaussians"]["stray_picks"] = {{"held_back", mapper.strays_held_back()},
                                         {"made_into_chunks", mapper.strays_released()},
                                         {"forgotten", mapper.strays_forgotten()}};
-  double peak_rss = 0;
-  for (const auto& t : timeline) peak_rss = std::max(peak_rss, t.rss_mb);
   const DiskUsage du = disk_usage(o.out);
   report["disk"] = {{"files", du.files}, {"bytes", du.bytes}, {"allocated_bytes", du.allocated_bytes}};
-  report["memory"] = {{"peak_rss_mb_sampled", peak_rss},
-                      {"peak_rss_mb_process", double(peak_rss_bytes()) / 1048576.0}};
-  if (const auto dm = mapper.device_memory()) {
-    double peak_vram = 0;
-    for (const auto& t : timeline) peak_vram = std::max(peak_vram, t.vram_mb);
-    // Device-wide (cudaMemGetInfo): includes the CUDA context and any other process on the GPU.
-    report["memory"]["vram_used_mb_peak_sampled"] = peak_vram;
-    report["memory"]["vram_used_mb_end"] = dm->used_mb;
-    report["memory"]["vram_total_mb"] = dm->total_mb;
-  }
-  // Once the budget is reached, memory should stay level however far the map grows.
-  if (const auto flat = memory_flatness(timeline, mapper.budget()))
-    report["memory"]["after_budget"] = flat->to_json();
-  report["chunk_io"] = {
-      {"loads", io.loads},
-      {"saves", io.saves},
-      {"mean_load_ms", io.mean_load_ms()},
-      {"mean_save_ms", io.mean_save_ms()},
-      {"io_time_share", map_seconds > 0 ? (io.load_ms + io.save_ms) / 1000.0 / map_seconds : 0},
-      // The optimiser's own loss to I/O: blocking loads, full write queues and checkpoints. The
-      // background thread's time (io_time_share) overlaps with training and is not a cost by itself.
-      {"wait_time_share", map_seconds > 0 ? io.optimiser_wait_ms() / 1000.0 / map_seconds : 0},
-      {"wait_ms", io.wait_ms},
-      {"checkpoints", io.checkpoints},
-      {"checkpoint_ms", io.checkpoint_ms},
-      {"checkpoints_behind", io.checkpoints_behind},
-      {"checkpoint_behind_ms", io.checkpoint_behind_ms},
-      {"barrier_ms", io.barrier_ms},
-      {"bytes_read", io.bytes_read},
-      {"bytes_written", io.bytes_written},
-      // Chunks made resident, and how: read ahead in the background, or waited for by the optimiser.
-      {"pool_loads", io.pool_loads},
-      {"prefetch_hits", io.prefetch_hits},
-      {"waited_loads", io.sync_loads},
-      {"evictions_clean", io.evictions_clean},
-      {"evictions_dirty", io.evictions_dirty},
-      {"summary", io.summary()}};
-  const IoStats kio = mapper.keyframe_io_stats();
-  report["keyframe_io"] = {{"loads", kio.loads},
-                           {"saves", kio.saves},
-                           {"mean_load_ms", kio.mean_load_ms()},
-                           {"mean_save_ms", kio.mean_save_ms()},
-                           {"read_ahead", kio.prefetch_hits},
-                           {"read_on_demand", kio.sync_loads},
-                           {"waits", kio.waits},
-                           {"wait_ms", kio.wait_ms},
-                           {"barrier_ms", kio.barrier_ms},
-                           {"bytes_read", kio.bytes_read},
-                           {"bytes_written", kio.bytes_written}};
+  report["memory"] = memory_report(mapper, timeline);
+  report["chunk_io"] = chunk_io_report(io, map_seconds);
+  report["keyframe_io"] = keyframe_io_report(mapper.keyframe_io_stats());
   if (o.evaluate) score_run(mapper, *dataset, poses, done, mc, o.out, lpips, report);
   write_text(o.out / "timeline.csv", timeline_csv(timeline));
   write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());

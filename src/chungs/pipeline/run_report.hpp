@@ -1,0 +1,19 @@
+// The parts of `run`'s report.json that the mapper's own counters make: whether the optimiser kept
+// up (pacing), where a step's time went, host and device memory, chunk and keyframe I/O.
+#pragma once
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "chungs/mapping/mapper.hpp"
+#include "chungs/pipeline/timeline.hpp"
+
+namespace chungs {
+
+nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSample>& timeline,
+                             int min_steps_per_keyframe);
+nlohmann::json step_report(const Mapper::StepTimes& t);  // per step, ms; t.steps > 0
+nlohmann::json memory_report(const Mapper& mapper, const std::vector<TimelineSample>& timeline);
+nlohmann::json chunk_io_report(const IoStats& io, double map_seconds);
+nlohmann::json keyframe_io_report(const IoStats& kio);
+
+}  // namespace chungs
