@@ -6,10 +6,13 @@
 // so the device is waited for at the end of every step).
 //
 //   bench_step_loop [--visible 200000] [--steps 500] [--device auto|cpu|cuda] [--width W --height H]
-//                   [--density F] [--json FILE] [--folder DIR] [--map MAP]
+//                   [--density F] [--json FILE] [--folder DIR] [--map MAP] [--save-map DIR]
 //
 // --map: instead of growing a street, steps on a copy of a map folder that `diskchungs run` made with
 // the outdoor preset (e.g. of ../shared/data/kitti_seq1), resumed as `run --resume` would.
+// --save-map: the grown street's map is also written to DIR (a checkpoint) before the timing, so that
+// another build can be timed on the very same map with --map DIR: each build grows a different map
+// (its kernels' rounding steers the sampler), and the maps differ by more than the kernels do.
 //
 // Phases: pick (next keyframe drawn, its view culled, its chunks read ahead), cull, pin, then the
 // backend's targets, upload (slot list, pending chunk copies), forward, loss, sky, backward, adam,
@@ -40,7 +43,7 @@ struct Options {
   size_t visible = 200000;
   int steps = 500, width = 1241, height = 376;
   double density = 0;  // 0: the sampler's default
-  std::string device = "auto", json, folder, map;
+  std::string device = "auto", json, folder, map, save_map;
 };
 
 double number(const char* flag, const char* text) {
@@ -65,6 +68,7 @@ Options parse(int argc, char** argv) {
     else if (a == "--json") o.json = v;
     else if (a == "--folder") o.folder = v;
     else if (a == "--map") o.map = v;
+    else if (a == "--save-map") o.save_map = v;
     else fail("bench_step_loop: unknown flag ", a);
   }
   return o;
@@ -120,6 +124,9 @@ nlohmann::json report(const Timed& t, int steps) {
                       {"pick", t.mapper.pick_ms / n},
                       {"cull", t.mapper.cull_ms / n},
                       {"pin", t.mapper.pin_ms / n},
+                      // Between the cull and the backend beside the pin: partial-view and trimmed-view
+                      // masks, coverage, the slot list.
+                      {"view", (t.mapper.chunks_ms - t.mapper.cull_ms - t.mapper.pin_ms) / n},
                       {"backend", t.mapper.backend_ms / n},
                       {"keyframe_load", t.mapper.keyframe_load_ms / n},
                       {"bookkeeping", t.mapper.bookkeeping_ms / n}};
@@ -141,9 +148,9 @@ nlohmann::json report(const Timed& t, int steps) {
 void print(const char* title, const nlohmann::json& j) {
   std::printf("%s: %.3f ms per step (%.0f steps/s), %.0f Gaussians rendered per step\n", title,
               j["ms_per_step"].get<double>(), j["steps_per_s"].get<double>(), j["rendered_mean"].get<double>());
-  std::printf("  mapper   pick %.3f  cull %.3f  pin %.3f  backend %.3f  bookkeeping %.3f ms\n", j["pick"].get<double>(),
-              j["cull"].get<double>(), j["pin"].get<double>(), j["backend"].get<double>(),
-              j["bookkeeping"].get<double>());
+  std::printf("  mapper   pick %.3f  cull %.3f  view %.3f  pin %.3f  backend %.3f  bookkeeping %.3f ms\n",
+              j["pick"].get<double>(), j["cull"].get<double>(), j["view"].get<double>(), j["pin"].get<double>(),
+              j["backend"].get<double>(), j["bookkeeping"].get<double>());
   if (!j.contains("backend_host")) return;
   std::printf("  %-10s %10s %10s\n", "phase", "host ms", "device ms");
   for (int p = 0; p < StepPhaseTimes::count; ++p)
@@ -189,8 +196,21 @@ int run(const Options& o) {
   }
   if (o.map.empty() && recent < 0.8 * double(o.visible))
     std::printf("note: the map stopped at ~%.0f Gaussians per step (raise --density)\n", recent);
-  std::printf("map: %zu keyframes, %llu Gaussians, %zu chunks\n", m.keyframes().size(),
-              (unsigned long long)m.total_gaussians(), m.chunk_count());
+  if (!o.map.empty()) {
+    // A resumed map holds no chunk in memory: steps would load only their views' cores and mask the
+    // pixels of the rest (selector.core_share), which a map grown in memory never does. Rendering
+    // every keyframe's whole view once makes what fits the budget resident, as in the grown map.
+    for (const KeyframeRecord& k : m.keyframes()) m.render(k.camera, k.pose);
+  }
+  std::printf("map: %zu keyframes, %llu Gaussians (%zu resident), %zu chunks\n", m.keyframes().size(),
+              (unsigned long long)m.total_gaussians(), m.resident_gaussians(), m.chunk_count());
+  if (!o.save_map.empty()) {
+    if (!o.map.empty()) fail("--save-map: only a grown street is saved, not a --map");
+    if (fs::exists(o.save_map)) fail("--save-map: ", o.save_map, " exists already (it is never overwritten)");
+    m.checkpoint({});
+    fs::copy(folder, o.save_map, fs::copy_options::recursive);
+    std::printf("map saved to %s\n", o.save_map.c_str());
+  }
   time_steps(m, std::min(o.steps, 100), false);  // warm-up: buffers at their size, caches filled
   const nlohmann::json plain = report(time_steps(m, o.steps, false), o.steps);
   const nlohmann::json profiled = report(time_steps(m, o.steps, true), o.steps);

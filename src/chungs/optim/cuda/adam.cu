@@ -1,5 +1,8 @@
 // One warp per Gaussian: each lane updates up to two of its 59 floats, so every parameter array is
-// read and written in contiguous runs; lane 0 owns the step count and the position factor.
+// read and written in contiguous runs; lane 0 writes the step count and the position factor back.
+// Every load of the Gaussian is issued before the bias corrections are worked out, and every lane
+// works them out itself: lane 0 alone, then shuffles, had put two double exponentials between the
+// step count's load and the parameters' (the kernel was latency-bound at half the DRAM it could use).
 #include <cuda_runtime.h>
 
 #include "chungs/common/error.hpp"
@@ -11,6 +14,17 @@ namespace chungs::cuda::detail {
 
 namespace {
 
+// Element e of a Gaussian's 59 floats: 0..2 mean, 3..5 log_scale, 6..9 rotation, 10 opacity, 11..58 sh.
+struct Element {
+  int kind, k, width;
+};
+__device__ __forceinline__ Element element(int e) {
+  const int kind = e < 3 ? 0 : e < 6 ? 1 : e < 10 ? 2 : e < 11 ? 3 : 4;
+  const int first = kind == 0 ? 0 : kind == 1 ? 3 : kind == 2 ? 6 : kind == 3 ? 10 : 11;
+  const int width = kind == 0 ? 3 : kind == 1 ? 3 : kind == 2 ? 4 : kind == 3 ? 1 : kShFloats;
+  return {kind, e - first, width};
+}
+
 __global__ void adam_kernel(AdamLaunch a, uint32_t* __restrict__ bad) {
   const uint32_t j = (blockIdx.x * blockDim.x + threadIdx.x) >> 5;
   const int lane = threadIdx.x & 31;
@@ -20,38 +34,34 @@ __global__ void adam_kernel(AdamLaunch a, uint32_t* __restrict__ bad) {
     if (lane == 0 && bad) atomicMin(bad, j);
     return;
   }
-  // Lane 0 reads the step count and computes the bias corrections for the warp. As the CPU twin: in
-  // double, then rounded. beta^t as exp(t ln beta): a double pow per Gaussian had been a large share
-  // of the kernel; both agree to a few double ulps, far below the float the factors are rounded to.
-  uint32_t t = 0;
-  float f = 0, c1 = 0, c2 = 0;
-  if (lane == 0) {
-    t = a.steps[s] + 1;
-    f = a.factor[s];
-    c1 = float(1 / (1 - exp(double(t) * a.log_beta1)));
-    c2 = float(1 / (1 - exp(double(t) * a.log_beta2)));
-  }
-  t = __shfl_sync(0xffffffffu, t, 0);
-  f = __shfl_sync(0xffffffffu, f, 0);
-  c1 = __shfl_sync(0xffffffffu, c1, 0);
-  c2 = __shfl_sync(0xffffffffu, c2, 0);
+  const uint32_t t = a.steps[s] + 1;
+  const float f = a.factor[s];
+  float g[2] = {0, 0}, m[2] = {0, 0}, v[2] = {0, 0}, p[2] = {0, 0};
 #pragma unroll
   for (int h = 0; h < 2; ++h) {
-    const int e = lane + 32 * h;  // 0..2 mean, 3..5 log_scale, 6..9 rotation, 10 opacity, 11..58 sh
+    const int e = lane + 32 * h;
     if (e >= kParamFloats) break;
-    const int kind = e < 3 ? 0 : e < 6 ? 1 : e < 10 ? 2 : e < 11 ? 3 : 4;
-    const int first = kind == 0 ? 0 : kind == 1 ? 3 : kind == 2 ? 6 : kind == 3 ? 10 : 11;
-    const int width = kind == 0 ? 3 : kind == 1 ? 3 : kind == 2 ? 4 : kind == 3 ? 1 : kShFloats;
-    const int k = e - first;
-    const size_t ip = size_t(width) * s + k, ig = size_t(width) * j + k;
-    float lr = kind == 4 ? (k < 3 ? a.lr_sh_dc : a.lr[4]) : a.lr[kind];
-    if (kind == 0) lr *= f;
-    const float g = a.g[kind][ig];
-    const float m = a.beta1 * a.m[kind][ip] + (1 - a.beta1) * g;
-    const float v = a.beta2 * a.v[kind][ip] + (1 - a.beta2) * g * g;
-    a.m[kind][ip] = m;
-    a.v[kind][ip] = v;
-    a.p[kind][ip] -= lr * (m * c1) / (sqrtf(v * c2) + a.eps);
+    const Element el = element(e);
+    const size_t ip = size_t(el.width) * s + el.k, ig = size_t(el.width) * j + el.k;
+    g[h] = a.g[el.kind][ig], m[h] = a.m[el.kind][ip], v[h] = a.v[el.kind][ip], p[h] = a.p[el.kind][ip];
+  }
+  // As the CPU twin: in double, then rounded; beta^t as exp(t ln beta) (a double pow per Gaussian had
+  // been a large share of the kernel; both agree to a few double ulps, far below float rounding).
+  const float c1 = float(1 / (1 - exp(double(t) * a.log_beta1)));
+  const float c2 = float(1 / (1 - exp(double(t) * a.log_beta2)));
+#pragma unroll
+  for (int h = 0; h < 2; ++h) {
+    const int e = lane + 32 * h;
+    if (e >= kParamFloats) break;
+    const Element el = element(e);
+    const size_t ip = size_t(el.width) * s + el.k;
+    float lr = el.kind == 4 ? (el.k < 3 ? a.lr_sh_dc : a.lr[4]) : a.lr[el.kind];
+    if (el.kind == 0) lr *= f;
+    const float mn = a.beta1 * m[h] + (1 - a.beta1) * g[h];
+    const float vn = a.beta2 * v[h] + (1 - a.beta2) * g[h] * g[h];
+    a.m[el.kind][ip] = mn;
+    a.v[el.kind][ip] = vn;
+    a.p[el.kind][ip] = p[h] - lr * (mn * c1) / (sqrtf(vn * c2) + a.eps);
   }
   if (lane == 0) {
     a.steps[s] = t;

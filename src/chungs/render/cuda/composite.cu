@@ -1,6 +1,9 @@
 // Per-tile compositing, forward and backward (twin of cpu/composite_forward.cpp and
 // cpu/composite_backward.cpp). One block per 16x16 tile (forward: 256 threads, one per pixel;
-// backward: 128, two pixels each); the tile's splats are staged through shared memory in batches. The
+// backward: 128, two pixels each); the tile's splats are staged through shared memory in batches.
+// Block b takes tile order[b]: the rasterizer orders tiles by their entries, most first. A KITTI
+// view needs about two waves of blocks, and a crowded tile started in the second wave had left most
+// SMs idle at the end (achieved occupancy 30 % of a theoretical 50 % in the backward). The
 // Gaussian falloff uses the fast exponential (relative error ~1e-7 over the exponents that pass the alpha
 // cut-off).
 // Most splats are a few pixels wide, so a warp's 8x4 (backward 8x8) pixels lie outside most of its
@@ -62,11 +65,12 @@ __device__ __forceinline__ uint32_t reaching(const Batch& sm, int g, int m, int 
 }
 
 __global__ void __launch_bounds__(kBlock)
-    forward_kernel(const uint2* __restrict__ ranges, const uint32_t* __restrict__ list, SplatData s,
-                   const uint32_t* __restrict__ ids, int W, int H, RasterConsts k, ForwardImages out) {
+    forward_kernel(const uint2* __restrict__ ranges, const uint32_t* __restrict__ order,
+                   const uint32_t* __restrict__ list, SplatData s, const uint32_t* __restrict__ ids, int W, int H,
+                   RasterConsts k, ForwardImages out) {
   __shared__ Batch sm;
   const int tiles_x = (W + kTileSize - 1) / kTileSize;
-  const int tile = blockIdx.x;
+  const int tile = int(order[blockIdx.x]);
   int lx, ly;
   pixel_of_thread(threadIdx.x, lx, ly);
   const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;  // the tile's first pixel
@@ -159,8 +163,8 @@ __device__ __forceinline__ int reduced_index(int lane) {
 // reduces its gradient once for 32 P pixels.
 template <int P>
 __global__ void __launch_bounds__(kBlock / P)
-    backward_kernel(const uint2* __restrict__ ranges, const uint32_t* __restrict__ list, SplatData s, int W,
-                    int H, RasterConsts k, const float* __restrict__ rgb, const float* __restrict__ depth,
+    backward_kernel(const uint2* __restrict__ ranges, const uint32_t* __restrict__ order,
+                    const uint32_t* __restrict__ list, SplatData s, int W, int H, RasterConsts k, const float* __restrict__ rgb, const float* __restrict__ depth,
                     const float* __restrict__ inv_depth, const float* __restrict__ alpha_img,
                     const uint32_t* __restrict__ last, DeviceRenderGrads dl,
                     float* __restrict__ splat_grads) {
@@ -168,7 +172,7 @@ __global__ void __launch_bounds__(kBlock / P)
   __shared__ Batch sm;
   __shared__ uint32_t max_stop;
   const int tiles_x = (W + kTileSize - 1) / kTileSize;
-  const int tile = blockIdx.x;
+  const int tile = int(order[blockIdx.x]);
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
   const int lx = (warp & 1) * 8 + (lane & 7), ly0 = (warp >> 1) * 4 * P + (lane >> 3);
   const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;  // the tile's first pixel
@@ -177,28 +181,34 @@ __global__ void __launch_bounds__(kBlock / P)
   const int my_index = reduced_index(lane);
   const bool writer = (lane & 1) == 0 && my_index >= 0;
 
-  // Per pixel: transmittance, composited r g b depth inv_depth so far, their final values,
-  // dL/d(final), the alpha term T_final * dL/dalpha, and the entries this pixel walked.
-  float fy[P], T[P], acc[P][5], fin[P][5], g[P][5], galpha_Tf[P];
+  // Per pixel: transmittance, dL/d(final) of r g b depth inv_depth, and one running sum that stands in
+  // for the five channels' remainders: with C_c the final value of channel c and C_c,i the part
+  // composited up to and including splat i, dL/dalpha_i = T_i sum_c g_c f_c - Q_i / (1 - alpha_i), where
+  // Q_i = sum_c g_c (C_c - C_c,i) - T_final dL/dalpha. Q starts at sum_c g_c C_c - T_final dL/dalpha and
+  // loses w_i sum_c g_c f_c at each splat, so a pixel carries one float where it had carried ten.
+  float fy[P], T[P], Q[P], g[P][5];
   uint32_t stop[P], my_stop = 0;
 #pragma unroll
   for (int q = 0; q < P; ++q) {
     const int y = y0 + ly0 + 4 * q;
     fy[q] = float(y);
-    T[q] = 1.f, galpha_Tf[q] = 0.f, stop[q] = 0;
+    T[q] = 1.f, Q[q] = 0.f, stop[q] = 0;
 #pragma unroll
-    for (int c = 0; c < 5; ++c) acc[q][c] = fin[q][c] = g[q][c] = 0.f;
+    for (int c = 0; c < 5; ++c) g[q][c] = 0.f;
     if (x < W && y < H) {
       const size_t p = size_t(y) * W + x;
+      float fin[5];
 #pragma unroll
       for (int c = 0; c < 3; ++c) {
-        fin[q][c] = rgb[3 * p + c];
+        fin[c] = rgb[3 * p + c];
         g[q][c] = dl.rgb ? dl.rgb[3 * p + c] : 0.f;
       }
-      fin[q][3] = depth[p], fin[q][4] = inv_depth[p];
+      fin[3] = depth[p], fin[4] = inv_depth[p];
       g[q][3] = dl.depth ? dl.depth[p] : 0.f;
       g[q][4] = dl.inv_depth ? dl.inv_depth[p] : 0.f;
-      galpha_Tf[q] = dl.alpha ? dl.alpha[p] * (1.f - alpha_img[p]) : 0.f;
+      Q[q] = -(dl.alpha ? dl.alpha[p] * (1.f - alpha_img[p]) : 0.f);
+#pragma unroll
+      for (int c = 0; c < 5; ++c) Q[q] += g[q][c] * fin[c];
       stop[q] = last[p];
       my_stop = max(my_stop, stop[q]);
     }
@@ -237,7 +247,7 @@ __global__ void __launch_bounds__(kBlock / P)
         if (!__any_sync(0xffffffffu, any_live)) continue;
         float v[kSplatGrads] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
         const float4 c = sm.c[i];
-        const float feat[5] = {c.x, c.y, c.z, b.w, c.w};
+        const float dz_inv = c.w * c.w;
 #pragma unroll
         for (int q = 0; q < P; ++q) {
           if (!live[q]) continue;
@@ -246,13 +256,11 @@ __global__ void __launch_bounds__(kBlock / P)
           const bool clamped = raw > k.alpha_max;
           const float alpha = clamped ? k.alpha_max : raw;
           const float w = alpha * T[q];
-          const float inv_1ma = 1.f / (1.f - alpha);
-          float dalpha = galpha_Tf[q] * inv_1ma;
-#pragma unroll
-          for (int ch = 0; ch < 5; ++ch) {
-            acc[q][ch] += w * feat[ch];
-            dalpha += g[q][ch] * (feat[ch] * T[q] - (fin[q][ch] - acc[q][ch]) * inv_1ma);
-          }
+          // alpha <= alpha_max < 1, so 1 - alpha is far from zero and the fast reciprocal is exact enough.
+          const float inv_1ma = __fdividef(1.f, 1.f - alpha);
+          const float gf = g[q][0] * c.x + g[q][1] * c.y + g[q][2] * c.z + g[q][3] * b.w + g[q][4] * c.w;
+          Q[q] -= w * gf;
+          const float dalpha = T[q] * gf - Q[q] * inv_1ma;
           T[q] *= 1.f - alpha;
           const float dal = clamped ? 0.f : dalpha;
           const float gpow = dal * alpha;
@@ -263,7 +271,7 @@ __global__ void __launch_bounds__(kBlock / P)
           v[4] += gpow * (-0.5f * dy[q] * dy[q]);
           v[5] += dal * G;
           v[6] += w * g[q][0], v[7] += w * g[q][1], v[8] += w * g[q][2];
-          v[9] += w * (g[q][3] - g[q][4] * c.w * c.w);
+          v[9] += w * (g[q][3] - g[q][4] * dz_inv);
         }
         fold<10>(v, lane, 16);
         fold<5>(v, lane, 8);
@@ -278,13 +286,15 @@ __global__ void __launch_bounds__(kBlock / P)
 
 }  // namespace
 
-void composite_forward(const uint2* ranges, const uint32_t* list, SplatData s, const uint32_t* ids, int width,
-                       int height, const RasterConsts& k, ForwardImages out, cudaStream_t stream) {
+void composite_forward(const uint2* ranges, const uint32_t* order, const uint32_t* list, SplatData s,
+                       const uint32_t* ids, int width, int height, const RasterConsts& k, ForwardImages out,
+                       cudaStream_t stream) {
   const int tiles = ((width + kTileSize - 1) / kTileSize) * ((height + kTileSize - 1) / kTileSize);
-  forward_kernel<<<tiles, kBlock, 0, stream>>>(ranges, list, s, ids, width, height, k, out);
+  forward_kernel<<<tiles, kBlock, 0, stream>>>(ranges, order, list, s, ids, width, height, k, out);
 }
 
-void composite_backward(const uint2* ranges, const uint32_t* list, SplatData s, int width, int height,
+void composite_backward(const uint2* ranges, const uint32_t* order, const uint32_t* list, SplatData s, int width,
+                        int height,
                         const RasterConsts& k, const float* rgb, const float* depth, const float* inv_depth,
                         const float* alpha, const uint32_t* last, const DeviceRenderGrads& dl,
                         float* splat_grads, cudaStream_t stream) {
@@ -293,7 +303,7 @@ void composite_backward(const uint2* ranges, const uint32_t* list, SplatData s, 
   // steadier than 4 (H100, bench/README.md).
   constexpr int kPixels = 2;
   backward_kernel<kPixels><<<tiles, kBlock / kPixels, 0, stream>>>(
-      ranges, list, s, width, height, k, rgb, depth, inv_depth, alpha, last, dl, splat_grads);
+      ranges, order, list, s, width, height, k, rgb, depth, inv_depth, alpha, last, dl, splat_grads);
 }
 
 }  // namespace chungs::cuda::detail

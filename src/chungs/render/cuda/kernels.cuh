@@ -43,10 +43,13 @@ struct ForwardImages {
   uint32_t *top_id, *last;
 };
 
-void composite_forward(const uint2* ranges, const uint32_t* list, SplatData s, const uint32_t* ids, int width,
-                       int height, const RasterConsts& k, ForwardImages out, cudaStream_t stream);
+// order: the tiles in the order their blocks are launched (a permutation of 0 .. tiles - 1).
+void composite_forward(const uint2* ranges, const uint32_t* order, const uint32_t* list, SplatData s,
+                       const uint32_t* ids, int width, int height, const RasterConsts& k, ForwardImages out,
+                       cudaStream_t stream);
 
-void composite_backward(const uint2* ranges, const uint32_t* list, SplatData s, int width, int height,
+void composite_backward(const uint2* ranges, const uint32_t* order, const uint32_t* list, SplatData s, int width,
+                        int height,
                         const RasterConsts& k, const float* rgb, const float* depth, const float* inv_depth,
                         const float* alpha, const uint32_t* last, const DeviceRenderGrads& dl,
                         float* splat_grads, cudaStream_t stream);

@@ -152,6 +152,15 @@ __global__ void ranges_kernel(const uint32_t* __restrict__ keys, uint32_t total,
   if (i + 1 == total || keys[i + 1] != t) ranges[t].y = i + 1;
 }
 
+// Each tile's entries and its index, for the order in which the compositing takes the tiles.
+__global__ void tile_work_kernel(const uint2* __restrict__ ranges, uint32_t ntiles, uint32_t* __restrict__ work,
+                                 uint32_t* __restrict__ tiles) {
+  const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= ntiles) return;
+  work[t] = ranges[t].y - ranges[t].x;
+  tiles[t] = t;
+}
+
 unsigned blocks_for(size_t n, unsigned threads) { return unsigned((n + threads - 1) / threads); }
 
 int bits_for(uint32_t v) {
@@ -188,6 +197,7 @@ struct CudaRasterizer::State {
   // Per tile entry, per tile, per pixel.
   DeviceArray<uint32_t> keys, keys_sorted, vals, vals_sorted;
   DeviceArray<uint2> ranges;
+  DeviceArray<uint32_t> tile_work, tile_work_sorted, tile_ids, tile_order;  // most entries first
   DeviceArray<float> rgb, depth, inv_depth, alpha;
   DeviceArray<uint32_t> top_id, last;
   DeviceBytes temp;
@@ -260,6 +270,7 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
   const size_t npix = size_t(W) * H;
   s.rgb.resize(3 * npix), s.depth.resize(npix), s.inv_depth.resize(npix), s.alpha.resize(npix);
   s.top_id.resize(npix), s.last.resize(npix), s.ranges.resize(ntiles);
+  for (auto* arr : {&s.tile_work, &s.tile_work_sorted, &s.tile_ids, &s.tile_order}) arr->resize(ntiles);
   for (auto* arr : {&s.tiles, &s.zkey, &s.zkey_sorted, &s.order, &s.order_sorted, &s.ends}) arr->resize(n);
   s.a.resize(n), s.b.resize(n), s.c.resize(n), s.rect.resize(n), s.radius.resize(n), s.visible.resize(n);
   cudaStream_t st = s.stream;
@@ -320,8 +331,22 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
     ranges_kernel<<<blocks_for(total, 256), 256, 0, st>>>(s.keys_sorted.data(), total, s.ranges.data());
     check(cudaGetLastError(), "ranges launch");
   }
+  // Crowded tiles first (a stable sort: tiles of equal work keep their row-major order).
+  tile_work_kernel<<<blocks_for(ntiles, 256), 256, 0, st>>>(s.ranges.data(), ntiles, s.tile_work.data(),
+                                                            s.tile_ids.data());
+  check(cudaGetLastError(), "tile work launch");
+  {
+    const int bits = bits_for(total);
+    size_t bytes = 0;
+    cub::DeviceRadixSort::SortPairsDescending(nullptr, bytes, s.tile_work.data(), s.tile_work_sorted.data(),
+                                              s.tile_ids.data(), s.tile_order.data(), int(ntiles), 0, bits, st);
+    check(cub::DeviceRadixSort::SortPairsDescending(s.scratch(bytes), bytes, s.tile_work.data(),
+                                                    s.tile_work_sorted.data(), s.tile_ids.data(),
+                                                    s.tile_order.data(), int(ntiles), 0, bits, st),
+          "tile order");
+  }
   s.mark(2);
-  composite_forward(s.ranges.data(), s.vals_sorted.data(), SplatData{s.a.data(), s.b.data(), s.c.data()}, ids,
+  composite_forward(s.ranges.data(), s.tile_order.data(), s.vals_sorted.data(), SplatData{s.a.data(), s.b.data(), s.c.data()}, ids,
                     W, H, s.consts,
                     ForwardImages{s.rgb.data(), s.depth.data(), s.inv_depth.data(), s.alpha.data(),
                                   s.top_id.data(), s.last.data()},
@@ -360,7 +385,7 @@ const DeviceGaussianGrads& CudaRasterizer::backward(const DeviceRenderGrads& dlo
   s.mark(0);
   if (n > 0) check(cudaMemsetAsync(s.splat_grads.data(), 0, n * kSplatGrads * sizeof(float), st), "memset");
   if (n > 0 && s.total > 0)
-    composite_backward(s.ranges.data(), s.vals_sorted.data(), SplatData{s.a.data(), s.b.data(), s.c.data()},
+    composite_backward(s.ranges.data(), s.tile_order.data(), s.vals_sorted.data(), SplatData{s.a.data(), s.b.data(), s.c.data()},
                        s.cam.width, s.cam.height, s.consts, s.rgb.data(), s.depth.data(), s.inv_depth.data(),
                        s.alpha.data(), s.last.data(), dloss, s.splat_grads.data(), st);
   check(cudaGetLastError(), "composite backward launch");
