@@ -74,13 +74,19 @@ double ViewCoverage::coverage(const std::function<bool(ChunkId)>& rendered) cons
 Image8 ViewCoverage::mask(const std::function<bool(ChunkId)>& rendered, bool unseen) const {
   const std::vector<bool> ok = accepted(rendered);
   Image8 m(width_, height_, 1, 0);
-  for (int y = 0; y < height_; ++y) {
-    const uint16_t* row = &blocks_[size_t(y / kBlock) * bw_];
-    uint8_t* out = &m(0, y);
-    for (int x = 0; x < width_; ++x) {
-      const uint16_t b = row[x / kBlock];
-      out[x] = b == kNone ? unseen : ok[b];
+  // One row of values per row of blocks, copied to the block's pixel rows: a mask at KITTI's size had
+  // cost 0.5 ms of every partial or trimmed step when each pixel looked its block up.
+  for (int by = 0; by < bh_; ++by) {
+    const uint16_t* row = &blocks_[size_t(by) * bw_];
+    const int y0 = by * kBlock, y1 = std::min(y0 + kBlock, height_);
+    uint8_t* first = &m(0, y0);
+    for (int bx = 0; bx < bw_; ++bx) {
+      const uint16_t b = row[bx];
+      const uint8_t v = b == kNone ? uint8_t(unseen) : uint8_t(ok[b]);
+      const int x0 = bx * kBlock, x1 = std::min(x0 + kBlock, width_);
+      std::fill(first + x0, first + x1, v);
     }
+    for (int y = y0 + 1; y < y1; ++y) std::copy(first, first + width_, &m(0, y));
   }
   return m;
 }
