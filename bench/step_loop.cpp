@@ -27,6 +27,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <unordered_set>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
@@ -212,6 +213,16 @@ int run(const Options& o) {
     std::printf("map saved to %s\n", o.save_map.c_str());
   }
   time_steps(m, std::min(o.steps, 100), false);  // warm-up: buffers at their size, caches filled
+  if (!o.map.empty()) {
+    // A resumed map's keyframes pay once for what a grown map did while growing (their images read back
+    // and sent to the device, their coverage built): the first steps on each are not steady state.
+    std::unordered_set<uint32_t> seen;
+    size_t extra = 0;
+    for (; seen.size() < m.keyframes().size() && extra < 20 * m.keyframes().size(); ++extra)
+      seen.insert(m.step().keyframe);
+    std::printf("warm-up: %zu more steps until %zu of %zu keyframes were trained once\n", extra, seen.size(),
+                m.keyframes().size());
+  }
   const nlohmann::json plain = report(time_steps(m, o.steps, false), o.steps);
   const nlohmann::json profiled = report(time_steps(m, o.steps, true), o.steps);
   print("plain", plain);
