@@ -113,6 +113,10 @@ class Mapper {
   size_t chunk_count() const { return residency_->catalogue().size(); }
   IoStats io_stats() const { return residency_->stats(); }
   IoStats keyframe_io_stats() const { return keyframe_store_->counters().snapshot(); }
+  // Host memory for the chunks in flight (residency.hpp, in_flight_blocks). A run whose map will
+  // outgrow the budget makes it resident at the start, so host RSS does not move when queues fill.
+  HostBlockPool& in_flight_blocks() { return residency_->in_flight_blocks(); }
+  const HostBlockPool& in_flight_blocks() const { return residency_->in_flight_blocks(); }
   // Time the optimiser thread was blocked by I/O: chunk loads it waited for, checkpoints, and
   // keyframe reads it waited for (keyframe writes run behind; their flush is part of a checkpoint).
   double optimiser_io_wait_ms() const;

@@ -149,14 +149,16 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     log::info("resuming ", o.out.string(), " at frame ", start, " with ", mapper.keyframes().size(),
               " keyframes and ", mapper.total_gaussians(), " Gaussians");
   }
-  // The chunks in flight at their limits, made resident now and kept: host RSS stays level once
-  // the budget is reached instead of rising each time a queue first fills (common/heap.hpp). Only
-  // where the map can outgrow the budget (a keyframe adds at most one Gaussian per pixel): a small
-  // dataset never pays for a reserve sized to the budget (204 MB at the default one).
+  // The memory for chunks in flight at their limits, made resident now: host RSS stays level once
+  // the budget is reached instead of rising each time a queue reaches a new high
+  // (residency/host_block_pool.hpp). Only where the map can outgrow the budget (a keyframe adds at
+  // most one Gaussian per pixel): a small dataset never pays for a pool sized to the budget
+  // (244 MB at the default one). The heap keeps what is freed (common/heap.hpp).
   const uint64_t can_hold =
       mapper.total_gaussians() + uint64_t(n - std::min(start, n)) * uint64_t(width) * uint64_t(height);
   const bool can_fill = can_hold > cfg.residency.budget_gaussians;
-  keep_heap_for_reuse(can_fill ? in_flight_max_gaussians(cfg.residency) * kBlockBytesPerGaussian : 0);
+  keep_heap_for_reuse(0);
+  if (can_fill) mapper.in_flight_blocks().make_resident();
   log::info("mapping ", o.dataset, " (", n, " frames, ", info.camera.width, "x", info.camera.height, " x ",
             mc.resolution, ", depth ", depth_mode_name(mode), ", poses ", o.poses, ", budget ",
             cfg.residency.budget_gaussians, " Gaussians, chunks of ", cfg.store.chunk_size, " m, device ",

@@ -61,6 +61,13 @@ nlohmann::json memory_report(const Mapper& mapper, const std::vector<TimelineSam
     m["vram_used_mb_end"] = dm->used_mb;
     m["vram_total_mb"] = dm->total_mb;
   }
+  // The host memory for chunks in flight (residency/host_block_pool.hpp): its size, the most of it
+  // in use, and blocks that found no room in it and came from the heap (which can grow RSS).
+  const HostBlockPool& blocks = mapper.in_flight_blocks();
+  m["in_flight_pool"] = {{"capacity_mb", double(blocks.capacity_bytes()) / 1048576.0},
+                         {"peak_used_mb", double(blocks.peak_used_bytes()) / 1048576.0},
+                         {"resident", blocks.resident()},
+                         {"heap_blocks", blocks.heap_blocks()}};
   // Once the budget is reached, memory should stay level however far the map grows.
   if (const auto flat = memory_flatness(timeline, mapper.budget())) m["after_budget"] = flat->to_json();
   return m;

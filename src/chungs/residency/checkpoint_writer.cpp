@@ -83,7 +83,7 @@ void CheckpointWriter::run() {
     lock.unlock();
     std::exception_ptr failed;
     try {
-      store_.save_to_snapshot(id, *block);
+      store_.save_arrays_to_snapshot(id, block->arrays());
     } catch (...) {
       failed = std::current_exception();
     }

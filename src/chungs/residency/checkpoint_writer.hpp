@@ -16,13 +16,14 @@
 #include <thread>
 #include <vector>
 
+#include "chungs/residency/host_block_pool.hpp"
 #include "chungs/store/chunk_store.hpp"
 
 namespace chungs {
 
 class CheckpointWriter {
  public:
-  using Block = std::shared_ptr<const GaussianBlock>;
+  using Block = std::shared_ptr<const HostBlock>;
 
   // Begins the store's snapshot; `threads` writers (at least 1).
   CheckpointWriter(ChunkStore& store, int threads);

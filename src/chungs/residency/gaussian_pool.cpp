@@ -1,6 +1,7 @@
 #include "chungs/residency/gaussian_pool.hpp"
 
 #include <algorithm>
+#include <cstddef>
 #include <cstring>
 
 #include "chungs/common/error.hpp"
@@ -61,8 +62,12 @@ void GaussianPool::check_allocated(std::span<const uint32_t> slots, const char* 
 
 void GaussianPool::scatter(const GaussianBlock& block, std::span<const uint32_t> slots) {
   block.validate("Gaussian pool scatter");
-  if (block.size() != slots.size())
-    fail("Gaussian pool: scatter of ", block.size(), " Gaussians into ", slots.size(), " slots");
+  scatter(block_arrays(block), slots);
+}
+
+void GaussianPool::scatter(const ConstBlockArrays& block, std::span<const uint32_t> slots) {
+  if (block.count != slots.size())
+    fail("Gaussian pool: scatter of ", block.count, " Gaussians into ", slots.size(), " slots");
   check_allocated(slots, "scatter");
   scatter_impl(block, slots);
 }
@@ -71,44 +76,51 @@ void GaussianPool::gather(std::span<const uint32_t> slots, GaussianBlock& out) c
   check_allocated(slots, "gather");
   out.sh_degree = sh_degree_;
   out.resize(slots.size());
+  gather_impl(slots, block_arrays(out));
+}
+
+void GaussianPool::gather(std::span<const uint32_t> slots, const BlockArrays& out) const {
+  if (out.count != slots.size())
+    fail("Gaussian pool: gather of ", slots.size(), " slots into room for ", out.count, " Gaussians");
+  check_allocated(slots, "gather");
   gather_impl(slots, out);
 }
 
 namespace {
-template <int W, typename T>
-void put(std::vector<T>& dst, const std::vector<T>& src, std::span<const uint32_t> slots) {
-  for (size_t i = 0; i < slots.size(); ++i)
-    std::memcpy(&dst[size_t(slots[i]) * W], &src[i * W], W * sizeof(T));
-}
-template <int W, typename T>
-void get(std::vector<T>& dst, const std::vector<T>& src, std::span<const uint32_t> slots) {
-  for (size_t i = 0; i < slots.size(); ++i)
-    std::memcpy(&dst[i * W], &src[size_t(slots[i]) * W], W * sizeof(T));
-}
-template <bool Scatter>
-void copy_params(GaussianParams& a, const GaussianParams& b, std::span<const uint32_t> s) {
-  // Scatter: a = pool, b = block. Gather: a = block, b = pool.
-  auto f = [&]<int W, typename T>(std::vector<T>& x, const std::vector<T>& y) {
-    if constexpr (Scatter) put<W>(x, y, s); else get<W>(x, y, s);
-  };
-  f.template operator()<3>(a.mean, b.mean);
-  f.template operator()<3>(a.log_scale, b.log_scale);
-  f.template operator()<4>(a.rotation, b.rotation);
-  f.template operator()<1>(a.opacity, b.opacity);
-  f.template operator()<kShFloats>(a.sh, b.sh);
+// Scatter: Gaussian i of the block to slot slots[i] of the pool; gather: the other way round. W
+// 4-byte values per Gaussian, known at compile time so that each copy is a few moves.
+template <bool Scatter, int W>
+void copy_array(std::byte* pool, std::byte* block, std::span<const uint32_t> slots) {
+  constexpr size_t kBytes = 4 * size_t(W);
+  for (size_t i = 0; i < slots.size(); ++i) {
+    std::byte* p = pool + size_t(slots[i]) * kBytes;
+    std::byte* b = block + i * kBytes;
+    if constexpr (Scatter)
+      std::memcpy(p, b, kBytes);
+    else
+      std::memcpy(b, p, kBytes);
+  }
 }
 template <bool Scatter>
-void copy_block(GaussianBlock& a, const GaussianBlock& b, std::span<const uint32_t> s) {
-  copy_params<Scatter>(a.params, b.params, s);
-  copy_params<Scatter>(a.adam_m, b.adam_m, s);
-  copy_params<Scatter>(a.adam_v, b.adam_v, s);
-  auto f = [&](auto& x, const auto& y) {
-    if constexpr (Scatter) put<1>(x, y, s); else get<1>(x, y, s);
-  };
-  f(a.adam_steps, b.adam_steps);
-  f(a.created_by_keyframe, b.created_by_keyframe);
-  f(a.created_at_step, b.created_at_step);
-  f(a.lr_position_factor, b.lr_position_factor);
+void copy_arrays(const BlockArrays& pool, const BlockArrays& block, std::span<const uint32_t> slots) {
+  for (int a = 0; a < kBlockArrays; ++a) {
+    auto* p = static_cast<std::byte*>(pool.data[size_t(a)]);
+    auto* b = static_cast<std::byte*>(block.data[size_t(a)]);
+    switch (kBlockArrayWidths[size_t(a)]) {
+      case 1: copy_array<Scatter, 1>(p, b, slots); break;
+      case 3: copy_array<Scatter, 3>(p, b, slots); break;
+      case 4: copy_array<Scatter, 4>(p, b, slots); break;
+      case kShFloats: copy_array<Scatter, kShFloats>(p, b, slots); break;
+      default: fail("Gaussian pool: no copy for arrays of width ", kBlockArrayWidths[size_t(a)]);
+    }
+  }
+}
+BlockArrays writable(const ConstBlockArrays& c) {  // only read through, by a scatter
+  BlockArrays m;
+  m.count = c.count;
+  m.sh_degree = c.sh_degree;
+  for (int a = 0; a < kBlockArrays; ++a) m.data[size_t(a)] = const_cast<void*>(c.data[size_t(a)]);
+  return m;
 }
 }  // namespace
 
@@ -122,12 +134,12 @@ void CpuGaussianPool::grow_impl(size_t slots) {
   storage_.resize(slots);
 }
 
-void CpuGaussianPool::scatter_impl(const GaussianBlock& block, std::span<const uint32_t> slots) {
-  copy_block<true>(storage_, block, slots);
+void CpuGaussianPool::scatter_impl(const ConstBlockArrays& block, std::span<const uint32_t> slots) {
+  copy_arrays<true>(block_arrays(storage_), writable(block), slots);
 }
 
-void CpuGaussianPool::gather_impl(std::span<const uint32_t> slots, GaussianBlock& out) const {
-  copy_block<false>(out, storage_, slots);
+void CpuGaussianPool::gather_impl(std::span<const uint32_t> slots, const BlockArrays& out) const {
+  copy_arrays<false>(writable(block_arrays(storage_)), out, slots);
 }
 
 }  // namespace chungs

@@ -15,7 +15,7 @@
 #include <span>
 #include <vector>
 
-#include "chungs/gaussians/gaussian_block.hpp"
+#include "chungs/gaussians/block_arrays.hpp"
 
 namespace chungs {
 
@@ -45,15 +45,18 @@ class GaussianPool {
 
   // Copies Gaussian i of `block` into slots[i]; slots must be allocated, sizes must agree.
   void scatter(const GaussianBlock& block, std::span<const uint32_t> slots);
+  void scatter(const ConstBlockArrays& block, std::span<const uint32_t> slots);
   // Replaces `out` with the Gaussians of `slots`, in that order (sh_degree = the pool's).
   void gather(std::span<const uint32_t> slots, GaussianBlock& out) const;
+  // The same into arrays held elsewhere, with room for exactly slots.size() Gaussians.
+  void gather(std::span<const uint32_t> slots, const BlockArrays& out) const;
 
  protected:
   // Makes the arrays hold `slots` (> allocated()), keeping slots [0, allocated()) as they are;
   // throws when the memory cannot be had, with those slots still as they are.
   virtual void grow_impl(size_t slots) = 0;
-  virtual void scatter_impl(const GaussianBlock& block, std::span<const uint32_t> slots) = 0;
-  virtual void gather_impl(std::span<const uint32_t> slots, GaussianBlock& out) const = 0;
+  virtual void scatter_impl(const ConstBlockArrays& block, std::span<const uint32_t> slots) = 0;
+  virtual void gather_impl(std::span<const uint32_t> slots, const BlockArrays& out) const = 0;
 
  private:
   void check_allocated(std::span<const uint32_t> slots, const char* what) const;
@@ -82,8 +85,8 @@ class CpuGaussianPool final : public GaussianPool {
 
  protected:
   void grow_impl(size_t slots) override;
-  void scatter_impl(const GaussianBlock& block, std::span<const uint32_t> slots) override;
-  void gather_impl(std::span<const uint32_t> slots, GaussianBlock& out) const override;
+  void scatter_impl(const ConstBlockArrays& block, std::span<const uint32_t> slots) override;
+  void gather_impl(std::span<const uint32_t> slots, const BlockArrays& out) const override;
 
  private:
   GaussianBlock storage_;

@@ -7,8 +7,9 @@
 
 namespace chungs {
 
-IoWorker::IoWorker(ChunkStore& store, bool background, size_t prefetch_max, size_t write_behind_max)
-    : store_(store), counters_(store.counters()), background_(background), prefetch_max_(prefetch_max),
+IoWorker::IoWorker(ChunkStore& store, HostBlockPool& blocks, bool background, size_t prefetch_max,
+                   size_t write_behind_max)
+    : store_(store), blocks_(blocks), counters_(store.counters()), background_(background), prefetch_max_(prefetch_max),
       write_behind_max_(write_behind_max) {
   if (background_) thread_ = std::thread([this] { run(); });
 }
@@ -36,7 +37,7 @@ void IoWorker::write_now(ChunkId id, const Block& data) {
   if (data->size() == 0)
     store_.remove(id);
   else
-    store_.save(id, *data);
+    store_.save_arrays(id, data->arrays());
 }
 
 void IoWorker::write_behind(ChunkId id, Block data) {
@@ -117,12 +118,14 @@ IoWorker::Block IoWorker::take(ChunkId id, Source* source) {
   // Not in memory: read on the caller's thread.
   if (!store_.contains(id)) {
     src = Source::Absent;
-    return std::make_shared<const GaussianBlock>();
+    return std::make_shared<const HostBlock>();
   }
   src = Source::Disk;
   ScopedTimer t(counters_.wait_ns);
   counters_.waits++;
-  return std::make_shared<const GaussianBlock>(store_.load(id));
+  std::shared_ptr<HostBlock> block = blocks_.make(store_.count(id), store_.sh_degree());
+  store_.load_into(id, [&](uint64_t, int) { return block->arrays(); });  // the read checks the count
+  return block;
 }
 
 void IoWorker::drain() {
@@ -208,11 +211,21 @@ bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
         staged_.erase(it);
       }
     }
+    // No room in the pool (queued writes and checkpoint copies hold it): like a full read-ahead,
+    // reading further waits for the next prediction; the heap is not the place for a guess.
+    std::shared_ptr<HostBlock> block = blocks_.make_in_pool(count, store_.sh_degree());
+    if (!block) {
+      prefetch_queue_.clear();
+      return false;
+    }
     reading_ = id;
     lock.unlock();
     Block data;
     try {
-      if (store_.contains(id)) data = std::make_shared<const GaussianBlock>(store_.load(id));
+      if (store_.contains(id)) {
+        store_.load_into(id, [&](uint64_t, int) { return block->arrays(); });  // the read checks the count
+        data = std::move(block);
+      }
     } catch (const std::exception& e) {
       // The caller's own read of this chunk reads it again and fails where it can act, or succeeds
       // (a transient error): said aloud either way, since a disk that failed once is worth knowing.

@@ -7,6 +7,9 @@
 // take() hands a chunk's current content to the caller from the first place that has it:
 // the write-behind queue, the prefetched blocks, a read in flight (waits for it), or the disk.
 //
+// Every block in flight lives in `blocks` (host_block_pool.hpp); a read ahead for which it has no
+// room waits for the next prediction.
+//
 // With background = false there is no thread: writes happen inside write_behind() and take()
 // reads synchronously (deterministic, for tests and single-threaded tools).
 #pragma once
@@ -21,16 +24,18 @@
 #include <unordered_set>
 #include <vector>
 
+#include "chungs/residency/host_block_pool.hpp"
 #include "chungs/store/chunk_store.hpp"
 
 namespace chungs {
 
 class IoWorker {
  public:
-  using Block = std::shared_ptr<const GaussianBlock>;
+  using Block = std::shared_ptr<const HostBlock>;
   enum class Source { WriteBehind, Prefetched, InFlight, Disk, Absent };
 
-  IoWorker(ChunkStore& store, bool background, size_t prefetch_max_gaussians, size_t write_behind_max_gaussians);
+  IoWorker(ChunkStore& store, HostBlockPool& blocks, bool background, size_t prefetch_max_gaussians,
+           size_t write_behind_max_gaussians);
   ~IoWorker();  // finishes queued writes (errors are logged), then stops the thread
   IoWorker(const IoWorker&) = delete;
   IoWorker& operator=(const IoWorker&) = delete;
@@ -63,6 +68,7 @@ class IoWorker {
   void rethrow_locked();
 
   ChunkStore& store_;
+  HostBlockPool& blocks_;
   IoCounters& counters_;
   const bool background_;
   const size_t prefetch_max_, write_behind_max_;

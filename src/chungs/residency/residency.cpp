@@ -45,14 +45,24 @@ size_t in_flight_max_gaussians(const ResidencyConfig& config) {
   return prefetch_max(config) + write_behind_max(config) + checkpoint_memory_limit(config.budget_gaussians);
 }
 
+size_t in_flight_pool_bytes(const ResidencyConfig& config) {
+  // An eighth more than the Gaussians take: each block rounds up to whole units of the pool, and a
+  // queue may pass its limit by the block that fills it.
+  const size_t bytes = in_flight_max_gaussians(config) * kBlockBytesPerGaussian;
+  return bytes + bytes / 8;
+}
+
 Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfig& config)
-    : store_(store), pool_(pool), config_(config), budget_(config.budget_gaussians) {
+    : store_(store), pool_(pool), config_(config), budget_(config.budget_gaussians),
+      host_blocks_(config.async_io ? in_flight_pool_bytes(config) : 0) {
   if (pool_.capacity() < budget_)
     fail("residency: the Gaussian pool holds ", pool_.capacity(), " Gaussians, less than the budget of ", budget_);
   if (pool_.used() != 0) fail("residency: the Gaussian pool must start empty (", pool_.used(), " slots in use)");
   config_.validate();
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
-  io_ = std::make_unique<IoWorker>(store_, config_.async_io, prefetch_max(config_), write_behind_max(config_));
+  gather_scratch_.reserve(checkpoint_memory_limit() / 4);
+  io_ = std::make_unique<IoWorker>(store_, host_blocks_, config_.async_io, prefetch_max(config_),
+                                   write_behind_max(config_));
 }
 
 Residency::~Residency() {
@@ -225,7 +235,7 @@ void Residency::load(ChunkId id) {
   if (n > 0) {
     block = io_->take(id, &src);
   } else {
-    block = std::make_shared<const GaussianBlock>();
+    block = std::make_shared<const HostBlock>();
   }
   if (block->size() != n)
     fail("residency: ", chunk_name(id), " has ", block->size(), " Gaussians in ", store_.chunk_path(id).string(),
@@ -233,7 +243,7 @@ void Residency::load(ChunkId id) {
   Resident e;
   e.slots = pool_.allocate(n);
   try {
-    pool_.scatter(*block, e.slots);
+    pool_.scatter(block->arrays(), e.slots);
   } catch (...) {
     pool_.release(e.slots);
     throw;
@@ -257,10 +267,10 @@ void Residency::evict_entry(ChunkId id) {
   const size_t n = e.slots.size();
   checkpoint_clean_.erase(id);  // written behind now, or already clean
   if (e.dirty) {
-    std::shared_ptr<const GaussianBlock> block = copy_out(id);  // one copy serves both
+    std::shared_ptr<const HostBlock> block = copy_out(id);  // one copy serves both
     if (!block) {
-      auto fresh = std::make_shared<GaussianBlock>();
-      pool_.gather(e.slots, *fresh);
+      std::shared_ptr<HostBlock> fresh = host_blocks_.make(n, pool_.sh_degree());
+      pool_.gather(e.slots, fresh->arrays());
       block = std::move(fresh);
     }
     io_->write_behind(id, std::move(block));  // throws before anything changed here
@@ -425,7 +435,7 @@ void Residency::flush() {
     // One gather per portion of chunks, not per chunk: from a GPU pool each gather is a round trip,
     // and a chunk of ~200 Gaussians made the final checkpoint of a 4,000-chunk map wait on them.
     const size_t portion_limit = checkpoint_memory_limit() / 4;
-    std::vector<std::shared_ptr<GaussianBlock>> portion;
+    std::vector<std::shared_ptr<const HostBlock>> portion;
     size_t portion_begin = 0, portion_end = 0;
     auto produce = [&](size_t k, GaussianBlock& b) {
       if (k == portion_end) {
@@ -434,15 +444,18 @@ void Residency::flush() {
           n += resident_.at(dirty[portion_end]).slots.size();
         portion = gather_chunks(std::span(dirty).subspan(portion_begin, portion_end - portion_begin));
       }
-      b = std::move(*portion[k - portion_begin]);
+      const HostBlock& h = *portion[k - portion_begin];
+      b.sh_degree = h.sh_degree();
+      b.resize(h.size());
+      copy_gaussians(h.arrays(), 0, h.size(), block_arrays(b));
     };
     save_chunks_in_parallel(store_, dirty, produce, config_.flush_threads);
     for (ChunkId id : dirty) resident_.at(id).dirty = false;
   } else {
     for (auto& [id, e] : resident_) {
       if (!e.dirty) continue;
-      auto block = std::make_shared<GaussianBlock>();
-      pool_.gather(e.slots, *block);
+      std::shared_ptr<HostBlock> block = host_blocks_.make(e.slots.size(), pool_.sh_degree());
+      pool_.gather(e.slots, block->arrays());
       io_->write_behind(id, std::move(block));
       e.dirty = false;
     }

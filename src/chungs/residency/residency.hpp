@@ -23,6 +23,7 @@
 
 #include "chungs/residency/checkpoint_writer.hpp"
 #include "chungs/residency/gaussian_pool.hpp"
+#include "chungs/residency/host_block_pool.hpp"
 #include "chungs/residency/io_worker.hpp"
 #include "chungs/store/chunk_store.hpp"
 
@@ -54,6 +55,9 @@ struct ResidencyConfig {
 // Host memory the chunks in flight may hold at once, in Gaussians: read-ahead, queued writes and a
 // checkpoint's copies at their limits (the automatic ones where the config says 0).
 size_t in_flight_max_gaussians(const ResidencyConfig& config);
+// Bytes of the pool for chunks in flight (host_block_pool.hpp) that Residency maps for a config:
+// room for in_flight_max_gaussians plus what the blocks' rounding takes.
+size_t in_flight_pool_bytes(const ResidencyConfig& config);
 // Gaussians a checkpoint copies out ahead of its writers at most, for a budget.
 size_t checkpoint_memory_limit(size_t budget);
 
@@ -145,6 +149,11 @@ class Residency {
   size_t pinned_gaussians() const { return pinned_gaussians_; }
   size_t peak_resident_gaussians() const { return peak_resident_; }
   IoStats stats() const { return store_.counters().snapshot(); }
+  // The host memory of the chunks in flight. Residency maps it at construction but takes no memory
+  // for it until used; a run that will fill its budget makes it resident at the start
+  // (make_resident), so that host RSS does not move when the queues first fill.
+  HostBlockPool& in_flight_blocks() { return host_blocks_; }
+  const HostBlockPool& in_flight_blocks() const { return host_blocks_; }
   ChunkStore& store() { return store_; }
   GaussianPool& pool() { return pool_; }
 
@@ -167,13 +176,14 @@ class Residency {
   std::string over_budget_message(uint64_t pinned, size_t chunks) const;
   // The chunk's content for a checkpoint in flight that still needs it (else null): gathered
   // now and handed to the writer. Must run before anything changes the chunk's slots.
-  std::shared_ptr<const GaussianBlock> copy_out(ChunkId id);
+  std::shared_ptr<const HostBlock> copy_out(ChunkId id);
   // copy_out of several chunks with one gather from the pool (on a GPU one transfer, not one
   // each); the copies handed over, in the order of `ids`, of those the checkpoint still needed.
-  std::vector<std::shared_ptr<const GaussianBlock>> copy_out_many(std::span<const ChunkId> ids);
-  // The contents of the resident chunks `ids`, in their order, from one gather of the pool (on a GPU
-  // one round trip, not one per chunk).
-  std::vector<std::shared_ptr<GaussianBlock>> gather_chunks(std::span<const ChunkId> ids) const;
+  std::vector<std::shared_ptr<const HostBlock>> copy_out_many(std::span<const ChunkId> ids);
+  // The contents of the resident chunks `ids`, in their order, in blocks of the in-flight pool:
+  // one gather of the pool per portion of about a quarter of the checkpoint's memory (on a GPU one
+  // round trip each, not one per chunk), through gather_scratch_.
+  std::vector<std::shared_ptr<const HostBlock>> gather_chunks(std::span<const ChunkId> ids);
   // Chunks still to copy out, about `gaussians` of them (at least one chunk while any is left).
   std::vector<ChunkId> next_portion(size_t gaussians) const;
   size_t checkpoint_memory_limit() const;
@@ -192,6 +202,8 @@ class Residency {
   std::unordered_map<ChunkId, size_t> hint_rank_;      // its chunks: place in hint_
   void queue_reads_ahead();
   size_t resident_gaussians_ = 0, pinned_gaussians_ = 0, peak_resident_ = 0;
+  HostBlockPool host_blocks_;   // before io_ and checkpoint_, which hold blocks of it
+  GaussianBlock gather_scratch_;  // one portion of gather_chunks; kept, so its memory is reused
   std::unique_ptr<IoWorker> io_;
   std::unique_ptr<CheckpointWriter> checkpoint_;  // in flight (begin_checkpoint)
   std::unordered_set<ChunkId> checkpoint_todo_;   // modified at its moment, not yet copied out

@@ -1,5 +1,6 @@
 // Residency's checkpoints written behind the caller (residency.hpp, begin_checkpoint).
 #include <algorithm>
+#include <utility>
 
 #include "chungs/residency/residency.hpp"
 
@@ -15,23 +16,35 @@ size_t checkpoint_memory_limit(size_t budget) { return std::max<size_t>(budget /
 
 size_t Residency::checkpoint_memory_limit() const { return chungs::checkpoint_memory_limit(budget_); }
 
-std::vector<std::shared_ptr<GaussianBlock>> Residency::gather_chunks(std::span<const ChunkId> ids) const {
+std::vector<std::shared_ptr<const HostBlock>> Residency::gather_chunks(std::span<const ChunkId> ids) {
+  std::vector<std::shared_ptr<const HostBlock>> out;
+  out.reserve(ids.size());
+  const size_t portion_limit = std::max<size_t>(checkpoint_memory_limit() / 4, 1);
   std::vector<uint32_t> slots;
-  for (ChunkId id : ids) {
-    const auto& s = resident_.at(id).slots;
-    slots.insert(slots.end(), s.begin(), s.end());
-  }
-  GaussianBlock all;
-  pool_.gather(slots, all);
-  std::vector<std::shared_ptr<GaussianBlock>> out;
-  size_t first = 0;
-  for (ChunkId id : ids) {
-    const size_t n = resident_.at(id).slots.size();
-    auto block = std::make_shared<GaussianBlock>();
-    block->sh_degree = all.sh_degree;
-    block->append_range(all, first, n);
-    first += n;
-    out.push_back(std::move(block));
+  for (size_t k = 0; k < ids.size();) {
+    size_t end = k;
+    slots.clear();
+    for (; end < ids.size(); ++end) {
+      const auto& s = resident_.at(ids[end]).slots;
+      if (end > k && slots.size() + s.size() > portion_limit) break;
+      slots.insert(slots.end(), s.begin(), s.end());
+    }
+    if (end == k + 1) {  // one chunk: straight into its block
+      std::shared_ptr<HostBlock> block = host_blocks_.make(slots.size(), pool_.sh_degree());
+      pool_.gather(slots, block->arrays());
+      out.push_back(std::move(block));
+      k = end;
+      continue;
+    }
+    pool_.gather(slots, gather_scratch_);
+    const ConstBlockArrays all = block_arrays(std::as_const(gather_scratch_));
+    for (size_t first = 0; k < end; ++k) {
+      const size_t n = resident_.at(ids[k]).slots.size();
+      std::shared_ptr<HostBlock> block = host_blocks_.make(n, pool_.sh_degree());
+      copy_gaussians(all, first, n, block->arrays());
+      first += n;
+      out.push_back(std::move(block));
+    }
   }
   return out;
 }
@@ -64,21 +77,21 @@ void Residency::begin_checkpoint(std::function<void()> before_commit, std::funct
   if (checkpoint_todo_.empty()) checkpoint_->close(std::move(checkpoint_before_), std::move(checkpoint_after_));
 }
 
-std::shared_ptr<const GaussianBlock> Residency::copy_out(ChunkId id) {
+std::shared_ptr<const HostBlock> Residency::copy_out(ChunkId id) {
   const ChunkId one[] = {id};
-  std::vector<std::shared_ptr<const GaussianBlock>> copied = copy_out_many(one);
+  std::vector<std::shared_ptr<const HostBlock>> copied = copy_out_many(one);
   return copied.empty() ? nullptr : std::move(copied.front());
 }
 
-std::vector<std::shared_ptr<const GaussianBlock>> Residency::copy_out_many(std::span<const ChunkId> ids) {
-  std::vector<std::shared_ptr<const GaussianBlock>> copied;
+std::vector<std::shared_ptr<const HostBlock>> Residency::copy_out_many(std::span<const ChunkId> ids) {
+  std::vector<std::shared_ptr<const HostBlock>> copied;
   if (!checkpoint_) return copied;
   std::vector<ChunkId> todo;
   for (ChunkId id : ids)
     if (checkpoint_todo_.erase(id)) todo.push_back(id);
   if (todo.empty()) return copied;
   ScopedTimer t(store_.counters().checkpoint_ns);
-  std::vector<std::shared_ptr<GaussianBlock>> blocks = gather_chunks(todo);
+  std::vector<std::shared_ptr<const HostBlock>> blocks = gather_chunks(todo);
   for (size_t k = 0; k < todo.size(); ++k) {
     checkpoint_->put(todo[k], blocks[k]);
     checkpoint_clean_.insert(todo[k]);

@@ -21,27 +21,26 @@ struct Field {
   size_t elements;  // values stored (for ShDc/ShRest: per kind)
 };
 
-// The file order of the version 1 layout, with SH and moments switched to their encodings.
-std::vector<Field> fields_of(GaussianBlock& b, uint32_t flags) {
-  const size_t n = b.size();
+// The file order of the version 1 layout (the arrays' own order), with SH and moments switched to
+// their encodings.
+std::vector<Field> fields_of(const BlockArrays& b, uint32_t flags) {
+  const size_t n = b.count;
   std::vector<Field> out;
-  auto raw = [&](auto& v) { out.push_back({Kind::Raw, nullptr, v.data(), v.size()}); };
-  for (GaussianParams* p : {&b.params, &b.adam_m, &b.adam_v}) {
-    const bool moment = p != &b.params;
-    const Kind half = p == &b.adam_v ? Kind::HalfSqrt : Kind::Half;
-    for (std::vector<float>* v : {&p->mean, &p->log_scale, &p->rotation, &p->opacity, &p->sh}) {
-      if (moment && (flags & kChunkFlagHalfMoments)) {
-        out.push_back({half, v->data(), nullptr, v->size()});
-      } else if (!moment && v == &p->sh && (flags & kChunkFlagHalfShRest)) {
-        out.push_back({Kind::ShDc, v->data(), nullptr, 3 * n});
-        out.push_back({Kind::ShRest, v->data(), nullptr, size_t(kShRest) * n});
-      } else {
-        raw(*v);
-      }
+  for (int a = 0; a < kBlockArrays; ++a) {
+    void* data = b.data[size_t(a)];
+    float* f = static_cast<float*>(data);
+    const int group = a < kBlockFirstWord ? a / kBlockArraysPerGroup : -1;  // params, m, v; -1: words
+    const bool moment = group == 1 || group == 2;
+    const bool sh = group == 0 && a % kBlockArraysPerGroup == kBlockGroupSh;
+    if (moment && (flags & kChunkFlagHalfMoments)) {
+      out.push_back({group == 2 ? Kind::HalfSqrt : Kind::Half, f, nullptr, b.values(a)});
+    } else if (sh && (flags & kChunkFlagHalfShRest)) {
+      out.push_back({Kind::ShDc, f, nullptr, 3 * n});
+      out.push_back({Kind::ShRest, f, nullptr, size_t(kShRest) * n});
+    } else {
+      out.push_back({Kind::Raw, nullptr, data, b.values(a)});
     }
   }
-  for (std::vector<uint32_t>* v : {&b.adam_steps, &b.created_by_keyframe, &b.created_at_step}) raw(*v);
-  raw(b.lr_position_factor);
   return out;
 }
 
@@ -132,8 +131,11 @@ uint64_t chunk_payload_bytes(uint64_t count, uint32_t flags) {
   return bytes;
 }
 
-ChunkEncoder::ChunkEncoder(const GaussianBlock& cb, uint32_t flags) {
-  auto& b = const_cast<GaussianBlock&>(cb);  // only read through these pointers
+ChunkEncoder::ChunkEncoder(const ConstBlockArrays& cb, uint32_t flags) {
+  BlockArrays b;  // only read through these pointers
+  b.count = cb.count;
+  b.sh_degree = cb.sh_degree;
+  for (int a = 0; a < kBlockArrays; ++a) b.data[size_t(a)] = const_cast<void*>(cb.data[size_t(a)]);
   for (const Field& f : fields_of(b, flags)) {
     if (f.kind == Kind::Raw) {
       arrays_.push_back({static_cast<uint8_t*>(f.raw), 4 * f.elements, 4});
@@ -145,7 +147,7 @@ ChunkEncoder::ChunkEncoder(const GaussianBlock& cb, uint32_t flags) {
   }
 }
 
-ChunkDecoder::ChunkDecoder(GaussianBlock& block, uint32_t flags) : block_(block), flags_(flags) {
+ChunkDecoder::ChunkDecoder(const BlockArrays& block, uint32_t flags) : block_(block), flags_(flags) {
   const auto fields = fields_of(block, flags);
   for (size_t k = 0; k < fields.size(); ++k) {
     const Field& f = fields[k];

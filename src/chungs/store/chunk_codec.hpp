@@ -14,7 +14,7 @@
 #include <memory>
 #include <vector>
 
-#include "chungs/gaussians/gaussian_block.hpp"
+#include "chungs/gaussians/block_arrays.hpp"
 
 namespace chungs {
 
@@ -34,7 +34,7 @@ uint64_t chunk_payload_bytes(uint64_t count, uint32_t flags);
 // The arrays to write, in file order; converted ones live in this object.
 class ChunkEncoder {
  public:
-  ChunkEncoder(const GaussianBlock& block, uint32_t flags);
+  ChunkEncoder(const ConstBlockArrays& block, uint32_t flags);
   const std::vector<PayloadArray>& arrays() const { return arrays_; }
 
  private:
@@ -46,7 +46,7 @@ class ChunkEncoder {
 // encoded ones into the block once all bytes are in.
 class ChunkDecoder {
  public:
-  ChunkDecoder(GaussianBlock& block, uint32_t flags);
+  ChunkDecoder(const BlockArrays& block, uint32_t flags);
   const std::vector<PayloadArray>& arrays() const { return arrays_; }
   void finish();
 
@@ -54,7 +54,7 @@ class ChunkDecoder {
   std::vector<std::unique_ptr<uint8_t[]>> owned_;
   std::vector<PayloadArray> arrays_;
   std::vector<std::pair<size_t, int>> steps_;  // (owned buffer, field in file order) to decode
-  GaussianBlock& block_;
+  BlockArrays block_;
   uint32_t flags_;
 };
 

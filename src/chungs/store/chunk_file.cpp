@@ -164,12 +164,19 @@ ChunkFileInfo info_of(const Header& h, uint64_t size) {
 ChunkFileInfo write_chunk_file(const fs::path& file, ChunkId id, const GaussianBlock& block,
                                const ChunkWriteOptions& opt) {
   block.validate(file.c_str());
+  return write_chunk_file(file, id, block_arrays(block), opt);
+}
+
+ChunkFileInfo write_chunk_file(const fs::path& file, ChunkId id, const ConstBlockArrays& block,
+                               const ChunkWriteOptions& opt) {
+  if (block.sh_degree < 0 || block.sh_degree > kMaxShDegree)
+    fail(file.string(), ": SH degree ", block.sh_degree, " is out of range 0..3");
   Header h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);
   h.version = kChunkFormatVersion;
   h.header_size = sizeof h;
   h.chunk_id = id;
-  h.count = block.size();
+  h.count = block.count;
   h.sh_degree = uint32_t(block.sh_degree);
   h.flags = (opt.half_moments ? kChunkFlagHalfMoments : 0) | (opt.half_sh_rest ? kChunkFlagHalfShRest : 0);
   h.raw_bytes = chunk_payload_bytes(h.count, h.flags);
@@ -209,6 +216,17 @@ ChunkFileInfo read_chunk_file(const fs::path& file, GaussianBlock& out) {
 }
 
 ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const fs::path& file, GaussianBlock& out) {
+  GaussianBlock b;  // `out` changes only once the whole chunk read back
+  const ChunkFileInfo info = read_chunk_file(fd, file, [&](uint64_t count, int sh_degree) {
+    b.sh_degree = sh_degree;
+    b.resize(count);
+    return block_arrays(b);
+  });
+  out = std::move(b);
+  return info;
+}
+
+ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const fs::path& file, const ChunkPlacer& place) {
   if (::lseek(fd.get(), 0, SEEK_SET) != 0) fail(file.string(), ": cannot seek: ", std::strerror(errno));
   uint64_t size = 0;
   const Header h = read_and_check_header(fd, file, size);
@@ -223,9 +241,8 @@ ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const fs::path& file, Ga
       fail(file.string(), ": payload checksum mismatch: the file is corrupt");
     check_zstd_content_size(file, packed.data(), packed.size(), h.raw_bytes);
   }
-  GaussianBlock b;
-  b.sh_degree = int(h.sh_degree);
-  b.resize(h.count);
+  const BlockArrays b = place(h.count, int(h.sh_degree));
+  if (b.count != h.count) fail(file.string(), ": room for ", b.count, " Gaussians given for ", h.count);
   ChunkDecoder decoder(b, h.flags & kChunkFlagsHalf);
   const Arrays& arrays = decoder.arrays();
   if (zstd) {
@@ -240,7 +257,6 @@ ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const fs::path& file, Ga
       fail(file.string(), ": payload checksum mismatch: the file is corrupt");
   }
   decoder.finish();
-  out = std::move(b);
   return info_of(h, size);
 }
 

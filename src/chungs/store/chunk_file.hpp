@@ -12,8 +12,9 @@
 #pragma once
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 
-#include "chungs/gaussians/gaussian_block.hpp"
+#include "chungs/gaussians/block_arrays.hpp"
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/chunk_id.hpp"
 
@@ -54,6 +55,9 @@ struct ChunkFileInfo {
 // the new file would. Throws Error naming the file on I/O failure and on an inconsistent block.
 ChunkFileInfo write_chunk_file(const std::filesystem::path& file, ChunkId id, const GaussianBlock& block,
                                const ChunkWriteOptions& options);
+// The same from arrays held elsewhere (their count and SH degree are the chunk's).
+ChunkFileInfo write_chunk_file(const std::filesystem::path& file, ChunkId id, const ConstBlockArrays& block,
+                               const ChunkWriteOptions& options);
 // Checks magic, version, header checksum and file size, without reading the payload.
 ChunkFileInfo read_chunk_header(const std::filesystem::path& file);
 // Reads and verifies everything; `out` is replaced only on success. Every rejection names the file.
@@ -61,5 +65,9 @@ ChunkFileInfo read_chunk_file(const std::filesystem::path& file, GaussianBlock& 
 // The same from a file already open (read from its start; `file` names it in errors): a reader
 // holds its chunk files open so that a writer deleting them cannot take them away mid-read.
 ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const std::filesystem::path& file, GaussianBlock& out);
+// Where a chunk read goes: arrays for the header's count and SH degree, asked for once the header
+// (and a compressed payload) checked out. Every value of them is overwritten.
+using ChunkPlacer = std::function<BlockArrays(uint64_t count, int sh_degree)>;
+ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const std::filesystem::path& file, const ChunkPlacer& place);
 
 }  // namespace chungs

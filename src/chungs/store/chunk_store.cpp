@@ -233,6 +233,16 @@ Manifest ChunkStore::manifest() const {
 }
 
 GaussianBlock ChunkStore::load(ChunkId id) const {
+  GaussianBlock b;
+  load_into(id, [&](uint64_t count, int sh_degree) {
+    b.sh_degree = sh_degree;
+    b.resize(count);
+    return block_arrays(b);
+  });
+  return b;
+}
+
+void ChunkStore::load_into(ChunkId id, const ChunkPlacer& place) const {
   ManifestEntry entry;
   {
     std::lock_guard lock(mutex_);
@@ -241,16 +251,15 @@ GaussianBlock ChunkStore::load(ChunkId id) const {
     entry = it->second;
   }
   const fs::path file = chunk_file(id, entry.generation);
-  GaussianBlock b;
   ChunkFileInfo info;
   {
     ScopedTimer t(counters_.load_ns);
     const auto pin = pins_.find(id);  // a reader's; fixed after opening, so read unlocked
     if (pin != pins_.end()) {
       std::lock_guard one_reader(*pin->second.mutex);
-      info = read_chunk_file(pin->second.fd, file, b);
+      info = read_chunk_file(pin->second.fd, file, place);
     } else {
-      info = read_chunk_file(file, b);
+      info = read_chunk_file(open_for_reading(file), file, place);
     }
   }
   if (info.id != id)
@@ -268,12 +277,17 @@ GaussianBlock ChunkStore::load(ChunkId id) const {
     fail(file.string(), ": has SH degree ", info.sh_degree, ", the map's is ", sh_degree_);
   counters_.loads++;
   counters_.bytes_read += info.file_bytes;
-  return b;
 }
 
 void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
   refuse_write("save a chunk");
-  if (block.size() == 0) {
+  if (block.size() > 0) block.validate(cat(folder_.string(), ": ", chunk_name(id)).c_str());
+  save_arrays(id, block_arrays(block));
+}
+
+void ChunkStore::save_arrays(ChunkId id, const ConstBlockArrays& block) {
+  refuse_write("save a chunk");
+  if (block.count == 0) {
     remove(id);
     return;
   }
@@ -286,7 +300,7 @@ void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
   dirty_ = true;
 }
 
-std::pair<uint64_t, ChunkFileInfo> ChunkStore::write_generation(ChunkId id, const GaussianBlock& block) {
+std::pair<uint64_t, ChunkFileInfo> ChunkStore::write_generation(ChunkId id, const ConstBlockArrays& block) {
   chunk_coord(id);  // rejects ids that no coordinate produces
   // The write starts its way to the disk at once (on the I/O thread when written behind), so the
   // next commit's barrier mostly waits for what is already done.

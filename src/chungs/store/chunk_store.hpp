@@ -123,9 +123,13 @@ class ChunkStore {
   Manifest manifest() const;  // a copy of the in-memory manifest
 
   GaussianBlock load(ChunkId id) const;  // throws naming the chunk when absent or corrupt
+  // The same into arrays that `place` gives for the chunk's count (memory the caller keeps, e.g. for
+  // chunks in flight); on a throw their content is undefined.
+  void load_into(ChunkId id, const ChunkPlacer& place) const;
   // Writes the chunk's next generation (kill-safe at once, power-safe after commit()); an empty
   // block removes the chunk.
   void save(ChunkId id, const GaussianBlock& block);
+  void save_arrays(ChunkId id, const ConstBlockArrays& block);  // the same from arrays held elsewhere
   void remove(ChunkId id);  // no-op when absent
 
   void set_config(const std::string& key, const std::string& value);
@@ -140,6 +144,7 @@ class ChunkStore {
   bool snapshot_pending() const;
   // The chunk's content as of begin_snapshot() (an empty block: the chunk is not in the snapshot).
   void save_to_snapshot(ChunkId id, const GaussianBlock& block);
+  void save_arrays_to_snapshot(ChunkId id, const ConstBlockArrays& block);
   // The durability barrier for the snapshot's map; the live map stays uncommitted.
   void commit_snapshot();
   void abandon_snapshot();  // releases the held files (after a failure; the last commit stands)
@@ -170,7 +175,7 @@ class ChunkStore {
   void refuse_write(const char* what) const;  // throws when opened read-only
   bool is_committed(ChunkId id, uint64_t generation) const;
   // Writes the chunk's next generation (not yet named anywhere): the generation and the file.
-  std::pair<uint64_t, ChunkFileInfo> write_generation(ChunkId id, const GaussianBlock& block);
+  std::pair<uint64_t, ChunkFileInfo> write_generation(ChunkId id, const ConstBlockArrays& block);
   bool is_current_locked(ChunkId id, uint64_t generation) const;
   // Takes a file out of use: deleted now when no manifest on disk may name it, else after the
   // next commit. Needs mutex_.

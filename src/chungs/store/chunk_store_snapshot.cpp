@@ -21,10 +21,15 @@ bool ChunkStore::snapshot_pending() const {
 }
 
 void ChunkStore::save_to_snapshot(ChunkId id, const GaussianBlock& block) {
+  if (block.size() > 0) block.validate(cat(folder_.string(), ": ", chunk_name(id)).c_str());
+  save_arrays_to_snapshot(id, block_arrays(block));
+}
+
+void ChunkStore::save_arrays_to_snapshot(ChunkId id, const ConstBlockArrays& block) {
   auto no_snapshot = [&] { fail(folder_.string(), ": save_to_snapshot of ", chunk_name(id), " without a snapshot"); };
   if (!snapshot_pending()) no_snapshot();
   std::optional<std::pair<uint64_t, ChunkFileInfo>> written;
-  if (block.size() > 0) written = write_generation(id, block);
+  if (block.count > 0) written = write_generation(id, block);
   std::lock_guard lock(mutex_);
   if (!snapshot_) {  // abandoned while this one was written (another writer failed)
     if (written) delete_file({id, written->first, false});

@@ -1,42 +1,12 @@
 #ifdef CHUNGS_WITH_CUDA
 #include "chungs/residency/cuda/gaussian_pool.hpp"
 
-#include <array>
-
 #include "chungs/residency/cuda/pool_device.hpp"
 
 namespace chungs::cuda {
 
-namespace {
-
-// The 19 arrays of a GaussianBlock in one fixed order: params, m, v (5 kinds each), then the
-// per-Gaussian words.
-constexpr int kArrays = 19;
-constexpr std::array<int, kArrays> kWidths = {3, 3, 4, 1, kShFloats, 3, 3, 4, 1, kShFloats,
-                                              3, 3, 4, 1, kShFloats, 1, 1, 1, 1};
-
-template <typename Block, typename Ptr>
-std::array<Ptr, kArrays> arrays_of(Block& b) {
-  std::array<Ptr, kArrays> out{};
-  int a = 0;
-  for (auto* p : {&b.params, &b.adam_m, &b.adam_v}) {
-    out[a++] = p->mean.data();
-    out[a++] = p->log_scale.data();
-    out[a++] = p->rotation.data();
-    out[a++] = p->opacity.data();
-    out[a++] = p->sh.data();
-  }
-  out[a++] = b.adam_steps.data();
-  out[a++] = b.created_by_keyframe.data();
-  out[a++] = b.created_at_step.data();
-  out[a++] = b.lr_position_factor.data();
-  return out;
-}
-
-}  // namespace
-
 CudaGaussianPool::CudaGaussianPool(size_t capacity, int sh_degree) : GaussianPool(capacity, sh_degree) {
-  dev_ = detail::pool_device_create(allocated(), kWidths.data(), kArrays);
+  dev_ = detail::pool_device_create(allocated(), kBlockArrayWidths.data(), kBlockArrays);
   refresh_arrays(allocated());
 }
 
@@ -71,14 +41,12 @@ CudaGaussianPool::~CudaGaussianPool() { detail::pool_device_destroy(dev_); }
 void CudaGaussianPool::wait_uploads() { detail::pool_device_wait_uploads(dev_); }
 void CudaGaussianPool::synchronize() { detail::pool_device_synchronize(dev_); }
 
-void CudaGaussianPool::scatter_impl(const GaussianBlock& block, std::span<const uint32_t> slots) {
-  const auto src = arrays_of<const GaussianBlock, const void*>(block);
-  detail::pool_device_scatter(dev_, src.data(), slots.data(), slots.size());
+void CudaGaussianPool::scatter_impl(const ConstBlockArrays& block, std::span<const uint32_t> slots) {
+  detail::pool_device_scatter(dev_, block.data.data(), slots.data(), slots.size());
 }
 
-void CudaGaussianPool::gather_impl(std::span<const uint32_t> slots, GaussianBlock& out) const {
-  const auto dst = arrays_of<GaussianBlock, void*>(out);
-  detail::pool_device_gather(dev_, dst.data(), slots.data(), slots.size());
+void CudaGaussianPool::gather_impl(std::span<const uint32_t> slots, const BlockArrays& out) const {
+  detail::pool_device_gather(dev_, out.data.data(), slots.data(), slots.size());
 }
 
 }  // namespace chungs::cuda

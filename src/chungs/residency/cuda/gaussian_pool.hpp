@@ -44,8 +44,8 @@ class CudaGaussianPool final : public GaussianPool {
 
  protected:
   void grow_impl(size_t slots) override;
-  void scatter_impl(const GaussianBlock& block, std::span<const uint32_t> slots) override;
-  void gather_impl(std::span<const uint32_t> slots, GaussianBlock& out) const override;
+  void scatter_impl(const ConstBlockArrays& block, std::span<const uint32_t> slots) override;
+  void gather_impl(std::span<const uint32_t> slots, const BlockArrays& out) const override;
 
  private:
   void refresh_arrays(size_t slots);
