@@ -1,7 +1,7 @@
 // Outdoor street world: an endless city grid (roads on the lines x = i * pitch and y = j * pitch,
 // blocks of buildings, sidewalks, trees, lamps, parked cars, parks), generated block by block from
 // (seed, block index) when a camera first needs it, and dropped again (least recently used) when the
-// cache is full: a 10 km drive holds a few hundred blocks, not the whole city. The route drives on
+// cache is full (street_blocks.hpp): a 10 km drive holds a few hundred blocks, not the whole city. The route drives on
 // the right lane, turns at intersections with rounded corners and comes back to streets it drove
 // before (loops), so a chunked map must evict regions and reload them later.
 #pragma once
@@ -13,6 +13,7 @@
 
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/synth/scene.hpp"
+#include "chungs/synth/street_blocks.hpp"
 
 namespace chungs::synth {
 
@@ -28,7 +29,7 @@ struct StreetOptions {
   double lane_offset = 1.6;  // camera path right of the centreline (middle of a 3 m lane)
   double turn_radius = 6.0;
   double far = 150;          // far plane the world is culled to
-  size_t max_blocks = 128;  // blocks kept in memory per renderer (about 3 MB each at most)
+  size_t max_blocks = 128;  // blocks kept in memory per cache (about 3 MB each at most; a dataset's renderers share one)
   // Moving vehicles (issue 23), all off by default: the world and the drive are then exactly as before.
   // The camera's poses never depend on them; only start_turn moves where the drive begins.
   double traffic = 0;         // moving vehicles per 100 m of route: ahead, oncoming and crossing
@@ -48,38 +49,30 @@ struct StreetTraffic;  // street_traffic.cpp
 
 class StreetWorld : public Scene {
  public:
-  explicit StreetWorld(const StreetOptions& opt);
+  // `blocks`: a cache shared with other worlds of the same options (null: one of its own).
+  explicit StreetWorld(const StreetOptions& opt, std::shared_ptr<StreetBlocks> blocks = nullptr);
   std::vector<const Mesh*> gather(const Camera& cam, const SE3& T_wc, double far) override;
   const Environment& environment() const override { return env_; }
   size_t triangles() const override;
 
   // Block (bx, by) spans [bx, bx + 1] * pitch in x and y (plus the roads on its west and south
-  // edges). Generated on demand; the result is the same whatever the order of requests.
+  // edges). Generated on demand; the result is the same whatever the order of requests. The
+  // reference holds while the block is in the cache (max_blocks later blocks at least).
   const Mesh& block(int bx, int by);
-  size_t blocks_in_memory() const { return cache_.size(); }
-  size_t blocks_generated() const { return generated_; }        // including regenerations
-  size_t distinct_blocks() const { return distinct_.size(); }
-  size_t distinct_triangles() const;                           // over all distinct blocks touched
+  size_t blocks_in_memory() const { return blocks_->in_memory(); }
+  size_t blocks_generated() const { return blocks_->generated(); }  // including regenerations
+  size_t distinct_blocks() const { return blocks_->distinct(); }
+  size_t distinct_triangles() const { return blocks_->distinct_triangles(); }  // over all blocks touched
   // Moving vehicles: gather() adds those of `traffic` where they are at time `t` (seconds, the
   // trajectory's stamps). Without traffic the world is static and the time is ignored.
   void set_traffic(std::shared_ptr<const StreetTraffic> traffic) { traffic_ = std::move(traffic); }
   void set_time(double t) { time_ = t; }
 
  private:
-  struct Entry {
-    std::shared_ptr<Mesh> mesh;
-    uint64_t last_used = 0;
-  };
-  static int64_t key(int bx, int by) { return (int64_t(bx) << 32) ^ int64_t(uint32_t(by)); }
-  void evict();
-
   StreetOptions opt_;
   Environment env_;
-  std::unordered_map<int64_t, Entry> cache_;
-  std::unordered_map<int64_t, size_t> distinct_;  // block -> triangles
-  std::vector<std::shared_ptr<Mesh>> in_use_;     // keeps the last gather's meshes alive
-  uint64_t clock_ = 0;
-  size_t generated_ = 0;
+  std::shared_ptr<StreetBlocks> blocks_;
+  std::vector<std::shared_ptr<const Mesh>> in_use_;  // keeps the last gather's meshes alive
   std::shared_ptr<const StreetTraffic> traffic_;
   double time_ = 0;
   std::vector<std::shared_ptr<Mesh>> vehicles_;  // the last gather's vehicle meshes

@@ -6,7 +6,7 @@
 namespace chungs::synth {
 
 struct StreetDataset::Renderer {
-  explicit Renderer(const StreetOptions& o) : world(o) {}
+  Renderer(const StreetOptions& o, std::shared_ptr<StreetBlocks> blocks) : world(o, std::move(blocks)) {}
   StreetWorld world;
   Rasterizer rasterizer;
   RenderedFrame frame;
@@ -33,7 +33,8 @@ StreetDataset::StreetDataset(const StreetDatasetOptions& o) : options_(o) {
     auto full = o.max_frames ? street_trajectory(o.street) : trajectory_;
     traffic_ = std::make_shared<const StreetTraffic>(o.street, full);
   }
-  idle_.push_back(std::make_unique<Renderer>(o.street));  // fails early on bad street options
+  blocks_ = std::make_shared<StreetBlocks>(o.street);
+  idle_.push_back(std::make_unique<Renderer>(o.street, blocks_));  // fails early on bad street options
   idle_.back()->world.set_traffic(traffic_);
 }
 
@@ -52,7 +53,7 @@ std::unique_ptr<StreetDataset::Renderer> StreetDataset::take() const {
       return r;
     }
   }
-  auto r = std::make_unique<Renderer>(options_.street);
+  auto r = std::make_unique<Renderer>(options_.street, blocks_);
   r->world.set_traffic(traffic_);
   return r;
 }

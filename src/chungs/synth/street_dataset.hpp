@@ -4,9 +4,9 @@
 // route, KITTI-like stereo camera and renderer.
 //
 // Thread-safe: frame() may be called from several threads at once (a prefetching mapper). Each
-// concurrent call renders with its own world cache and rasterizer, taken from a pool that grows
-// to the number of threads that call at the same time (each holds up to StreetOptions::max_blocks
-// blocks).
+// concurrent call renders with its own world and rasterizer, taken from a pool that grows to the
+// number of threads that call at the same time; their worlds share one cache of city blocks (at
+// most StreetOptions::max_blocks, street_blocks.hpp), so a block is generated once for all.
 #pragma once
 #include <memory>
 #include <mutex>
@@ -46,6 +46,7 @@ class StreetDataset : public Dataset {
   DatasetInfo info_;
   Trajectory trajectory_;
   std::shared_ptr<const StreetTraffic> traffic_;  // null without moving vehicles
+  std::shared_ptr<StreetBlocks> blocks_;          // the city blocks, for every renderer
   mutable std::mutex mutex_;  // guards idle_
   mutable std::vector<std::unique_ptr<Renderer>> idle_;
 };

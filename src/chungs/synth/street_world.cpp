@@ -12,33 +12,23 @@ Camera kitti_camera(int width, int height) {
   return Camera(width, height, f, f, 0.5 * (width - 1), 0.5 * (height - 1));
 }
 
-StreetWorld::StreetWorld(const StreetOptions& opt) : opt_(opt), env_(Environment::outdoor(uint32_t(opt.seed), opt.far)) {
+StreetWorld::StreetWorld(const StreetOptions& opt, std::shared_ptr<StreetBlocks> blocks)
+    : opt_(opt), env_(Environment::outdoor(uint32_t(opt.seed), opt.far)), blocks_(std::move(blocks)) {
   if (!(opt.pitch > opt.road_width + 2 * opt.sidewalk + 20))
     fail("street world: pitch ", opt.pitch, " m leaves no room for buildings (road ", opt.road_width, " m, sidewalks ",
          opt.sidewalk, " m)");
   if (opt.max_blocks < 16) fail("street world: max_blocks must be at least 16, got ", opt.max_blocks);
+  if (!blocks_) blocks_ = std::make_shared<StreetBlocks>(opt);
 }
 
-const Mesh& StreetWorld::block(int bx, int by) {
-  const int64_t k = key(bx, by);
-  auto it = cache_.find(k);
-  if (it == cache_.end()) {
-    auto mesh = std::make_shared<Mesh>(build_street_block(opt_, bx, by));
-    ++generated_;
-    distinct_[k] = mesh->triangles();
-    it = cache_.emplace(k, Entry{std::move(mesh), 0}).first;
-  }
-  it->second.last_used = clock_;
-  return *it->second.mesh;
-}
+const Mesh& StreetWorld::block(int bx, int by) { return *blocks_->get(bx, by); }
 
 std::vector<const Mesh*> StreetWorld::gather(const Camera& cam, const SE3& T_wc, double far) {
-  ++clock_;
   const double P = opt_.pitch, hw = 0.5 * opt_.road_width;
   const Eigen::Vector3d c = T_wc.t;
   const int x0 = int(std::floor((c.x() - far) / P)) - 1, x1 = int(std::floor((c.x() + far) / P)) + 1;
   const int y0 = int(std::floor((c.y() - far) / P)) - 1, y1 = int(std::floor((c.y() + far) / P)) + 1;
-  std::vector<std::shared_ptr<Mesh>> use;
+  std::vector<std::shared_ptr<const Mesh>> use;
   for (int by = y0; by <= y1; ++by) {
     for (int bx = x0; bx <= x1; ++bx) {
       // Conservative bounds of anything a block may hold (its own roads lie west and south).
@@ -46,12 +36,10 @@ std::vector<const Mesh*> StreetWorld::gather(const Camera& cam, const SE3& T_wc,
       const double dx = std::max({lo.x() - c.x(), 0.0, c.x() - hi.x()}), dy = std::max({lo.y() - c.y(), 0.0, c.y() - hi.y()});
       if (dx * dx + dy * dy > far * far) continue;
       if (!box_maybe_visible(lo, hi, cam, T_wc, far)) continue;
-      block(bx, by);
-      use.push_back(cache_.at(key(bx, by)).mesh);
+      use.push_back(blocks_->get(bx, by));
     }
   }
   in_use_ = std::move(use);
-  evict();
   std::vector<const Mesh*> out;
   out.reserve(in_use_.size());
   for (const auto& m : in_use_) out.push_back(m.get());
@@ -71,30 +59,6 @@ std::vector<const Mesh*> StreetWorld::gather(const Camera& cam, const SE3& T_wc,
   return out;
 }
 
-void StreetWorld::evict() {
-  if (cache_.size() <= opt_.max_blocks) return;
-  std::vector<std::pair<uint64_t, int64_t>> order;
-  for (const auto& [k, e] : cache_)
-    if (e.last_used < clock_) order.push_back({e.last_used, k});
-  std::sort(order.begin(), order.end());
-  // Drop to 90 % so that eviction does not run on every frame.
-  const size_t target = opt_.max_blocks * 9 / 10;
-  for (const auto& [t, k] : order) {
-    if (cache_.size() <= target) break;
-    cache_.erase(k);
-  }
-}
-
-size_t StreetWorld::triangles() const {
-  size_t n = 0;
-  for (const auto& [k, e] : cache_) n += e.mesh->triangles();
-  return n;
-}
-
-size_t StreetWorld::distinct_triangles() const {
-  size_t n = 0;
-  for (const auto& [k, t] : distinct_) n += t;
-  return n;
-}
+size_t StreetWorld::triangles() const { return blocks_->triangles(); }
 
 }  // namespace chungs::synth
