@@ -44,6 +44,20 @@ std::vector<uint64_t> census_9x7(const Image8& gray) {
 
 namespace {
 
+// The cost volume and the path sums (3.7 and 7.5 MB at 310x94 with 128 disparities), kept by each
+// thread that matches. Allocated per call, they left holes in the heap that the smaller allocations
+// made meanwhile (and kept) took, so that the next pair needed new heap: host RSS of the 10 km drive
+// kept stepping up after the map's budget was full (bench/README.md). The mapper matches on a
+// fixed set of keyframe loaders, so this is a few such buffers for the whole run.
+struct SgmScratch {
+  std::vector<uint8_t> cost;
+  std::vector<uint16_t> sum;
+};
+SgmScratch& sgm_scratch() {
+  thread_local SgmScratch s;
+  return s;
+}
+
 // Hot loops get an AVX2/POPCNT build beside the baseline one, picked at load time by the CPU.
 #define CHUNGS_SGM_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 
@@ -112,15 +126,18 @@ SgmDisparities sgm_disparities(const Image8& left, const Image8& right, const Sg
   const size_t px = size_t(w) * size_t(h);
   const std::vector<uint64_t> cl = census_9x7(left), cr = census_9x7(right);
   auto at = [&](int x, int y) { return (size_t(y) * w + x) * D; };
-  std::vector<uint8_t> cost(px * D);
+  SgmScratch& scratch = sgm_scratch();
+  // Every element of both is written before it is read (census_costs: every pixel and disparity; the
+  // sums: the first pass below), so old contents do not matter.
+  scratch.cost.resize(std::max(scratch.cost.size(), px * D));
+  scratch.sum.resize(std::max(scratch.sum.size(), px * D));
+  uint8_t* const cost = scratch.cost.data();
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < h; ++y) census_costs(&cl[size_t(y) * w], &cr[size_t(y) * w], w, D, &cost[at(0, y)]);
   // Sum over the four directions. Rows (left-right paths) are independent, and so are columns
   // (up-down paths, walked row by row over a band of columns so memory is read in order): each
   // pass splits them between threads without sharing a sum.
-  // Every element is written by the first pass (left-right), so the sum starts uninitialised.
-  std::unique_ptr<uint16_t[]> sum_memory(new uint16_t[px * D]);
-  uint16_t* sum = sum_memory.get();
+  uint16_t* const sum = scratch.sum.data();
 #pragma omp parallel
   {
     // Left to right into a row of costs kept in cache; right to left then writes each sum once.
