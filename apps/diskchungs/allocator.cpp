@@ -3,10 +3,11 @@
 // many threads. glibc malloc gives each thread that allocates concurrently an arena of its own (up
 // to 8 per core) and frees a block back into the arena it came from, so each arena grows to its own
 // peak and host memory steps up although what is live stays bounded. One arena lets a block freed by
-// the I/O thread serve the optimiser's next one; run_mapping then makes the chunks-in-flight peak
-// resident at the start and keeps it (common/heap.hpp). 10 km drive on an H100: +3.8 % / -0.0 %
-// around the plateau once the budget was reached, no slower (bench/README.md). MALLOC_ARENA_MAX or
-// GLIBC_TUNABLES in the environment still decide where set.
+// the I/O thread serve the optimiser's next one; the chunks in flight live in a pool of their own,
+// made resident at the start (residency/host_block_pool.hpp), and freed memory is kept
+// (common/heap.hpp). 10 km drive on an H100: +3.8 % / -0.0 % around the plateau once the budget was
+// reached, no slower (bench/README.md). MALLOC_ARENA_MAX or GLIBC_TUNABLES in the environment still
+// decide where set.
 #include "allocator.hpp"
 
 #include <malloc.h>

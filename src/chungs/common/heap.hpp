@@ -1,9 +1,11 @@
-// The host heap of a long run. Chunks in flight (queued writes, read-ahead, checkpoint copies) are
+// The host heap of a long run. Chunks in flight (queued writes, read-ahead, checkpoint copies) were
 // allocated and freed by different threads in bursts; with glibc's defaults each thread's arena
-// grows to its own peak the first time its queue fills, and freed pages go back and forth, so host
+// grew to its own peak the first time its queue filled, and freed pages went back and forth, so host
 // RSS rose in steps of 50-125 MB minutes after the budget was reached (bench/README.md, the 10 km
-// drive). keep_heap_for_reuse makes that peak resident once, at the start, and has the allocator
-// keep and reuse it.
+// drive). keep_heap_for_reuse makes such a peak resident once, at the start, and has the allocator
+// keep and reuse it. The mapping run now keeps chunks in flight out of the heap altogether
+// (residency/host_block_pool.hpp: a reserve in the heap was taken by what the map held before the
+// budget was full) and calls it for the thresholds alone.
 #pragma once
 #include <cstddef>
 
