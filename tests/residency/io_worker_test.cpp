@@ -85,11 +85,12 @@ TEST(IoWorker, WritesBehindGoOnWhenThePoolIsFullAndLoadsSeeTheQueuedContent) {
       io.write_behind(cid(x), std::move(b));
     }
     EXPECT_EQ(blocks.heap_blocks(), 4u);  // six blocks, room for two: the writes did not wait for room
-    for (int x = 0; x < 6; ++x)  // queued or on disk: the content handed over either way
+    for (int x = 0; x < 6; ++x)           // queued or on disk: the content handed over either way
       EXPECT_TRUE(test::same_bits(as_block(*io.take(cid(x))), written[size_t(x)])) << "chunk " << x;
     io.drain();
   }
-  for (int x = 0; x < 6; ++x) EXPECT_TRUE(test::same_bits(store.load(cid(x)), written[size_t(x)])) << "chunk " << x;
+  for (int x = 0; x < 6; ++x)
+    EXPECT_TRUE(test::same_bits(store.load(cid(x)), written[size_t(x)])) << "chunk " << x;
   held.clear();
   EXPECT_EQ(blocks.used_bytes(), 0u);
 }

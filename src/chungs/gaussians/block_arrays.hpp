@@ -33,8 +33,7 @@ struct BlockArraysOf {
   // A mutable view passes where a read-only one is wanted.
   // (A template, so that it never stands in for the copy constructor of the mutable one.)
   template <bool C = Const>
-    requires C
-  BlockArraysOf(const BlockArraysOf<false>& o) : count(o.count), sh_degree(o.sh_degree) {
+  requires C BlockArraysOf(const BlockArraysOf<false>& o) : count(o.count), sh_degree(o.sh_degree) {
     for (int a = 0; a < kBlockArrays; ++a) data[size_t(a)] = o.data[size_t(a)];
   }
   size_t values(int a) const { return count * size_t(kBlockArrayWidths[size_t(a)]); }
