@@ -6,6 +6,7 @@
 #include "test_support.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <random>
 
@@ -122,6 +123,32 @@ TEST(CudaRasterizer, IndexOutOfRangeThrowsNamingIt) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("index 7"), std::string::npos) << e.what();
   }
+}
+
+// 70,000 copies of one splat that covers every tile of a 4096x4096 view need 70,000 x 65,536 tile entries,
+// more than the 32-bit entry lists hold: refused by name before any list is sized, never wrapped around.
+TEST(CudaRasterizer, MoreTileEntriesThanTheListsHoldAreRefused) {
+  CHUNGS_REQUIRE_GPU();
+  auto scene = test::make_random_scene(5, 1, 4096, 4096);
+  const Eigen::Vector3d pw = scene.pose * Eigen::Vector3d(0, 0, 2);
+  for (int k = 0; k < 3; ++k) scene.g.mean[k] = pw[k], scene.g.log_scale[k] = std::log(1000.0);
+  scene.g.opacity[0] = 8;
+  const DeviceScene dg(scene.g.cast<float>());
+  const std::vector<uint32_t> ids(70000, 0u);
+  const cuda::DeviceArray<uint32_t> dids(ids);
+  cuda::CudaRasterizer gpu;
+  const auto cam = make_render_camera<float>(scene.camera, scene.pose);
+  try {
+    gpu.forward(dg.view(), dids.data(), ids.size(), cam);
+    FAIL() << "no error; " << gpu.tile_entries() << " entries";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("4587520000 tiles of 4096x4096"), std::string::npos) << e.what();
+  }
+  // The same rasterizer still renders a view that fits.
+  const std::vector<uint32_t> few(3, 0u);
+  const cuda::DeviceArray<uint32_t> dfew(few);
+  gpu.forward(dg.view(), dfew.data(), few.size(), cam);
+  EXPECT_EQ(gpu.tile_entries(), 3u * 65536u);
 }
 
 // Random dL/d(outputs) for all four images.

@@ -8,6 +8,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/residency/residency.hpp"
+#include "chungs/store/atomic_file.hpp"
 #include "store/random_block.hpp"
 #include "test_support.hpp"
 
@@ -206,4 +207,45 @@ TEST(ResidencyCheckpoint, WritesOnlyWhatChangedSinceTheLastOne) {
     EXPECT_EQ(chunk_files(dir.path()), 8u);
     expect_same_maps(committed_map(dir.path(), copy.path() / "2"), at_moment);
   }
+}
+
+namespace {
+void slow_write(const fs::path&, FileEvent event) {
+  if (event == FileEvent::Written) std::this_thread::sleep_for(std::chrono::milliseconds(4));
+}
+}  // namespace
+
+// Chunks copied out because they are about to change (here: pruned) wait for room in the checkpoint's
+// queue, so the checkpoint, the write-behind and the read-ahead together stay inside their fixed pool of
+// host memory however fast the steps change chunks and however slow the disk is.
+TEST(ResidencyCheckpoint, CopiesForChangedChunksStayInsideTheInFlightPool) {
+  test::TempDir dir, copy;
+  ChunkStore store(dir.path(), rollback_config());
+  CpuGaussianPool pool(30000);
+  ResidencyConfig rc;
+  rc.budget_gaussians = 30000;
+  rc.prefetch_max_gaussians = rc.write_behind_max_gaussians = 2000;
+  rc.checkpoint_threads = 1;
+  Residency res(store, pool, rc);
+  const size_t room = res.in_flight_blocks().capacity_bytes() / kBlockBytesPerGaussian;
+  ASSERT_LT(room, 20000u) << "the test needs more modified Gaussians than the pool holds";
+  for (int x = 0; x < 25; ++x) ASSERT_TRUE(res.add(cid(x), test::random_block(1000, x + 1)).ok);
+  res.flush();
+  for (int x = 0; x < 25; ++x) train(res, pool, cid(x), 0.25f);
+  const auto at_moment = live_map(res, pool);
+  set_file_event_hook(slow_write);
+  res.begin_checkpoint([] {}, [] {});
+  for (int x = 0; x < 25; ++x) {
+    const ChunkId one[] = {cid(x)};
+    ASSERT_TRUE(res.pin(one).ok);
+    const std::vector<uint32_t> gone(res.slots(cid(x)).begin(), res.slots(cid(x)).begin() + 10);
+    res.remove_slots(cid(x), gone);
+    res.unpin(one);
+  }
+  res.finish_checkpoint();
+  set_file_event_hook(nullptr);
+  EXPECT_EQ(res.in_flight_blocks().heap_blocks(), 0u)
+      << "peak " << res.in_flight_blocks().peak_used_bytes() << " of " << res.in_flight_blocks().capacity_bytes()
+      << " bytes";
+  expect_same_maps(committed_map(dir.path(), copy.path() / "1"), at_moment);
 }

@@ -113,8 +113,9 @@ class Residency {
   // A checkpoint written behind the caller: the map as it is at this call (the modified resident
   // chunks and what is on disk) becomes the committed map while the caller goes on changing it.
   // Each modified chunk is copied out of the pool just before the caller could change it (pin,
-  // add, remove_slots, eviction); advance_checkpoint() between steps copies the rest out a little
-  // at a time, so host memory holds at most ~1/32 of the budget of them. `before_commit` and
+  // add, remove_slots, eviction), after waiting until the writers hold less than their limit;
+  // advance_checkpoint() between steps copies the rest out a little at a time, so host memory holds
+  // at most ~1/32 of the budget of them. `before_commit` and
   // `after_commit` run on a writer thread around the manifest commit. Once it is committed, a
   // chunk not changed since it was copied out takes the checkpoint's file as its live file and is
   // clean again, so the next checkpoint (the final one included) and its eviction write only what

@@ -1,6 +1,7 @@
 // Forward orchestration of the CUDA rasterizer: per-Gaussian projection, depth sort, tile-entry
 // emission in depth order, stable sort by tile, tile ranges, then the compositing (composite.cu).
 #include <cmath>
+#include <cstring>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_scan.cuh>
 
@@ -46,15 +47,14 @@ struct PreprocessOut {
   uint32_t *tiles, *zkey, *order;
   float* radius;
   uint8_t* visible;
-  uint32_t* bad_index;  // smallest j whose slot is out of range
+  // flags[0]: ~j for the smallest j whose slot is out of range (0: none); flags[2..3]: the tile entries
+  // of all splats, 64 bits so that an overflow of the 32-bit entry lists is caught, not wrapped.
+  uint32_t* flags;
 };
 
-// Projection of Gaussian ids[j] into splat j (cpu::project_splats + make_splat).
-__global__ void preprocess_kernel(GaussianArrays<float> g, const uint32_t* __restrict__ ids, uint32_t n,
-                                  RenderCamera<float> cam, RasterConsts k, int tiles_x, int tiles_y,
-                                  PreprocessOut o) {
-  const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
-  if (j >= n) return;
+// Projection of Gaussian ids[j] into splat j (cpu::project_splats + make_splat); returns its tiles.
+__device__ uint32_t project_one(const GaussianArrays<float>& g, const uint32_t* __restrict__ ids, uint32_t j,
+                                const RenderCamera<float>& cam, const RasterConsts& k, const PreprocessOut& o) {
   o.order[j] = j;
   o.tiles[j] = 0;
   o.zkey[j] = kInvisibleKey;
@@ -62,29 +62,29 @@ __global__ void preprocess_kernel(GaussianArrays<float> g, const uint32_t* __res
   o.radius[j] = 0.f;
   const uint32_t slot = ids[j];
   if (slot >= g.capacity) {
-    atomicMin(o.bad_index, j);
-    return;
+    atomicMax(o.flags, ~j);
+    return 0;
   }
   float shc[kShFloats], basis[kShCoeffs];
   load_sh(g.sh, slot, shc);
   Geometry G;
-  if (!compute_geometry(g, slot, cam, k, shc, basis, G)) return;
+  if (!compute_geometry(g, slot, cam, k, shc, basis, G)) return 0;
   const float z = G.pc[2];
   const float mx = cam.fx * G.pc[0] / z + cam.cx, my = cam.fy * G.pc[1] / z + cam.cy;
   const float ca = G.C / G.det, cb = -G.B / G.det, cc = G.A / G.det;
   if (!isfinite(mx) || !isfinite(my) || !isfinite(ca + cb + cc) || !isfinite(G.opacity) ||
       !isfinite(G.raw[0] + G.raw[1] + G.raw[2]))
-    return;
+    return 0;
   const float mid = (G.A + G.C) / 2, half = (G.A - G.C) / 2;
   const float radius = 3 * sqrtf(mid + sqrtf(half * half + G.B * G.B));
   float pmin = -0.5f * k.extent_sigma * k.extent_sigma;
   if (k.min_alpha > 0) pmin = fmaxf(pmin, k.log_min_alpha - logf(G.opacity));
-  if (!(pmin < 0.f)) return;
+  if (!(pmin < 0.f)) return 0;
   const float qmax = -2 * pmin;
   const float ex = sqrtf(qmax * G.A), ey = sqrtf(qmax * G.C);
   const float W1 = float(cam.width - 1), H1 = float(cam.height - 1);
   const float fx0 = ceilf(mx - ex), fx1 = floorf(mx + ex), fy0 = ceilf(my - ey), fy1 = floorf(my + ey);
-  if (!(fx1 >= 0 && fx0 <= W1 && fy1 >= 0 && fy0 <= H1)) return;
+  if (!(fx1 >= 0 && fx0 <= W1 && fy1 >= 0 && fy0 <= H1)) return 0;
   const int x0 = int(fmaxf(fx0, 0.f)), x1 = int(fminf(fx1, W1));
   const int y0 = int(fmaxf(fy0, 0.f)), y1 = int(fminf(fy1, H1));
   const int tx0 = x0 / kTileSize, tx1 = x1 / kTileSize, ty0 = y0 / kTileSize, ty1 = y1 / kTileSize;
@@ -92,10 +92,24 @@ __global__ void preprocess_kernel(GaussianArrays<float> g, const uint32_t* __res
   o.b[j] = make_float4(ca, cb, cc, z);
   o.c[j] = make_float4(fmaxf(G.raw[0], 0.f), fmaxf(G.raw[1], 0.f), fmaxf(G.raw[2], 0.f), 1.f / z);
   o.rect[j] = make_ushort4(tx0, tx1, ty0, ty1);
-  o.tiles[j] = uint32_t(tx1 - tx0 + 1) * uint32_t(ty1 - ty0 + 1);
+  const uint32_t tiles = uint32_t(tx1 - tx0 + 1) * uint32_t(ty1 - ty0 + 1);
+  o.tiles[j] = tiles;
   o.zkey[j] = __float_as_uint(z);  // z >= near > 0: the bit pattern orders like the value
   o.visible[j] = 1;
   o.radius[j] = radius;
+  return tiles;
+}
+
+// The entries are counted here, not read from the end of the scan, so that the host can learn the count
+// while the device sorts by depth: the forward's one wait for the host then leaves the device busy.
+__global__ void preprocess_kernel(GaussianArrays<float> g, const uint32_t* __restrict__ ids, uint32_t n,
+                                  RenderCamera<float> cam, RasterConsts k, PreprocessOut o) {
+  const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
+  const uint32_t tiles = j < n ? project_one(g, ids, j, cam, k, o) : 0u;
+  // A splat covers at most all tiles, fewer than 2^27 (checked on the host): a warp's sum fits 32 bits.
+  const uint32_t warp_sum = __reduce_add_sync(0xffffffffu, tiles);
+  if ((threadIdx.x & 31) == 0 && warp_sum > 0)
+    atomicAdd(reinterpret_cast<unsigned long long*>(o.flags + 2), (unsigned long long)warp_sum);
 }
 
 __global__ void gather_counts_kernel(const uint32_t* __restrict__ order, const uint32_t* __restrict__ tiles,
@@ -201,18 +215,21 @@ struct CudaRasterizer::State {
   DeviceArray<float> rgb, depth, inv_depth, alpha;
   DeviceArray<uint32_t> top_id, last;
   DeviceBytes temp;
-  DeviceArray<uint32_t> flags;     // [0] = smallest bad index
-  uint32_t* host_flags = nullptr;  // pinned: bad index, total entries
+  DeviceArray<uint32_t> flags;     // PreprocessOut::flags
+  uint32_t* host_flags = nullptr;  // pinned copy of flags (PreprocessOut)
+  cudaEvent_t counted = nullptr;   // flags have reached host_flags
   // Backward.
   DeviceArray<float> splat_grads, g_mean, g_scale, g_rot, g_op, g_sh;
 
   State() {
     for (auto& e : ev) check(cudaEventCreate(&e), "cudaEventCreate");
-    check(cudaMallocHost(&host_flags, 2 * sizeof(uint32_t)), "cudaMallocHost");
-    flags.resize(2);
+    check(cudaEventCreateWithFlags(&counted, cudaEventDisableTiming), "cudaEventCreate");
+    check(cudaMallocHost(&host_flags, 4 * sizeof(uint32_t)), "cudaMallocHost");
+    flags.resize(4);
   }
   ~State() {
     for (auto& e : ev) cudaEventDestroy(e);
+    cudaEventDestroy(counted);
     cudaFreeHost(host_flags);
   }
   void mark(int i) {
@@ -264,6 +281,8 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
   const int W = cam.width, H = cam.height;
   s.tiles_x = (W + kTileSize - 1) / kTileSize;
   s.tiles_y = (H + kTileSize - 1) / kTileSize;
+  if (uint64_t(s.tiles_x) * uint64_t(s.tiles_y) >= (uint64_t(1) << 27))
+    fail("CUDA rasterizer: an image of ", W, "x", H, " has more tiles than a render can count (2^27)");
   const uint32_t ntiles = uint32_t(s.tiles_x) * uint32_t(s.tiles_y);
   s.g = g, s.ids = ids, s.n = n, s.cam = cam;
   s.have_forward = false;
@@ -278,12 +297,14 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
   s.mark(0);
   s.total = 0;
   if (n > 0) {
-    check(cudaMemsetAsync(s.flags.data(), 0xFF, sizeof(uint32_t), st), "memset");
+    check(cudaMemsetAsync(s.flags.data(), 0, 4 * sizeof(uint32_t), st), "memset");
     PreprocessOut po{s.a.data(),    s.b.data(),     s.c.data(),      s.rect.data(),    s.tiles.data(),
                      s.zkey.data(), s.order.data(), s.radius.data(), s.visible.data(), s.flags.data()};
-    preprocess_kernel<<<blocks_for(n, 128), 128, 0, st>>>(g, ids, uint32_t(n), cam, s.consts, s.tiles_x,
-                                                          s.tiles_y, po);
+    preprocess_kernel<<<blocks_for(n, 128), 128, 0, st>>>(g, ids, uint32_t(n), cam, s.consts, po);
     check(cudaGetLastError(), "preprocess launch");
+    check(cudaMemcpyAsync(s.host_flags, s.flags.data(), 4 * sizeof(uint32_t), cudaMemcpyDeviceToHost, st),
+          "copy flags");
+    check(cudaEventRecord(s.counted, st), "record count");
     s.mark(1);
     size_t bytes = 0, scan_bytes = 0;
     cub::DeviceRadixSort::SortPairs(nullptr, bytes, s.zkey.data(), s.zkey_sorted.data(), s.order.data(),
@@ -297,19 +318,19 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
     gather_counts_kernel<<<blocks_for(n, 256), 256, 0, st>>>(s.order_sorted.data(), s.tiles.data(),
                                                              uint32_t(n), s.zkey.data());
     check(cub::DeviceScan::InclusiveSum(tmp, scan_bytes, s.zkey.data(), s.ends.data(), int(n), st), "scan");
-    check(cudaMemcpyAsync(s.flags.data() + 1, s.ends.data() + (n - 1), sizeof(uint32_t),
-                          cudaMemcpyDeviceToDevice, st),
-          "copy count");
-    check(cudaMemcpyAsync(s.host_flags, s.flags.data(), 2 * sizeof(uint32_t), cudaMemcpyDeviceToHost, st),
-          "copy flags");
-    check(cudaStreamSynchronize(st), "preprocess");
-    if (s.host_flags[0] != 0xFFFFFFFFu) {
-      const uint32_t j = s.host_flags[0];
+    check(cudaEventSynchronize(s.counted), "preprocess");  // the sort and the scan run meanwhile
+    if (s.host_flags[0] != 0) {
+      const uint32_t j = ~s.host_flags[0];
       uint32_t slot = 0;
       check(cudaMemcpy(&slot, ids + j, sizeof slot, cudaMemcpyDeviceToHost), "copy bad index");
       fail("CUDA rasterizer: index ", j, " names slot ", slot, " but the arrays hold ", g.capacity, " slots");
     }
-    s.total = s.host_flags[1];
+    uint64_t entries = 0;
+    std::memcpy(&entries, s.host_flags + 2, sizeof entries);
+    if (entries > 0xFFFFFFFFull)
+      fail("CUDA rasterizer: ", n, " splats cover ", entries, " tiles of ", W, "x", H,
+           ", more than the 2^32 - 1 tile entries a render can hold");
+    s.total = uint32_t(entries);
   } else {
     s.mark(1);
   }
