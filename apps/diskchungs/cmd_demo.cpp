@@ -147,7 +147,7 @@ int run_demo(const DemoArgs& a) {
   return 0;
 }
 
-const Command cmd{"demo", "synthetic street (or room) -> map larger than its budget -> PLY, with held-out quality (under two minutes)",
+const Command cmd{"demo", "synthetic street (or room) -> map larger than its budget -> PLY, with held-out quality (about a minute)",
                   [](CLI::App& app) {
   auto a = std::make_shared<DemoArgs>();
   app.add_option("--out", a->out, "output folder (map/, map.ply, room/; an earlier demo there is replaced)")
