@@ -1,11 +1,15 @@
-// Building blocks of the tracker on random inputs: stereo sub-pixel disparity, pose-only optimisation with
+// Building blocks of the tracker on random inputs: the keypoint grid against a search of every keypoint, stereo
+// sub-pixel disparity, pose-only optimisation with
 // outliers, vocabulary round trip and scores, pose graph against a consistent ground truth.
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <random>
 
+#include "chungs/tracking/features.hpp"
 #include "chungs/tracking/pose_graph.hpp"
 #include "chungs/tracking/pose_optimizer.hpp"
 #include "chungs/tracking/stereo_matcher.hpp"
@@ -14,6 +18,44 @@
 
 using namespace chungs;
 using namespace chungs::tracking;
+
+// Every query lists exactly the keypoints a search of all of them finds, in the order the trackers relied on
+// (cells row by row, left to right, each in index order), discs off the image and octave ranges included.
+TEST(FeatureGrid, FindsWhatASearchOfEveryKeypointFindsInTheSameOrder) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> X(-2.f, 643.f), Y(-2.f, 483.f), R(0.5f, 60.f), Q(-80.f, 720.f);
+  std::uniform_int_distribution<int> O(0, 7);
+  std::vector<cv::KeyPoint> kps(3000);
+  for (auto& k : kps) k = cv::KeyPoint(X(rng), Y(rng), 7.f, -1.f, 0.f, O(rng));
+  const int W = 640, H = 480;
+  const FeatureGrid grid(kps, W, H);
+  std::vector<int> got;
+  size_t found = 0;
+  for (int q = 0; q < 2000; ++q) {
+    const float u = Q(rng), v = Q(rng), r = R(rng);
+    const int lo = O(rng), hi = std::max(lo, O(rng));
+    grid.query(u, v, r, got, lo, hi);
+    // The reference: the cells a disc's box reaches, each keypoint in the cell it falls in (clamped).
+    std::vector<std::pair<size_t, int>> want;
+    const int cols = (W + 15) / 16, rows = (H + 15) / 16;
+    for (int i = 0; i < int(kps.size()); ++i) {
+      const auto& k = kps[i];
+      const int cx = std::clamp(int(k.pt.x / 16), 0, cols - 1), cy = std::clamp(int(k.pt.y / 16), 0, rows - 1);
+      const int x0 = std::max(0, int(std::floor((u - r) / 16))), x1 = std::min(cols - 1, int(std::floor((u + r) / 16)));
+      const int y0 = std::max(0, int(std::floor((v - r) / 16))), y1 = std::min(rows - 1, int(std::floor((v + r) / 16)));
+      const float du = k.pt.x - u, dv = k.pt.y - v;
+      if (cx < x0 || cx > x1 || cy < y0 || cy > y1 || k.octave < lo || k.octave > hi || du * du + dv * dv > r * r)
+        continue;
+      want.push_back({size_t(cy) * cols + cx, i});
+    }
+    std::stable_sort(want.begin(), want.end(), [](auto& a, auto& b) { return a.first < b.first; });
+    std::vector<int> ids;
+    for (auto& w : want) ids.push_back(w.second);
+    ASSERT_EQ(got, ids) << "query " << q << " at (" << u << ", " << v << ") r " << r;
+    found += got.size();
+  }
+  EXPECT_GT(found, 5000u) << "the queries found keypoints";
+}
 
 TEST(StereoMatcher, RecoversSubPixelDisparityOfShiftedTexture) {
   std::mt19937 rng(5);

@@ -57,27 +57,36 @@ Features extract_orb(const cv::Mat& gray, const OrbOptions& opt) {
 }
 
 FeatureGrid::FeatureGrid(const std::vector<cv::KeyPoint>& kps, int width, int height, int cell)
-    : kps_(kps), cell_(cell), cols_(std::max(1, (width + cell - 1) / cell)), rows_(std::max(1, (height + cell - 1) / cell)) {
-  bins_.resize(size_t(cols_) * rows_);
-  for (int i = 0; i < int(kps.size()); ++i) {
-    int cx = std::clamp(int(kps[i].pt.x / cell), 0, cols_ - 1), cy = std::clamp(int(kps[i].pt.y / cell), 0, rows_ - 1);
-    bins_[size_t(cy) * cols_ + cx].push_back(i);
+    : cell_(cell), cols_(std::max(1, (width + cell - 1) / cell)), rows_(std::max(1, (height + cell - 1) / cell)) {
+  const size_t cells = size_t(cols_) * rows_;
+  std::vector<uint32_t> cell_of(kps.size());
+  start_.assign(cells + 1, 0);
+  for (size_t i = 0; i < kps.size(); ++i) {
+    const int cx = std::clamp(int(kps[i].pt.x / cell), 0, cols_ - 1), cy = std::clamp(int(kps[i].pt.y / cell), 0, rows_ - 1);
+    cell_of[i] = uint32_t(size_t(cy) * cols_ + cx);
+    ++start_[cell_of[i] + 1];
   }
+  for (size_t c = 0; c < cells; ++c) start_[c + 1] += start_[c];
+  entries_.resize(kps.size());
+  std::vector<uint32_t> next(start_.begin(), start_.end() - 1);
+  for (size_t i = 0; i < kps.size(); ++i)
+    entries_[next[cell_of[i]]++] = Entry{kps[i].pt.x, kps[i].pt.y, kps[i].octave, int(i)};
 }
 
 void FeatureGrid::query(float u, float v, float radius, std::vector<int>& out, int min_octave, int max_octave) const {
   out.clear();
   int x0 = std::max(0, int(std::floor((u - radius) / cell_))), x1 = std::min(cols_ - 1, int(std::floor((u + radius) / cell_)));
   int y0 = std::max(0, int(std::floor((v - radius) / cell_))), y1 = std::min(rows_ - 1, int(std::floor((v + radius) / cell_)));
+  if (x0 > x1 || y0 > y1) return;  // the disc lies off the image
   const float r2 = radius * radius;
-  for (int y = y0; y <= y1; ++y)
-    for (int x = x0; x <= x1; ++x)
-      for (int i : bins_[size_t(y) * cols_ + x]) {
-        const auto& k = kps_[i];
-        if (k.octave < min_octave || k.octave > max_octave) continue;
-        float du = k.pt.x - u, dv = k.pt.y - v;
-        if (du * du + dv * dv <= r2) out.push_back(i);
-      }
+  for (int y = y0; y <= y1; ++y) {
+    const size_t row = size_t(y) * cols_;
+    for (const Entry *e = entries_.data() + start_[row + x0], *end = entries_.data() + start_[row + x1 + 1]; e < end; ++e) {
+      if (e->octave < min_octave || e->octave > max_octave) continue;
+      const float du = e->x - u, dv = e->y - v;
+      if (du * du + dv * dv <= r2) out.push_back(e->index);
+    }
+  }
 }
 
 int hamming(const uint8_t* a, const uint8_t* b) {

@@ -1,5 +1,6 @@
 // ORB features spread over an image grid, with the per-feature depth a stereo pair or a depth map gives.
 #pragma once
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -49,9 +50,15 @@ class FeatureGrid {
   void query(float u, float v, float radius, std::vector<int>& out, int min_octave = 0, int max_octave = 99) const;
 
  private:
-  const std::vector<cv::KeyPoint>& kps_;
+  // A cell's keypoints lie together, in index order, with what a query tests: one array for all cells
+  // instead of a vector each (thousands of allocations a grid) and no detour through cv::KeyPoint.
+  struct Entry {
+    float x, y;
+    int octave, index;
+  };
   int cell_, cols_, rows_;
-  std::vector<std::vector<int>> bins_;
+  std::vector<uint32_t> start_;  // cell c holds entries_[start_[c], start_[c + 1])
+  std::vector<Entry> entries_;
 };
 
 // Hamming distance between two 32-byte ORB descriptors.
