@@ -47,6 +47,9 @@ struct KeyframeSelectorConfig {
   // covers at least min_partial_coverage of the image, else a window keyframe is trained instead.
   bool partial_views = true;
   double min_partial_coverage = 0.2;
+  // Under a window, this share of the picks outside it train their whole core instead, its chunks read
+  // ahead and made resident (evicting others): views from beyond the window's reach (0: none).
+  double revisit_share = 0;
   // Under a window, a step leaves out the pixels of a chunk its view shows on fewer than this share of
   // the blocks its best view (the keyframe that showed it largest) did, once that view has left the
   // window: later views that glimpse it from afar or at a grazing angle would otherwise reshape what
