@@ -142,10 +142,7 @@ void Residency::finish_checkpoint() {
     ScopedTimer t(store_.counters().checkpoint_ns);
     const size_t limit = checkpoint_memory_limit();
     try {
-      while (!checkpoint_todo_.empty()) {
-        checkpoint_->wait_below(limit);
-        copy_out_many(next_portion(limit / 4));
-      }
+      while (!checkpoint_todo_.empty()) copy_out_many(next_portion(limit / 4));  // each waits below the limit
       checkpoint_->wait();
     } catch (...) {
       checkpoint_.reset();
