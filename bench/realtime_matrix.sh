@@ -15,6 +15,8 @@
 # folder holding kitti_seq1), WORK (default /tmp/rt), SEED (street, default 3), SKIP_DRIVE=1,
 # SKIP_KITTI=1, EXTRA_ARGS (words added to every run, e.g. "--config FILE"), PACINGS (default "a72 a36 fixed": the groups of the matrix to run; "none" runs none;
 # "speeds" runs 20, 36 and 72 km/h at the default budget side by side, issue 20's ordering),
+# BUDGETS (default "default b300k b100k": the cells of each group; e.g. "b300k b100k" for a second
+# instance with other EXTRA_ARGS and its own WORK, started beside the first on the same GPU),
 # LPIPS_WEIGHTS (a DCLPIPS1 file, scripts/lpips_convert.py: every run also scores LPIPS; without it
 # the summary's lpips_held_out is null and lpips_unavailable says why).
 set -uo pipefail
@@ -105,9 +107,14 @@ all() {
     a36) args=(--pacing anytime) ;;
     a72) args=(--pacing anytime --speed 2) ;;
     esac
-    cell "${pacing}_default" --dataset "$(street 2000)" "${args[@]}" &
-    cell "${pacing}_b300k" --dataset "$(street 2000)" "${args[@]}" --budget 300000 &
-    cell "${pacing}_b100k" --dataset "$(street 2000)" "${args[@]}" --budget 100000 &
+    for b in ${BUDGETS:-default b300k b100k}; do
+      case $b in
+      default) cell "${pacing}_default" --dataset "$(street 2000)" "${args[@]}" & ;;
+      b300k) cell "${pacing}_b300k" --dataset "$(street 2000)" "${args[@]}" --budget 300000 & ;;
+      b100k) cell "${pacing}_b100k" --dataset "$(street 2000)" "${args[@]}" --budget 100000 & ;;
+      *) echo "realtime_matrix: unknown budget $b (known: default b300k b100k)" >&2 ;;
+      esac
+    done
     wait
   done
   touch "$work/done"

@@ -8,7 +8,8 @@
 #                                                      once it has ended, copy report.json, timeline.csv,
 #                                                      memory.png and the log to $OUT as NAME_*
 # Env: BUNDLE (default .gpu/k10, from `TARGETS=diskchungs scripts/gpu_bundle.sh .gpu/k10`),
-#      WORK (default /tmp/drive: map folders; the machine's local disk), EXTRA (more `run` arguments).
+#      WORK (default /tmp/drive: map folders; the machine's local disk), EXTRA (more `run` arguments),
+#      EXTRA_YAML (more lines of the run's configuration file, e.g. "selector: {revisit_share: 1}").
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bundle=${BUNDLE:-$root/.gpu/k10}
@@ -25,6 +26,7 @@ start)
   rm -rf "$dir" && mkdir -p "$dir"
   cat >"$dir/c.yaml" <<YAML
 mapper: {eval_keyframe_stride: 20, pacing: anytime, speed: $speed}
+${EXTRA_YAML:-}
 YAML
   export LD_LIBRARY_PATH=$bundle/lib
   "$bundle/bin/diskchungs" info >"$dir/info.txt" 2>&1

@@ -72,13 +72,17 @@ int run_render(const RenderArgs& a) {
                       {"budget", renderer.budget()}};
     j["chunk_io"] = {{"loads", io.loads}, {"mean_load_ms", io.mean_load_ms()}};
     j["chunks_skipped_for_budget"] = renderer.chunks_skipped();
+    j["views_in_passes"] = renderer.views_in_passes();
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
   std::printf("rendered %zu views to %s in %.1f s; %llu Gaussians, peak resident %zu of budget %zu, %llu chunk loads",
               s.views.size(), out.string().c_str(), s.seconds, (unsigned long long)renderer.total_gaussians(),
               renderer.peak_resident_gaussians(), renderer.budget(), (unsigned long long)io.loads);
-  if (renderer.chunks_skipped()) std::printf(", %zu visible chunks left out for the budget", renderer.chunks_skipped());
+  if (renderer.views_in_passes())
+    std::printf(", %zu views beyond the budget drawn in passes", renderer.views_in_passes());
+  if (renderer.chunks_skipped())
+    std::printf(", %zu visible chunks left out (each alone above the budget)", renderer.chunks_skipped());
   std::printf("\n");
   if (s.scored) std::printf("PSNR %.3f dB  SSIM %.4f  (mean over %zu frames)\n", s.mean_psnr, s.mean_ssim, s.scored);
   return 0;

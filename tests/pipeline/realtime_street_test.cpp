@@ -21,7 +21,7 @@ struct Cell {
   const nlohmann::json& pacing() const { return report["pacing"]; }
 };
 
-Cell map_street(const std::string& pacing, double speed, size_t budget, double revisit_share = 0) {
+Cell map_street(const std::string& pacing, double speed, size_t budget) {
   log::set_level(log::Level::Warn);
   synth::StreetDatasetOptions so;
   so.street.length_m = 200;
@@ -45,7 +45,6 @@ Cell map_street(const std::string& pacing, double speed, size_t budget, double r
   c.store.durable = false;
   c.keyframes.durable = false;
   if (budget) c.residency.budget_gaussians = budget;
-  if (revisit_share > 0) c.selector.revisit_share = revisit_share, c.selector.budget_cell_size = 600;
   c.validate();
   Cell cell{run_mapping(o, street)};
   return cell;
@@ -103,23 +102,6 @@ TEST(RealtimeStreet, BudgetsDoNotGrowTheMapNorMakeStepsLoadAndAnytimeKeepsItsFlo
     // Untrained Gaussians do not pile up: no larger than the fixed run's map by much.
     EXPECT_LT(double(c->total()), 1.5 * double(fixed.total()));
   }
-}
-
-// selector.revisit_share: picks outside the training window train their whole core, its chunks made resident
-// (loaded, others evicted) within the budget, instead of the resident part of their view.
-TEST(RealtimeStreet, RevisitsTrainViewsBeyondTheWindowOnTheirWholeCoreWithinTheBudget) {
-  const Cell on = map_street("fixed", 1, 8000, 1.0);
-  const nlohmann::json& w = on.pacing()["training_window"];
-  std::printf("revisit share %.3f, partial share %.3f, loads %llu, peak resident %llu\n",
-              w["revisit_step_share"].get<double>(), w["partial_step_share"].get<double>(),
-              (unsigned long long)on.report["chunk_io"]["loads"].get<uint64_t>(),
-              (unsigned long long)on.report["gaussians"]["peak_resident"].get<uint64_t>());
-  EXPECT_GT(w["narrowed_share"].get<double>(), 0.0) << "the budget narrowed training to a window";
-  EXPECT_GT(w["revisit_step_share"].get<double>(), 0.05);
-  EXPECT_EQ(w["partial_step_share"].get<double>(), 0.0) << "every pick outside the window was a revisit";
-  EXPECT_GT(on.report["chunk_io"]["loads"].get<uint64_t>(), 0u);
-  EXPECT_LE(on.report["gaussians"]["peak_resident"].get<uint64_t>(), 8000u);
-  EXPECT_DOUBLE_EQ(on.pacing()["steps_per_keyframe_mean"].get<double>(), 10.0);
 }
 
 }  // namespace

@@ -215,8 +215,6 @@ void fields(V& v, KeyframeSelectorConfig& c) {
     "under a window, keyframes outside it are trained on the resident part of their view (no loads)");
   v("min_partial_coverage", c.min_partial_coverage,
     "least share of the image that resident part must explain, else a window keyframe is trained");
-  v("revisit_share", c.revisit_share,
-    "under a window: share of the picks outside it trained on their whole core, its chunks loaded");
   v("best_view_share", c.best_view_share,
     "under a window, pixels of a chunk shown on less than this share of its best view's blocks are not "
     "trained once that view left the window (0: off)");

@@ -13,10 +13,10 @@ void CpuOptimBackend::set_sky(const SkyTexture& sky, double lr) {
   sky_lr_ = lr;
 }
 
-RenderOutput<float> CpuOptimBackend::render(std::span<const uint32_t> slots,
-                                            const RenderCamera<float>& camera) {
+RenderOutput<float> CpuOptimBackend::render(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                            bool with_sky) {
   RenderOutput<float> out = raster_.forward(view_of(pool_.params()), slots, camera);
-  if (sky_) {
+  if (sky_ && with_sky) {
     sky_colours(*sky_, camera, sky_px_);
     compose_sky(sky_px_, out.alpha, out.rgb);
   }

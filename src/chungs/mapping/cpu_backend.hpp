@@ -11,7 +11,8 @@ class CpuOptimBackend final : public OptimBackend {
   CpuOptimBackend(size_t capacity, int sh_degree, const RasterConfig& raster);
   std::string name() const override { return "cpu"; }
   GaussianPool& pool() override { return pool_; }
-  RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) override;
+  RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                             bool with_sky) override;
   LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                  const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;

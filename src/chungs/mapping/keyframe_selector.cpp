@@ -17,8 +17,6 @@ void KeyframeSelectorConfig::validate() const {
     fail("keyframe selector: top_loss_fraction must be in [0, 1], got ", top_loss_fraction);
   if (!(budget_share > 0 && budget_share <= 1))
     fail("keyframe selector: budget_share must be in (0, 1], got ", budget_share);
-  if (!(revisit_share >= 0 && revisit_share <= 1))
-    fail("keyframe selector: revisit_share must be in [0, 1], got ", revisit_share);
   if (!(min_partial_coverage >= 0 && min_partial_coverage <= 1))
     fail("keyframe selector: min_partial_coverage must be in [0, 1], got ", min_partial_coverage);
   if (!(best_view_share >= 0 && best_view_share <= 1))

@@ -45,11 +45,12 @@ struct KeyframeSelectorConfig {
   // Under a window, steps still pick from the whole cell; a keyframe outside the window is trained on
   // the resident part of its view (pixels whose surface lies in a resident chunk) when that part
   // covers at least min_partial_coverage of the image, else a window keyframe is trained instead.
+  // Loading such a keyframe's whole core instead was tried (a share of these picks, 2026-12-02): on the
+  // CPU it gained 0.4 dB at the demo's budget, but on the GPU, whose steps are far shorter than a core's
+  // loads, chunk loads rose 8-11x, the 72 km/h intake dropped 2-3x the keyframes and scored 0.4-0.5 dB
+  // lower, and fixed pacing ran 7x slower (bench/README.md).
   bool partial_views = true;
   double min_partial_coverage = 0.2;
-  // Under a window, this share of the picks outside it train their whole core instead, its chunks read
-  // ahead and made resident (evicting others): views from beyond the window's reach (0: none).
-  double revisit_share = 0;
   // Under a window, a step leaves out the pixels of a chunk its view shows on fewer than this share of
   // the blocks its best view (the keyframe that showed it largest) did, once that view has left the
   // window: later views that glimpse it from afar or at a grazing angle would otherwise reshape what

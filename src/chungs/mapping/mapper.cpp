@@ -11,6 +11,8 @@
 #include "chungs/common/log.hpp"
 #include "chungs/common/stopwatch.hpp"
 #include "chungs/mapping/sky_file.hpp"
+#include "chungs/render/render_passes.hpp"
+#include "chungs/render/sky.hpp"
 
 namespace chungs {
 
@@ -131,7 +133,7 @@ uint64_t Mapper::total_gaussians() const {
   return n;
 }
 
-std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out) {
+std::vector<ChunkCount> Mapper::nearest_visible(const Camera& camera, const SE3& pose) {
   culler_->set_chunks_from(residency_->catalogue(), residency_->catalogue_version());
   std::vector<ChunkId> ids = culler_->cull(camera, pose);
   const double s = store_->chunk_size();
@@ -141,17 +143,23 @@ std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pos
     by_dist.emplace_back((chunk_centre(chunk_coord(id), s) - pose.t).squaredNorm(), id);
   }
   std::sort(by_dist.begin(), by_dist.end());
+  std::vector<ChunkCount> out;
+  out.reserve(by_dist.size());
+  for (auto [d, id] : by_dist) out.push_back({id, residency_->count(id)});
+  return out;
+}
+
+std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out) {
   std::vector<ChunkId> out;
   uint64_t total = 0, needed = 0;
-  for (auto [d, id] : by_dist) {
-    const uint64_t n = residency_->count(id);
-    needed += n;
-    if (total + n > residency_->budget()) {  // the farthest chunks give way
-      if (left_out) left_out->push_back(id);
+  for (const ChunkCount& c : nearest_visible(camera, pose)) {
+    needed += c.count;
+    if (total + c.count > residency_->budget()) {  // the farthest chunks give way
+      if (left_out) left_out->push_back(c.id);
       continue;
     }
-    total += n;
-    out.push_back(id);
+    total += c.count;
+    out.push_back(c.id);
   }
   if (needed > residency_->budget()) note_view_over_budget(needed);
   return out;
@@ -192,9 +200,34 @@ auto with_pinned_slots(Residency& residency, const std::vector<ChunkId>& chunks,
 }  // namespace
 
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
-  return with_pinned_slots(*residency_, visible_chunks(camera, pose), slots_, [&](const std::vector<uint32_t>& slots) {
-    return backend_->render(slots, make_render_camera<float>(camera, pose));
-  });
+  const RenderCamera<float> rc = make_render_camera<float>(camera, pose);
+  const auto draw = [&](const std::vector<ChunkId>& chunks, bool sky) {
+    return with_pinned_slots(*residency_, chunks, slots_, [&](const std::vector<uint32_t>& slots) {
+      return backend_->render(slots, rc, sky);
+    });
+  };
+  const std::vector<ChunkCount> near = nearest_visible(camera, pose);
+  uint64_t needed = 0;
+  for (const ChunkCount& c : near) needed += c.count;
+  if (needed <= residency_->budget()) {
+    std::vector<ChunkId> all;
+    for (const ChunkCount& c : near) all.push_back(c.id);
+    return draw(all, true);
+  }
+  // More than the budget holds: the whole view in passes of chunks that fit, nearest first, each
+  // pass's chunks made resident in turn. Left out, the far street rendered as sky, and a map under
+  // a budget below one view scored as if it lacked it.
+  note_view_over_budget(needed);
+  const BudgetGroups groups = split_by_budget(near, residency_->budget());
+  if (groups.groups.empty()) return draw({}, true);
+  RenderOutput<float> out = render_front_to_back(
+      groups.groups, [&](const std::vector<ChunkId>& chunks) { return draw(chunks, false); }, config_.raster.background);
+  if (const std::optional<SkyTexture> sky = backend_->sky()) {
+    ImageF sky_px;
+    sky_colours(*sky, rc, sky_px);
+    compose_sky(sky_px, out.alpha, out.rgb);
+  }
+  return out;
 }
 
 // New Gaussians for keyframe `id` where its image has detail the render of the map lacks.

@@ -28,6 +28,7 @@
 #include "chungs/mapping/stray_pool.hpp"
 #include "chungs/mapping/best_views.hpp"
 #include "chungs/mapping/view_coverage.hpp"
+#include "chungs/residency/budget_groups.hpp"
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
 #include "chungs/store/keyframe_store.hpp"
@@ -168,8 +169,6 @@ class Mapper {
     uint64_t best_view_steps = 0;
     // Steps on a window keyframe that left out chunks beyond its core that were not resident.
     uint64_t beyond_core_steps = 0;
-    // Steps on a keyframe outside the window trained on its whole core (selector.revisit_share).
-    uint64_t revisit_steps = 0;
     double keyframes = 0, cell_keyframes = 0, reach_m = 0;  // sums over the narrowed updates
   };
   const WindowStats& window_stats() const { return window_stats_; }
@@ -182,6 +181,8 @@ class Mapper {
   // Visible chunks of a view, nearest first, trimmed so that they fit the budget; the ones trimmed
   // go to left_out.
   std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out = nullptr);
+  // Every visible chunk that holds Gaussians, nearest first, with its count.
+  std::vector<ChunkCount> nearest_visible(const Camera& camera, const SE3& pose);
   void note_view_over_budget(uint64_t needed);  // warns when a view needs more than the budget
   // New Gaussians a keyframe may add: what the optimiser trained per keyframe lately (see
   // SamplerConfig::new_per_step); 0 for no cap.
@@ -197,7 +198,7 @@ class Mapper {
                           const std::vector<ChunkId>* core = nullptr);
   // One optimisation step on the given keyframe: on its whole view (loading what it needs) when it is
   // in the training window or `whole_view`, else on the resident part (view_coverage.hpp).
-  StepStats step_keyframe(uint32_t keyframe, bool whole_view = false, bool revisit = false);
+  StepStats step_keyframe(uint32_t keyframe, bool whole_view = false);
   // Where the keyframe's pixels see surfaces, by chunk (built on first use while it is in the cell).
   const ViewCoverage& coverage_of(const KeyframeRecord& kf);
   // Narrows the selector's candidates to the keyframes whose views fit the budget together
@@ -240,9 +241,7 @@ class Mapper {
   struct PickAhead {
     uint32_t keyframe;
     std::vector<ChunkId> chunks;
-    bool revisit = false;  // outside the window, trained on its whole core (selector.revisit_share)
   };
-  double revisit_credit_ = 0;
   std::deque<PickAhead> picks_ahead_;
   void draw_pick_ahead();
   void give_back_picks_ahead();

@@ -18,11 +18,7 @@ void Mapper::draw_pick_ahead() {
   // ahead all the same (they are scored, and its coverage is built from its depth): on a 2 km street
   // under a 300 k budget, 432 keyframe reads had waited, 0.85 s of the optimiser's time.
   if (const KeyframeRecord* k = find_keyframe(p.keyframe)) {
-    if (!selector_.in_window(k->id) && config_.selector.revisit_share > 0) {
-      revisit_credit_ += config_.selector.revisit_share;
-      if (revisit_credit_ >= 1) revisit_credit_ -= 1, p.revisit = true;
-    }
-    if (selector_.in_window(k->id) || p.revisit) {
+    if (selector_.in_window(k->id)) {
       p.chunks = visible_chunks(k->camera, k->pose);
       // Only the core is loaded; a view whose coverage is not built yet predicts all it sees, since
       // building it here would wait for the images that the prefetch below reads.
@@ -62,7 +58,6 @@ StepStats Mapper::step() {
   const size_t ahead = size_t(config_.mapper.read_ahead_steps);
   while (picks_ahead_.size() <= ahead) draw_pick_ahead();
   const uint32_t keyframe = picks_ahead_.front().keyframe;
-  const bool revisit = picks_ahead_.front().revisit;
   if (!residency_->all_resident()) {  // else nothing to read, and nothing is evicted
     std::vector<ChunkId> wanted;  // in the order of use, this step's first (what is staged for it stays)
     for (const PickAhead& p : picks_ahead_) wanted.insert(wanted.end(), p.chunks.begin(), p.chunks.end());
@@ -70,7 +65,7 @@ StepStats Mapper::step() {
   }
   picks_ahead_.pop_front();
   step_times_.pick_ms += ms_since(t0);
-  return step_keyframe(keyframe, false, revisit);
+  return step_keyframe(keyframe);
 }
 
 const ViewCoverage& Mapper::coverage_of(const KeyframeRecord& kf) {
@@ -86,7 +81,7 @@ const ViewCoverage& Mapper::coverage_of(const KeyframeRecord& kf) {
 }
 
 
-StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view, bool revisit) {
+StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   StepStats st;
@@ -105,7 +100,7 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view, bool revisit
   std::optional<Image8> pixel_mask;
   bool part_of_view = false;  // a partial or trimmed view
   std::vector<ChunkId> beyond_core_drawn;
-  if (!whole_view && !revisit && !selector_.in_window(kf.id)) {
+  if (!whole_view && !selector_.in_window(kf.id)) {
     std::erase_if(chunks, [&](ChunkId c) { return !residency_->is_resident(c); });
     std::sort(chunks.begin(), chunks.end());
     const auto rendered = [&](ChunkId c) { return std::binary_search(chunks.begin(), chunks.end(), c); };
@@ -149,7 +144,6 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view, bool revisit
     }
   }
   if (!shown_better.empty()) ++window_stats_.best_view_steps;
-  if (revisit && !selector_.in_window(kf.id)) ++window_stats_.revisit_steps;
   const auto tp = clock::now();
   auto t2 = tp;
   const PinResult pr = residency_->pin(chunks, !part_of_view);

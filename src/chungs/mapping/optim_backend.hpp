@@ -49,8 +49,10 @@ class OptimBackend {
   virtual std::string name() const = 0;  // "cpu" or "cuda"
   virtual GaussianPool& pool() = 0;
 
-  // A host copy of the render of the given pool slots.
-  virtual RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) = 0;
+  // A host copy of the render of the given pool slots; the sky (set_sky) composited behind them when
+  // with_sky, else only the raster's background (a pass of a view rendered in several).
+  virtual RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                     bool with_sky) = 0;
   // Renders the slots, evaluates the loss against the targets (the images that `targets` names,
   // converted as host_targets does) and, when slots is non-empty, applies
   // the gradient with sparse Adam to the visible ones. With `prune`, `to_prune` receives the slots

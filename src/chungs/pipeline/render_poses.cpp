@@ -14,7 +14,9 @@
 #include "chungs/mapping/sky_file.hpp"
 #include "chungs/render/cpu/rasterizer.hpp"
 #include "chungs/render/gaussian_view.hpp"
+#include "chungs/render/render_passes.hpp"
 #include "chungs/render/render_camera.hpp"
+#include "chungs/residency/budget_groups.hpp"
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
 
@@ -30,12 +32,14 @@ struct MapRenderer::Impl {
   CpuRasterizer<float> raster;
   std::optional<SkyTexture> sky;  // the map's sky.bin, when it has one
   ImageF sky_px;
+  std::array<double, 3> background;
   Impl(const fs::path& folder, const Config& c)
       : store(folder, reader_config(c.store)),  // rendering never repairs or rewrites the map
         pool(c.residency.budget_gaussians, store.sh_degree()),
         residency(store, pool, c.residency),
         culler(store.chunk_size(), c.culling),
-        raster(c.raster) {}
+        raster(c.raster),
+        background(c.raster.background) {}
 };
 
 MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
@@ -94,42 +98,44 @@ IoStats MapRenderer::io_stats() const { return impl_->residency.stats(); }
 RenderOutput<float> MapRenderer::render(const Camera& camera, const SE3& pose) {
   Residency& res = impl_->residency;
   impl_->culler.set_chunks_from(res.catalogue(), res.catalogue_version());
-  // Nearest chunks first, so that the budget drops the far field, which covers the fewest pixels.
   std::vector<std::pair<double, ChunkId>> by_dist;
   for (ChunkId id : impl_->culler.cull(camera, pose))
     if (res.count(id) > 0)
       by_dist.emplace_back((chunk_centre(chunk_coord(id), impl_->store.chunk_size()) - pose.t).squaredNorm(), id);
   std::sort(by_dist.begin(), by_dist.end());
-  std::vector<ChunkId> chunks;
-  uint64_t total = 0, visible = 0;
+  std::vector<ChunkCount> near;
+  uint64_t visible = 0;
   for (auto [d, id] : by_dist) {
+    near.push_back({id, res.count(id)});
     visible += res.count(id);
-    const uint64_t n = res.count(id);
-    if (total + n > res.budget()) {
-      ++skipped_;
-      continue;
-    }
-    total += n;
-    chunks.push_back(id);
   }
   largest_view_ = std::max(largest_view_, visible);
-  const PinResult pr = res.pin(chunks);
-  if (!pr.ok) fail("render: cannot make the visible chunks resident: ", pr.message);
-  RenderOutput<float> out;
-  try {
-    std::vector<uint32_t> slots;
-    res.append_slots(chunks, slots);
-    const RenderCamera<float> rc = make_render_camera<float>(camera, pose);
-    out = impl_->raster.forward(view_of(impl_->pool.params()), slots, rc);
-    if (impl_->sky) {
-      sky_colours(*impl_->sky, rc, impl_->sky_px);
-      compose_sky(impl_->sky_px, out.alpha, out.rgb);
+  // A view beyond the budget is drawn in passes of chunks that fit, nearest first (render_passes.hpp).
+  const BudgetGroups groups = split_by_budget(near, res.budget());
+  skipped_ += groups.too_large.size();
+  if (groups.groups.size() > 1) ++in_passes_;
+  const RenderCamera<float> rc = make_render_camera<float>(camera, pose);
+  const auto draw = [&](const std::vector<ChunkId>& chunks) {
+    const PinResult pr = res.pin(chunks);
+    if (!pr.ok) fail("render: cannot make the visible chunks resident: ", pr.message);
+    RenderOutput<float> out;
+    try {
+      std::vector<uint32_t> slots;
+      res.append_slots(chunks, slots);
+      out = impl_->raster.forward(view_of(impl_->pool.params()), slots, rc);
+    } catch (...) {
+      res.unpin(chunks);
+      throw;
     }
-  } catch (...) {
     res.unpin(chunks);
-    throw;
+    return out;
+  };
+  RenderOutput<float> out =
+      groups.groups.empty() ? draw({}) : render_front_to_back(groups.groups, draw, impl_->background);
+  if (impl_->sky) {
+    sky_colours(*impl_->sky, rc, impl_->sky_px);
+    compose_sky(impl_->sky_px, out.alpha, out.rgb);
   }
-  res.unpin(chunks);
   ++views_;
   return out;
 }

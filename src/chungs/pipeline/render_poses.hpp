@@ -27,8 +27,8 @@ class MapRenderer {
   MapRenderer(const MapRenderer&) = delete;
   MapRenderer& operator=(const MapRenderer&) = delete;
 
-  // Colour, depth and alpha of the map seen from `pose` (camera-to-world). Visible chunks nearer
-  // the camera win when all of them do not fit the budget.
+  // Colour, depth and alpha of the map seen from `pose` (camera-to-world). A view whose chunks do
+  // not fit the budget together is drawn in passes, nearest chunks first (render/render_passes.hpp).
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
 
   const std::vector<KeyframeRecord>& keyframes() const { return keyframes_; }
@@ -39,14 +39,16 @@ class MapRenderer {
   size_t budget() const;
   IoStats io_stats() const;
   size_t views_rendered() const { return views_; }
-  size_t chunks_skipped() const { return skipped_; }  // visible but left out for the budget, summed
+  // Visible chunks left out because one alone holds more than the budget, summed over the views.
+  size_t chunks_skipped() const { return skipped_; }
+  size_t views_in_passes() const { return in_passes_; }  // views whose chunks did not fit together
   uint64_t largest_view_gaussians() const { return largest_view_; }  // in one view's visible chunks
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::vector<KeyframeRecord> keyframes_;
-  size_t views_ = 0, skipped_ = 0;
+  size_t views_ = 0, skipped_ = 0, in_passes_ = 0;
   uint64_t largest_view_ = 0;
 };
 

@@ -27,8 +27,7 @@ nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSam
                              {"partial_too_small", w.partial_too_small},
                              {"trimmed_step_share", double(w.trimmed_steps) / steps},
                              {"best_view_step_share", double(w.best_view_steps) / steps},
-                             {"beyond_core_step_share", double(w.beyond_core_steps) / steps},
-                             {"revisit_step_share", double(w.revisit_steps) / steps}};
+                             {"beyond_core_step_share", double(w.beyond_core_steps) / steps}};
   }
   return pj;
 }

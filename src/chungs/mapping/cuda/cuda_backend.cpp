@@ -57,12 +57,12 @@ void CudaOptimBackend::end_phases() {
   clock_.end();
 }
 
-RenderOutput<float> CudaOptimBackend::render(std::span<const uint32_t> slots,
-                                             const RenderCamera<float>& camera) {
+RenderOutput<float> CudaOptimBackend::render(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                                             bool with_sky) {
   const DeviceRenderOutput& r = forward(slots, camera);
   RenderOutput<float> out;
   raster_.download(out);
-  if (!sky_.empty())
+  if (!sky_.empty() && with_sky)
     copy_to_host(out.rgb.data(), sky_.compose(r, camera), out.rgb.size() * sizeof(float), "render with the sky");
   return out;
 }

@@ -23,7 +23,8 @@ class CudaOptimBackend final : public OptimBackend {
                    size_t target_cache_entries = SIZE_MAX);
   std::string name() const override { return "cuda"; }
   GaussianPool& pool() override { return pool_; }
-  RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera) override;
+  RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
+                             bool with_sky) override;
   LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                  const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;
