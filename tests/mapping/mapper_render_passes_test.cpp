@@ -56,6 +56,7 @@ TEST(MapperRender, AViewBeyondTheBudgetIsDrawnWholeInPasses) {
     Mapper m(dir / "map", c, true);
     whole = m.render(f.camera, *f.gt_pose);
     EXPECT_EQ(m.views_over_budget(), 0u);
+    EXPECT_EQ(m.renders_in_passes(), 0u);
   }
   Config small = c;
   small.residency.budget_gaussians =
@@ -64,6 +65,7 @@ TEST(MapperRender, AViewBeyondTheBudgetIsDrawnWholeInPasses) {
     Mapper m(dir / "map", small, true);
     parts = m.render(f.camera, *f.gt_pose);
     EXPECT_EQ(m.views_over_budget(), 1u);
+    EXPECT_EQ(m.renders_in_passes(), 1u);
   }
   const double covered = mean(whole.alpha);
   ASSERT_GT(covered, 0.5);

@@ -220,6 +220,7 @@ RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
   note_view_over_budget(needed);
   const BudgetGroups groups = split_by_budget(near, residency_->budget());
   if (groups.groups.empty()) return draw({}, true);
+  if (groups.groups.size() > 1) ++renders_in_passes_;
   RenderOutput<float> out = render_front_to_back(
       groups.groups, [&](const std::vector<ChunkId>& chunks) { return draw(chunks, false); }, config_.raster.background);
   if (const std::optional<SkyTexture> sky = backend_->sky()) {

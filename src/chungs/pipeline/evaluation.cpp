@@ -17,7 +17,8 @@ nlohmann::json ViewSetScore::to_json(bool per_view) const {
   nlohmann::json j = {{"count", views.size()},
                       {"mean_psnr", mean_psnr},
                       {"mean_ssim", mean_ssim},
-                      {"mean_lpips", lpips_json(mean_lpips)}};
+                      {"mean_lpips", lpips_json(mean_lpips)},
+                      {"views_in_passes", views_in_passes}};
   if (!mean_lpips) j["lpips_unavailable"] = lpips_unavailable;
   if (per_view) {
     nlohmann::json a = nlohmann::json::array();
@@ -86,7 +87,9 @@ ViewSetScore score_views(Mapper& mapper, const Dataset& dataset, const std::vect
     progress.step();
     if (i >= poses.size() || !poses[i]) continue;
     const MappingFrame m = load_mapping_frame(dataset, i, resolution, DepthMode::None, {}, false);
+    const uint64_t passes_before = mapper.renders_in_passes();
     const RenderOutput<float> r = mapper.render(m.frame.camera, *poses[i]);
+    s.views_in_passes += mapper.renders_in_passes() - passes_before;
     ImageF render = r.rgb;
     for (auto& v : render.vec()) v = std::clamp(v, 0.f, 1.f);  // what an 8-bit render would show
     const ImageF ref = to_rgb_float(m.frame.left);

@@ -23,6 +23,7 @@ struct ViewSetScore {
   double mean_psnr = 0, mean_ssim = 0;
   std::optional<double> mean_lpips;
   std::string lpips_unavailable;  // why mean_lpips is absent: written in its place, never a number
+  size_t views_in_passes = 0;     // views beyond the budget, drawn in passes (render/render_passes.hpp)
   nlohmann::json to_json(bool per_view) const;
 };
 
