@@ -33,6 +33,11 @@ ImageF CpuOptimBackend::sampling_probability(std::span<const uint32_t> slots, co
   return chungs::sampling_probability(sampler, image, &composed_.rgb, &r.alpha);
 }
 
+std::span<uint32_t> CpuOptimBackend::slot_buffer(size_t n) {
+  slot_list_.resize(n);
+  return slot_list_;
+}
+
 LossTerms CpuOptimBackend::step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                                 const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                                 const PruneConfig* prune, std::vector<uint32_t>& to_prune) {

@@ -13,6 +13,7 @@ class CpuOptimBackend final : public OptimBackend {
   GaussianPool& pool() override { return pool_; }
   RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                              bool with_sky) override;
+  std::span<uint32_t> slot_buffer(size_t n) override;
   LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                  const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;
@@ -35,6 +36,7 @@ class CpuOptimBackend final : public OptimBackend {
   std::vector<float> sky_grad_;
   std::vector<SkyTap> sky_taps_;  // of the last step's camera, shared by its forward and backward
   StepPhaseClock clock_;
+  std::vector<uint32_t> slot_list_;  // slot_buffer()'s
 };
 
 }  // namespace chungs

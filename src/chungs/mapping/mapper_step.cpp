@@ -159,8 +159,16 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   }
   step_times_.pin_ms += ms_since(tp);
   try {
-    slots_.clear();
-    residency_->append_slots(chunks, slots_);
+    // Written where the backend uploads it from (the GPU's pinned staging): no copy of the list.
+    size_t listed = 0;
+    for (ChunkId c : chunks) listed += residency_->slots(c).size();
+    const std::span<uint32_t> slots = backend_->slot_buffer(listed);
+    listed = 0;
+    for (ChunkId c : chunks) {
+      const std::vector<uint32_t>& s = residency_->slots(c);
+      std::copy(s.begin(), s.end(), slots.begin() + std::ptrdiff_t(listed));
+      listed += s.size();
+    }
     step_times_.chunks_ms += ms_since(t0);
     const auto t1 = clock::now();
     // Pruning runs on the step that completes `every` iterations, as before the backend split.
@@ -176,7 +184,7 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
                               },
                               pixel_mask ? &*pixel_mask : nullptr};
     const LossTerms terms =
-        backend_->step(slots_, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
+        backend_->step(slots, make_render_camera<float>(kf.camera, kf.pose), targets, config_.loss,
                        step_rates(kf.camera), prune ? &config_.prune : nullptr,
                        to_prune_);
     step_times_.backend_ms += ms_since(t1);
@@ -185,9 +193,9 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
       log::warn("keyframe ", kf.id, ": a step's loss is not finite (", terms.total, ", L1 ", terms.l1, ", SSIM ",
                 terms.ssim, ", depth ", terms.depth, "): the render or the target holds a non-finite value");
     st.loss = terms.total;
-    st.rendered = slots_.size();
+    st.rendered = slots.size();
     st.chunks = chunks.size();
-    if (!slots_.empty()) residency_->mark_dirty(chunks);
+    if (!slots.empty()) residency_->mark_dirty(chunks);
     ++iterations_;
     if (!to_prune_.empty()) {
       const std::vector<uint32_t>& gone = to_prune_;

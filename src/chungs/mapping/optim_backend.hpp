@@ -53,6 +53,10 @@ class OptimBackend {
   // with_sky, else only the raster's background (a pass of a view rendered in several).
   virtual RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                                      bool with_sky) = 0;
+  // Room for the next step's slot list of n slots, to be filled and passed to step() before any other
+  // call: the GPU backend lends the pinned buffer it uploads from, so the list goes up without a host
+  // copy. step() and render() take a list held anywhere all the same.
+  virtual std::span<uint32_t> slot_buffer(size_t n) = 0;
   // Renders the slots, evaluates the loss against the targets (the images that `targets` names,
   // converted as host_targets does) and, when slots is non-empty, applies
   // the gradient with sparse Adam to the visible ones. With `prune`, `to_prune` receives the slots

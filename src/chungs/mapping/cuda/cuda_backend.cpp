@@ -19,6 +19,10 @@ CudaOptimBackend::CudaOptimBackend(size_t capacity, int sh_degree, const RasterC
                                    size_t target_cache_bytes, size_t target_cache_entries)
     : pool_(capacity, sh_degree), raster_(raster), targets_(target_cache_bytes, target_cache_entries) {}
 
+std::span<uint32_t> CudaOptimBackend::slot_buffer(size_t n) {
+  return {static_cast<uint32_t*>(staging_.next_host_buffer(n * sizeof(uint32_t), "slot list")), n};
+}
+
 void CudaOptimBackend::upload_slots(std::span<const uint32_t> slots) {
   ids_ = static_cast<const uint32_t*>(staging_.upload(slots.data(), slots.size_bytes(), "slot list"));
   pool_.wait_uploads();  // chunks scattered by Residency since the last render

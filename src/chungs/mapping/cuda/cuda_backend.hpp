@@ -25,6 +25,7 @@ class CudaOptimBackend final : public OptimBackend {
   GaussianPool& pool() override { return pool_; }
   RenderOutput<float> render(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                              bool with_sky) override;
+  std::span<uint32_t> slot_buffer(size_t n) override;
   LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                  const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                  const PruneConfig* prune, std::vector<uint32_t>& to_prune) override;

@@ -108,15 +108,9 @@ StagedUpload::~StagedUpload() {
   cudaStreamDestroy(static_cast<cudaStream_t>(stream_));
 }
 
-const void* StagedUpload::upload(const void* src, size_t bytes, const char* what) {
-  const int b = current_ ^ 1;
-  auto* st = static_cast<cudaStream_t>(stream_);
-  auto copied = static_cast<cudaEvent_t>(copied_[b]);
-  // Every use of the current buffer is queued on the default stream by now.
-  check(cudaEventRecord(static_cast<cudaEvent_t>(released_[current_]), 0), "event record", what, 0);
-  current_ = b;
-  if (bytes == 0) return nullptr;
-  check(cudaEventSynchronize(copied), "staging wait", what, bytes);  // its last copy has left staging b
+void StagedUpload::reserve_host(int b, size_t bytes, const char* what) {
+  // Its last copy has left staging b.
+  check(cudaEventSynchronize(static_cast<cudaEvent_t>(copied_[b])), "staging wait", what, bytes);
   if (bytes > host_capacity_[b]) {
     if (host_[b]) check(cudaFreeHost(host_[b]), "cudaFreeHost", what, host_capacity_[b]);
     host_[b] = nullptr, host_capacity_[b] = 0;
@@ -124,8 +118,28 @@ const void* StagedUpload::upload(const void* src, size_t bytes, const char* what
     check(cudaMallocHost(&host_[b], want), "cudaMallocHost", what, want);
     host_capacity_[b] = want;
   }
+}
+
+void* StagedUpload::next_host_buffer(size_t bytes, const char* what) {
+  reserve_host(current_ ^ 1, bytes, what);
+  return host_[current_ ^ 1];
+}
+
+const void* StagedUpload::upload(const void* src, size_t bytes, const char* what) {
+  const int b = current_ ^ 1;
+  auto* st = static_cast<cudaStream_t>(stream_);
+  auto copied = static_cast<cudaEvent_t>(copied_[b]);
+  if (bytes > 0 && src == host_[current_])
+    fail("staged upload of ", what, ": internal error: the source was written into staging before another upload");
+  if (bytes > 0 && src == host_[b] && bytes > host_capacity_[b])
+    fail("staged upload of ", what, ": internal error: ", bytes, " bytes in a staging buffer of ", host_capacity_[b]);
+  // Every use of the current buffer is queued on the default stream by now.
+  check(cudaEventRecord(static_cast<cudaEvent_t>(released_[current_]), 0), "event record", what, 0);
+  current_ = b;
+  if (bytes == 0) return nullptr;
+  reserve_host(b, bytes, what);
   device_[b].reserve(bytes);  // a reallocation frees the old memory only once the device is idle
-  std::memcpy(host_[b], src, bytes);
+  if (src != host_[b]) std::memcpy(host_[b], src, bytes);
   check(cudaStreamWaitEvent(st, static_cast<cudaEvent_t>(released_[b]), 0), "stream wait", what, 0);
   check(cudaMemcpyAsync(device_[b].data(), host_[b], bytes, cudaMemcpyHostToDevice, st), "copy to device", what,
         bytes);
