@@ -135,18 +135,7 @@ uint64_t Mapper::total_gaussians() const {
 
 std::vector<ChunkCount> Mapper::nearest_visible(const Camera& camera, const SE3& pose) {
   culler_->set_chunks_from(residency_->catalogue(), residency_->catalogue_version());
-  std::vector<ChunkId> ids = culler_->cull(camera, pose);
-  const double s = store_->chunk_size();
-  std::vector<std::pair<double, ChunkId>> by_dist;
-  for (ChunkId id : ids) {
-    if (residency_->count(id) == 0) continue;
-    by_dist.emplace_back((chunk_centre(chunk_coord(id), s) - pose.t).squaredNorm(), id);
-  }
-  std::sort(by_dist.begin(), by_dist.end());
-  std::vector<ChunkCount> out;
-  out.reserve(by_dist.size());
-  for (auto [d, id] : by_dist) out.push_back({id, residency_->count(id)});
-  return out;
+  return nearest_first(culler_->cull(camera, pose), *residency_, store_->chunk_size(), pose.t);
 }
 
 std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out) {
@@ -177,50 +166,23 @@ void Mapper::note_view_over_budget(uint64_t needed) {
   largest_view_ = std::max(largest_view_, needed);
 }
 
-namespace {
-
-// Runs f(slots) over the slots of `chunks` while they are pinned, unpinning on every path.
-template <class F>
-auto with_pinned_slots(Residency& residency, const std::vector<ChunkId>& chunks, std::vector<uint32_t>& slots, F&& f) {
-  const PinResult pr = residency.pin(chunks);
-  if (!pr.ok) fail("mapper: cannot make the visible chunks resident: ", pr.message);
-  decltype(f(slots)) out;
-  try {
-    slots.clear();
-    residency.append_slots(chunks, slots);
-    out = f(slots);
-  } catch (...) {
-    residency.unpin(chunks);
-    throw;
-  }
-  residency.unpin(chunks);
-  return out;
-}
-
-}  // namespace
-
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
   const RenderCamera<float> rc = make_render_camera<float>(camera, pose);
   const auto draw = [&](const std::vector<ChunkId>& chunks, bool sky) {
-    return with_pinned_slots(*residency_, chunks, slots_, [&](const std::vector<uint32_t>& slots) {
+    return with_pinned_slots(*residency_, chunks, slots_, "mapper", [&](const std::vector<uint32_t>& slots) {
       return backend_->render(slots, rc, sky);
     });
   };
   const std::vector<ChunkCount> near = nearest_visible(camera, pose);
   uint64_t needed = 0;
   for (const ChunkCount& c : near) needed += c.count;
-  if (needed <= residency_->budget()) {
-    std::vector<ChunkId> all;
-    for (const ChunkCount& c : near) all.push_back(c.id);
-    return draw(all, true);
-  }
+  if (needed > residency_->budget()) note_view_over_budget(needed);
   // More than the budget holds: the whole view in passes of chunks that fit, nearest first, each
   // pass's chunks made resident in turn. Left out, the far street rendered as sky, and a map under
   // a budget below one view scored as if it lacked it.
-  note_view_over_budget(needed);
   const BudgetGroups groups = split_by_budget(near, residency_->budget());
-  if (groups.groups.empty()) return draw({}, true);
-  if (groups.groups.size() > 1) ++renders_in_passes_;
+  if (groups.groups.size() <= 1) return draw(groups.groups.empty() ? std::vector<ChunkId>() : groups.groups[0], true);
+  ++renders_in_passes_;
   RenderOutput<float> out = render_front_to_back(
       groups.groups, [&](const std::vector<ChunkId>& chunks) { return draw(chunks, false); }, config_.raster.background);
   if (const std::optional<SkyTexture> sky = backend_->sky()) {
@@ -247,7 +209,7 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
     });
   // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
   const auto t1 = clock::now();
-  const ImageF prob = with_pinned_slots(*residency_, shown, slots_, [&](const std::vector<uint32_t>& slots) {
+  const ImageF prob = with_pinned_slots(*residency_, shown, slots_, "mapper", [&](const std::vector<uint32_t>& slots) {
     return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler, target);
   });
   keyframe_times_.render_ms += ms_since(t1);

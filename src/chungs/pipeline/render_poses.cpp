@@ -33,6 +33,7 @@ struct MapRenderer::Impl {
   std::optional<SkyTexture> sky;  // the map's sky.bin, when it has one
   ImageF sky_px;
   std::array<double, 3> background;
+  std::vector<uint32_t> slots;  // of the chunks drawn
   Impl(const fs::path& folder, const Config& c)
       : store(folder, reader_config(c.store)),  // rendering never repairs or rewrites the map
         pool(c.residency.budget_gaussians, store.sh_degree()),
@@ -98,17 +99,10 @@ IoStats MapRenderer::io_stats() const { return impl_->residency.stats(); }
 RenderOutput<float> MapRenderer::render(const Camera& camera, const SE3& pose) {
   Residency& res = impl_->residency;
   impl_->culler.set_chunks_from(res.catalogue(), res.catalogue_version());
-  std::vector<std::pair<double, ChunkId>> by_dist;
-  for (ChunkId id : impl_->culler.cull(camera, pose))
-    if (res.count(id) > 0)
-      by_dist.emplace_back((chunk_centre(chunk_coord(id), impl_->store.chunk_size()) - pose.t).squaredNorm(), id);
-  std::sort(by_dist.begin(), by_dist.end());
-  std::vector<ChunkCount> near;
+  const std::vector<ChunkCount> near =
+      nearest_first(impl_->culler.cull(camera, pose), res, impl_->store.chunk_size(), pose.t);
   uint64_t visible = 0;
-  for (auto [d, id] : by_dist) {
-    near.push_back({id, res.count(id)});
-    visible += res.count(id);
-  }
+  for (const ChunkCount& c : near) visible += c.count;
   largest_view_ = std::max(largest_view_, visible);
   // A view beyond the budget is drawn in passes of chunks that fit, nearest first (render_passes.hpp).
   const BudgetGroups groups = split_by_budget(near, res.budget());
@@ -116,19 +110,9 @@ RenderOutput<float> MapRenderer::render(const Camera& camera, const SE3& pose) {
   if (groups.groups.size() > 1) ++in_passes_;
   const RenderCamera<float> rc = make_render_camera<float>(camera, pose);
   const auto draw = [&](const std::vector<ChunkId>& chunks) {
-    const PinResult pr = res.pin(chunks);
-    if (!pr.ok) fail("render: cannot make the visible chunks resident: ", pr.message);
-    RenderOutput<float> out;
-    try {
-      std::vector<uint32_t> slots;
-      res.append_slots(chunks, slots);
-      out = impl_->raster.forward(view_of(impl_->pool.params()), slots, rc);
-    } catch (...) {
-      res.unpin(chunks);
-      throw;
-    }
-    res.unpin(chunks);
-    return out;
+    return with_pinned_slots(res, chunks, impl_->slots, "render", [&](const std::vector<uint32_t>& slots) {
+      return impl_->raster.forward(view_of(impl_->pool.params()), slots, rc);
+    });
   };
   RenderOutput<float> out =
       groups.groups.empty() ? draw({}) : render_front_to_back(groups.groups, draw, impl_->background);

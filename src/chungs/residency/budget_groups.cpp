@@ -1,6 +1,7 @@
 #include "chungs/residency/budget_groups.hpp"
 
-#include "chungs/common/error.hpp"
+#include <algorithm>
+#include <utility>
 
 namespace chungs {
 
@@ -21,6 +22,21 @@ BudgetGroups split_by_budget(const std::vector<ChunkCount>& nearest_first, uint6
     out.groups.back().push_back(c.id);
     in_group += c.count;
   }
+  return out;
+}
+
+std::vector<ChunkCount> nearest_first(std::span<const ChunkId> culled, const Residency& residency,
+                                      double chunk_size, const Eigen::Vector3d& centre) {
+  std::vector<std::pair<double, ChunkCount>> by_dist;
+  for (ChunkId id : culled)
+    if (const uint64_t n = residency.count(id))
+      by_dist.push_back({(chunk_centre(chunk_coord(id), chunk_size) - centre).squaredNorm(), {id, n}});
+  std::sort(by_dist.begin(), by_dist.end(), [](const auto& a, const auto& b) {
+    return a.first < b.first || (a.first == b.first && a.second.id < b.second.id);
+  });
+  std::vector<ChunkCount> out;
+  out.reserve(by_dist.size());
+  for (const auto& [d, c] : by_dist) out.push_back(c);
   return out;
 }
 
