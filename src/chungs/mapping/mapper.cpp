@@ -159,8 +159,8 @@ void Mapper::note_view_over_budget(uint64_t needed) {
   // Said once, and again whenever a view needs a quarter more than any before it.
   if (needed > largest_view_ * 5 / 4) {
     log::warn("the budget of ", residency_->budget(), " Gaussians is below what one view needs (", needed,
-              " in its visible chunks): the farthest chunks are left out of renders; a budget of at least ",
-              needed, " (--budget) keeps whole views");
+              " in its visible chunks): the farthest chunks are left out of its training steps (renders draw it "
+              "in passes); a budget of at least ", needed, " (--budget) keeps whole views");
     largest_view_ = needed;
   }
   largest_view_ = std::max(largest_view_, needed);
