@@ -7,9 +7,12 @@
 //
 //   bench_step_loop [--visible 200000] [--steps 500] [--device auto|cpu|cuda] [--width W --height H]
 //                   [--density F] [--json FILE] [--folder DIR] [--map MAP] [--save-map DIR]
+//                   [--segments N,N,...]
 //
 // --map: instead of growing a street, steps on a copy of a map folder that `diskchungs run` made with
 // the outdoor preset (e.g. of ../shared/data/kitti_seq1), resumed as `run --resume` would.
+// --segments: afterwards the same steps again, once per value of the GPU rasterizer's segment_entries
+// (0: one block a tile; repeat values, e.g. 0,2048,0,2048, to see the drift of the map between them).
 // --save-map: the grown street's map is also written to DIR (a checkpoint) before the timing, so that
 // another build can be timed on the very same map with --map DIR: each build grows a different map
 // (its kernels' rounding steers the sampler), and the maps differ by more than the kernels do.
@@ -26,8 +29,10 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <unordered_set>
+#include <vector>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
@@ -45,6 +50,7 @@ struct Options {
   int steps = 500, width = 1241, height = 376;
   double density = 0;  // 0: the sampler's default
   std::string device = "auto", json, folder, map, save_map;
+  std::vector<int> segments;
 };
 
 double number(const char* flag, const char* text) {
@@ -52,6 +58,22 @@ double number(const char* flag, const char* text) {
   const double v = std::strtod(text, &end);
   if (!end || *end || !(v > 0)) fail(flag, " needs a positive number, got '", text, "'");
   return v;
+}
+
+std::vector<int> entry_counts(const std::string& text) {
+  std::vector<int> out;
+  std::stringstream list(text);
+  for (std::string item; std::getline(list, item, ',');) {
+    char* end = nullptr;
+    const long n = std::strtol(item.c_str(), &end, 10);
+    if (item.empty() || *end || n < 0 || n > (1 << 24)) fail("--segments: not an entry count: '", item, "'");
+    RasterConfig c;  // refused before the map is grown, not after
+    c.segment_entries = int(n);
+    c.validate();
+    out.push_back(int(n));
+  }
+  if (out.empty()) fail("--segments: no entry count in '", text, "'");
+  return out;
 }
 
 Options parse(int argc, char** argv) {
@@ -65,6 +87,7 @@ Options parse(int argc, char** argv) {
     else if (a == "--width") o.width = int(number("--width", v));
     else if (a == "--height") o.height = int(number("--height", v));
     else if (a == "--density") o.density = number("--density", v);
+    else if (a == "--segments") o.segments = entry_counts(v);
     else if (a == "--device") o.device = v;
     else if (a == "--json") o.json = v;
     else if (a == "--folder") o.folder = v;
@@ -140,6 +163,13 @@ nlohmann::json report(const Timed& t, int steps) {
     }
     j["backend_host"] = host;
     j["backend_device"] = device;
+    nlohmann::json stages;
+    for (int i = 0; i < StepPhaseTimes::stage_count; ++i)
+      stages[StepPhaseTimes::stage_names[i]] = t.backend.stage_ms[i] / b;
+    j["raster_stages"] = stages;
+    j["tile_entries_mean"] = t.backend.tile_entries / b;
+    j["largest_tile_mean"] = t.backend.largest_tile / b;
+    j["top_percent_tiles_share"] = t.backend.top_percent_share / b;
     j["device_span"] = t.backend.device_span_ms / b;
     if (t.backend.device_span_ms > 0) j["gpu_idle_share"] = 1.0 - t.backend.device_span_ms / t.wall_ms;
   }
@@ -157,6 +187,14 @@ void print(const char* title, const nlohmann::json& j) {
   for (int p = 0; p < StepPhaseTimes::count; ++p)
     std::printf("  %-10s %10.3f %10.3f\n", StepPhaseTimes::names[p], j["backend_host"][StepPhaseTimes::names[p]].get<double>(),
                 j["backend_device"][StepPhaseTimes::names[p]].get<double>());
+  std::printf("  rasterizer (device ms):");
+  for (int i = 0; i < StepPhaseTimes::stage_count; ++i)
+    std::printf(" %s %.3f", StepPhaseTimes::stage_names[i],
+                j["raster_stages"][StepPhaseTimes::stage_names[i]].get<double>());
+  std::printf(
+      "; %.2f M tile entries, the most crowded tile %.0f, the 1 %% most crowded tiles %.1f %% of them\n",
+      j["tile_entries_mean"].get<double>() / 1e6, j["largest_tile_mean"].get<double>(),
+      100 * j["top_percent_tiles_share"].get<double>());
   if (j.contains("gpu_idle_share"))
     std::printf("  device span %.3f ms, GPU idle %.1f %% of the step\n", j["device_span"].get<double>(),
                 100.0 * j["gpu_idle_share"].get<double>());
@@ -216,10 +254,12 @@ int run(const Options& o) {
   if (!o.map.empty()) {
     // A resumed map's keyframes pay once for what a grown map did while growing (their images read back
     // and sent to the device, their coverage built): the first steps on each are not steady state.
+    // The picks may cover only some of them (a window of a few keyframes when the budget is tight): stop
+    // once 200 steps in a row found none new.
     std::unordered_set<uint32_t> seen;
     size_t extra = 0;
-    for (; seen.size() < m.keyframes().size() && extra < 20 * m.keyframes().size(); ++extra)
-      seen.insert(m.step().keyframe);
+    for (size_t since_new = 0; seen.size() < m.keyframes().size() && since_new < 200; ++extra)
+      since_new = seen.insert(m.step().keyframe).second ? 0 : since_new + 1;
     std::printf("warm-up: %zu more steps until %zu of %zu keyframes were trained once\n", extra, seen.size(),
                 m.keyframes().size());
   }
@@ -227,6 +267,16 @@ int run(const Options& o) {
   const nlohmann::json profiled = report(time_steps(m, o.steps, true), o.steps);
   print("plain", plain);
   print("profiled", profiled);
+  nlohmann::json by_segment = nlohmann::json::array();
+  for (int entries : o.segments) {
+    m.set_raster_segment_entries(entries);
+    const nlohmann::json p = report(time_steps(m, o.steps, false), o.steps);
+    const nlohmann::json f = report(time_steps(m, o.steps, true), o.steps);
+    std::printf("segment_entries %d:\n", entries);
+    print("plain", p);
+    print("profiled", f);
+    by_segment.push_back({{"segment_entries", entries}, {"plain", p}, {"profiled", f}});
+  }
   if (!o.json.empty()) {
     nlohmann::json out = {{"device", m.device()},
                           {"width", o.width},
@@ -235,7 +285,8 @@ int run(const Options& o) {
                           {"keyframes", m.keyframes().size()},
                           {"map_gaussians", m.total_gaussians()},
                           {"plain", plain},
-                          {"profiled", profiled}};
+                          {"profiled", profiled},
+                          {"by_segment_entries", by_segment}};
     std::ofstream(o.json) << out.dump(1) << "\n";
   }
   m.checkpoint({});  // a folder the mapper can close cleanly (it rolls back to the last checkpoint)

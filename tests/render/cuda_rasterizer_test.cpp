@@ -3,8 +3,6 @@
 #ifdef CHUNGS_WITH_CUDA
 #include <gtest/gtest.h>
 
-#include "test_support.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +13,7 @@
 #include "chungs/render/cuda/rasterizer.hpp"
 #include "cuda_test_support.hpp"
 #include "random_scene.hpp"
+#include "test_support.hpp"
 
 namespace chungs {
 namespace {
@@ -165,6 +164,36 @@ RenderGrads<double> random_grads(int w, int h, unsigned seed) {
 
 std::vector<float> to_float(const std::vector<double>& v) { return std::vector<float>(v.begin(), v.end()); }
 
+// The largest difference of any pixel's colour or alpha.
+double largest_difference(const RenderOutput<float>& got, const RenderOutput<double>& want) {
+  double worst = 0;
+  for (size_t i = 0; i < want.rgb.vec().size(); ++i)
+    worst = std::max(worst, std::abs(double(got.rgb.vec()[i]) - want.rgb.vec()[i]));
+  for (size_t i = 0; i < want.alpha.vec().size(); ++i)
+    worst = std::max(worst, std::abs(double(got.alpha.vec()[i]) - want.alpha.vec()[i]));
+  return worst;
+}
+
+// The GPU's gradients for loss gradients dl of its last forward.
+GaussianGrads<float> gpu_backward(cuda::CudaRasterizer& gpu, const RenderGrads<double>& dl) {
+  const cuda::DeviceArray<float> drgb(to_float(dl.rgb.vec())), ddepth(to_float(dl.depth.vec())),
+      dinv(to_float(dl.inv_depth.vec())), dalpha(to_float(dl.alpha.vec()));
+  gpu.backward({drgb.data(), ddepth.data(), dinv.data(), dalpha.data()});
+  GaussianGrads<float> got;
+  gpu.download(got);
+  return got;
+}
+
+// Each gradient array within 1e-3 of the float64 reference (relative, norm over the array).
+void expect_grads_match(const GaussianGrads<float>& got, const GaussianGrads<double>& ref) {
+  const double e[5] = {rel_error(got.mean, ref.mean), rel_error(got.log_scale, ref.log_scale),
+                       rel_error(got.rotation, ref.rotation), rel_error(got.opacity, ref.opacity),
+                       rel_error(got.sh, ref.sh)};
+  std::printf("relative error d/dmean %.2e d/dlog_scale %.2e d/drotation %.2e d/dopacity %.2e d/dsh %.2e\n", e[0],
+              e[1], e[2], e[3], e[4]);
+  for (double v : e) EXPECT_LT(v, 1e-3);
+}
+
 TEST(CudaRasterizer, GradientsMatchFloat64CpuTwin) {
   CHUNGS_REQUIRE_GPU();
   cuda::CudaRasterizer gpu;
@@ -187,17 +216,7 @@ TEST(CudaRasterizer, GradientsMatchFloat64CpuTwin) {
     const DeviceScene dg(scene.g.cast<float>());
     const cuda::DeviceArray<uint32_t> dids(ids);
     gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose));
-    const cuda::DeviceArray<float> drgb(to_float(dl.rgb.vec())), ddepth(to_float(dl.depth.vec())),
-        dinv(to_float(dl.inv_depth.vec())), dalpha(to_float(dl.alpha.vec()));
-    gpu.backward({drgb.data(), ddepth.data(), dinv.data(), dalpha.data()});
-    GaussianGrads<float> got;
-    gpu.download(got);
-    const double e[5] = {rel_error(got.mean, ref.mean), rel_error(got.log_scale, ref.log_scale),
-                         rel_error(got.rotation, ref.rotation), rel_error(got.opacity, ref.opacity),
-                         rel_error(got.sh, ref.sh)};
-    std::printf("relative error d/dmean %.2e d/dlog_scale %.2e d/drotation %.2e d/dopacity %.2e d/dsh %.2e\n",
-                e[0], e[1], e[2], e[3], e[4]);
-    for (double v : e) EXPECT_LT(v, 1e-3);
+    expect_grads_match(gpu_backward(gpu, dl), ref);
   }
 }
 
@@ -224,18 +243,9 @@ TEST(CudaRasterizer, SmallSplatsMatchTheCpuTwinAtEveryPixelAndGaussian) {
   gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose));
   RenderOutput<float> got;
   gpu.download(got);
-  double worst = 0;
-  for (size_t i = 0; i < want.rgb.vec().size(); ++i)
-    worst = std::max(worst, std::abs(double(got.rgb.vec()[i]) - want.rgb.vec()[i]));
-  for (size_t i = 0; i < want.alpha.vec().size(); ++i)
-    worst = std::max(worst, std::abs(double(got.alpha.vec()[i]) - want.alpha.vec()[i]));
-  EXPECT_LT(worst, 2e-3) << "largest difference of a pixel's colour or alpha";
+  EXPECT_LT(largest_difference(got, want), 2e-3) << "largest difference of a pixel's colour or alpha";
 
-  const cuda::DeviceArray<float> drgb(to_float(dl.rgb.vec())), ddepth(to_float(dl.depth.vec())),
-      dinv(to_float(dl.inv_depth.vec())), dalpha(to_float(dl.alpha.vec()));
-  gpu.backward({drgb.data(), ddepth.data(), dinv.data(), dalpha.data()});
-  GaussianGrads<float> grads;
-  gpu.download(grads);
+  const GaussianGrads<float> grads = gpu_backward(gpu, dl);
   // Per Gaussian: its opacity and colour (degree 0) gradients within 1 % of the largest of their kind.
   const auto each = [&](const std::vector<float>& a, const std::vector<double>& b, size_t stride,
                         size_t count, const char* what) {
@@ -251,6 +261,47 @@ TEST(CudaRasterizer, SmallSplatsMatchTheCpuTwinAtEveryPixelAndGaussian) {
   each(grads.opacity, ref.opacity, 1, 1, "d/dopacity");
   each(grads.sh, ref.sh, kShFloats, 3, "d/dsh (degree 0)");
   each(grads.mean, ref.mean, 3, 3, "d/dmean");
+}
+
+// Crowded tiles composited in segments by several blocks (RasterConfig::segment_entries): the images and
+// gradients are those of one block a tile, against the float64 CPU twin, with the transmittance stop
+// falling inside later segments (the default config) and without it (the smooth one), and with segments
+// short enough that most tiles are cut into many.
+TEST(CudaRasterizer, CrowdedTilesInSegmentsMatchTheCpuTwin) {
+  CHUNGS_REQUIRE_GPU();
+  cuda::CudaRasterizer gpu;
+  for (unsigned seed = 41; seed <= 44; ++seed) {
+    SCOPED_TRACE(seed);
+    const int n = 3000, w = 97, h = 70;
+    const auto scene = test::make_random_scene(seed, n, w, h);
+    RasterConfig cfg = seed == 42 ? smooth_raster_config() : RasterConfig{};
+    cfg.segment_entries = seed == 43 ? 300 : 32;
+    if (seed == 44) cfg.background = {0.3, 0.1, 0.6};
+    const auto ids = sparse_ids(size_t(n) * 4 / 5, size_t(n), seed);
+    const auto cam64 = make_render_camera<double>(scene.camera, scene.pose);
+    CpuRasterizer<double> cpu(cfg);
+    const RenderOutput<double> want = cpu.forward(scene.g.view(), ids, cam64);
+    const auto dl = random_grads(w, h, seed);
+    GaussianGrads<double> ref;
+    cpu.backward(dl, ref);
+
+    gpu.set_config(cfg);
+    const DeviceScene dg(scene.g.cast<float>());
+    const cuda::DeviceArray<uint32_t> dids(ids);
+    gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose));
+    const size_t tiles = size_t((w + 15) / 16) * size_t((h + 15) / 16);
+    EXPECT_GT(gpu.split_items(), seed == 43 ? size_t(0) : 2 * tiles)
+        << "the tiles were not cut into segments";
+    RenderOutput<float> got;
+    gpu.download(got);
+    EXPECT_LT(largest_difference(got, want), 2e-3) << "largest difference of a pixel's colour or alpha";
+    EXPECT_LT(rel_error(got.depth.vec(), want.depth.vec()), 1e-4);
+    size_t same = 0;
+    for (size_t i = 0; i < got.top_id.vec().size(); ++i) same += got.top_id.vec()[i] == want.top_id.vec()[i];
+    EXPECT_GE(double(same), 0.995 * double(got.top_id.vec().size()));
+
+    expect_grads_match(gpu_backward(gpu, dl), ref);
+  }
 }
 
 TEST(CudaRasterizer, MissingGradientImagesCountAsZero) {

@@ -74,6 +74,19 @@ TEST(RasterConfig, TheLowPassKeepsItsAngleOnSmallImages) {
   }
 }
 
+TEST(RasterConfig, SegmentEntriesAreOffOrAWorkableRun) {
+  for (int good : {0, 32, 2048, 1 << 24}) {
+    RasterConfig c;
+    c.segment_entries = good;
+    EXPECT_NO_THROW(c.validate()) << good;
+  }
+  for (int bad : {-1, 1, 31, (1 << 24) + 1}) {
+    RasterConfig c;
+    c.segment_entries = bad;
+    EXPECT_THROW(c.validate(), Error) << bad;
+  }
+}
+
 TEST(RasterForward, SingleGaussianFollowsClosedFormAtIntegerPixelCentres) {
   const Camera cam(40, 30, 50, 60, 13.25, 17.5);
   test::SceneArrays<double> g;

@@ -71,6 +71,8 @@ void fields(V& v, RasterConfig& c) {
   v("guard_band", c.guard_band, "");
   v("sh_degree", c.sh_degree, "");
   v("background", c.background, "RGB behind the splats");
+  v("segment_entries", c.segment_entries,
+    "GPU: tiles with more entries are composited in segments of this many (0: off)");
 }
 template <class V>
 void fields(V& v, LossConfig& c) {

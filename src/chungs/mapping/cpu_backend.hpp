@@ -22,6 +22,7 @@ class CpuOptimBackend final : public OptimBackend {
   void set_sky(const SkyTexture& sky, double lr) override;
   std::optional<SkyTexture> sky() const override { return sky_; }
   void set_profiling(bool on) override { clock_.set_on(on); }
+  void set_raster_config(const RasterConfig& raster) override { raster_.set_config(raster); }
   const StepPhaseTimes& phase_times() const override { return clock_.times(); }
 
  private:

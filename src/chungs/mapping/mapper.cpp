@@ -381,6 +381,14 @@ void Mapper::resample(const KeyframeRecord& kf) {
               loads_cores() ? &core_chunks_of(kf) : nullptr);
 }
 
+void Mapper::set_raster_segment_entries(int entries) {
+  RasterConfig c = config_.raster;
+  c.segment_entries = entries;
+  c.validate();
+  config_.raster = c;
+  backend_->set_raster_config(c);
+}
+
 double Mapper::rate_steps_per_keyframe() const {
   // Under fixed pacing every keyframe gets the configured steps; in real time the steps the recent
   // keyframes got (none measured yet: the rates as given).

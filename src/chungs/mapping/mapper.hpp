@@ -149,6 +149,8 @@ class Mapper {
   const StepTimes& step_times() const { return step_times_; }
   // The backend's per-phase timings (optim_backend.hpp), for benchmarks: on costs a device wait a step.
   void set_step_profiling(bool on) { backend_->set_profiling(on); }
+  // Only the GPU's segment_entries, for benchmarks: the rest shapes the map and stays as configured.
+  void set_raster_segment_entries(int entries);
   const StepPhaseTimes& step_phase_times() const { return backend_->phase_times(); }
   // Where add_keyframe's time went (sums): the sampler's render and acceptance map, drawing the new
   // Gaussians, handing them to residency.

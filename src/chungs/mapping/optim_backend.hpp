@@ -39,8 +39,18 @@ struct StepPhaseTimes {
                                                "sky",     "backward", "adam", "prune"};
   uint64_t steps = 0;
   double host_ms[count] = {}, device_ms[count] = {};
-  double host_total_ms = 0;    // the whole step() call
-  double device_span_ms = 0;   // first boundary to last on the device
+  double host_total_ms = 0;   // the whole step() call
+  double device_span_ms = 0;  // first boundary to last on the device
+  // The GPU rasterizer's stages inside forward and backward (device ms; zero on the CPU): where the two
+  // largest phases go as the view fills (projection, the depth and tile sorts, compositing).
+  enum Stage { preprocess, sort, composite, composite_backward, project_backward, stage_count };
+  static constexpr const char* stage_names[stage_count] = {"preprocess", "sort", "composite",
+                                                           "composite_backward", "project_backward"};
+  double stage_ms[stage_count] = {};
+  double tile_entries = 0;  // (tile, Gaussian) pairs rendered, summed over the steps
+  // The most crowded tile's entries and the 1 % most crowded tiles' share of all entries, summed over
+  // the steps: one block walks a tile, so a few crowded tiles can hold up the whole composite.
+  double largest_tile = 0, top_percent_share = 0;
 };
 
 class OptimBackend {
@@ -78,6 +88,8 @@ class OptimBackend {
   virtual std::optional<DeviceMemory> device_memory() const { return std::nullopt; }
   // Phase timings of the steps taken while on (see StepPhaseTimes); switching on clears them.
   virtual void set_profiling(bool on) = 0;
+  // The rasterizer's settings from the next render or step on (e.g. to time segment_entries).
+  virtual void set_raster_config(const RasterConfig& raster) = 0;
   virtual const StepPhaseTimes& phase_times() const = 0;
 };
 

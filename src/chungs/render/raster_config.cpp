@@ -21,6 +21,8 @@ void RasterConfig::validate() const {
     fail("raster config: extent_sigma must be > 0, got ", extent_sigma);
   if (!(guard_band >= 1) || !std::isfinite(guard_band))
     fail("raster config: guard_band must be >= 1, got ", guard_band);
+  if (segment_entries != 0 && (segment_entries < 32 || segment_entries > (1 << 24)))
+    fail("raster config: segment_entries must be 0 (off) or in [32, 16777216], got ", segment_entries);
   if (sh_degree < 0 || sh_degree > 3) fail("raster config: sh_degree must be 0..3, got ", sh_degree);
   for (double b : background)
     if (!std::isfinite(b)) fail("raster config: background colour must be finite");

@@ -24,6 +24,10 @@ struct RasterConfig {
   double guard_band = 1.3;
   int sh_degree = 3;                                // SH bands evaluated, 0..3
   std::array<double, 3> background{0.0, 0.0, 0.0};  // RGB composited behind the splats
+  // GPU only: a tile with more (tile, splat) entries than this is composited in segments of this many, one
+  // block each, so that a crowded tile does not hold up the whole image; 0: one block a tile. The
+  // segments change the image only by float rounding.
+  int segment_entries = 512;
 
   // Throws Error naming the bad field when a value is out of its range.
   void validate() const;

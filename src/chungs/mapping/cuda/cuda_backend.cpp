@@ -36,6 +36,7 @@ const DeviceRenderOutput& CudaOptimBackend::forward(std::span<const uint32_t> sl
 
 void CudaOptimBackend::set_profiling(bool on) {
   clock_.set_on(on);
+  raster_.enable_timings(on);
   if (on && !events_) events_ = std::make_unique<BoundaryEvents>(int(StepPhaseTimes::count) + 1);
 }
 
@@ -58,6 +59,12 @@ void CudaOptimBackend::end_phases() {
   StepPhaseTimes& t = clock_.times();
   for (size_t i = 0; i < marked_.size(); ++i) t.device_ms[marked_[i]] += events_->elapsed_ms(int(i), int(i) + 1);
   if (!marked_.empty()) t.device_span_ms += events_->elapsed_ms(0, int(marked_.size()));
+  const cuda::CudaRasterTimings r = raster_.timings();
+  const double stages[StepPhaseTimes::stage_count] = {r.preprocess, r.sort, r.composite, r.composite_backward,
+                                                      r.project_backward};
+  for (int i = 0; i < StepPhaseTimes::stage_count; ++i) t.stage_ms[i] += stages[i];
+  t.tile_entries += double(raster_.tile_entries());
+  t.largest_tile += double(r.largest_tile), t.top_percent_share += r.top_percent_share;
   clock_.end();
 }
 

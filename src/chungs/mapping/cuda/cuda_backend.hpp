@@ -35,6 +35,7 @@ class CudaOptimBackend final : public OptimBackend {
   void set_sky(const SkyTexture& sky, double lr) override;
   std::optional<SkyTexture> sky() const override;
   void set_profiling(bool on) override;
+  void set_raster_config(const RasterConfig& raster) override { raster_.set_config(raster); }
   const StepPhaseTimes& phase_times() const override { return clock_.times(); }
 
  private:

@@ -1,9 +1,11 @@
 // Per-tile compositing, forward and backward (twin of cpu/composite_forward.cpp and
 // cpu/composite_backward.cpp). One block per 16x16 tile (forward: 256 threads, one per pixel;
 // backward: 128, two pixels each); the tile's splats are staged through shared memory in batches.
-// Block b takes tile order[b]: the rasterizer orders tiles by their entries, most first. A KITTI
-// view needs about two waves of blocks, and a crowded tile started in the second wave had left most
-// SMs idle at the end (achieved occupancy 30 % of a theoretical 50 % in the backward). The
+// Block b takes work item b: tiles ordered by their entries, most first, and a tile of more than
+// RasterConfig::segment_entries cut into segments of its own blocks (TileSegments, tile_segments.cu). A
+// KITTI view needs about two waves of blocks, and a crowded tile started in the second wave had left most
+// SMs idle at the end (achieved occupancy 30 % of a theoretical 50 % in the backward); a tile of 19 k
+// entries on a dense street took 1.7 ms of forward and 3 ms of backward in its one block. The
 // Gaussian falloff uses the fast exponential (relative error ~1e-7 over the exponents that pass the alpha
 // cut-off).
 // Most splats are a few pixels wide, so a warp's 8x4 (backward 8x8) pixels lie outside most of its
@@ -64,13 +66,23 @@ __device__ __forceinline__ uint32_t reaching(const Batch& sm, int g, int m, int 
   return __ballot_sync(0xffffffffu, g + lane < m && ((sm.warps[g + lane] >> warp) & 1));
 }
 
+// One segment of a tile (the whole tile when it is not split). kProduct: the first pass over a split tile's
+// segments but its last, which only multiplies its pixels' (1 - alpha) until they stop; otherwise the
+// composite itself, from the transmittance the segments before it left, into the images (a tile of one
+// segment) or into the segment's partial sums.
+template <bool kProduct>
 __global__ void __launch_bounds__(kBlock)
-    forward_kernel(const uint2* __restrict__ ranges, const uint32_t* __restrict__ order,
-                   const uint32_t* __restrict__ list, SplatData s, const uint32_t* __restrict__ ids, int W, int H,
-                   RasterConsts k, ForwardImages out) {
+    forward_kernel(const uint2* __restrict__ ranges, TileSegments ts, const uint32_t* __restrict__ list,
+                   SplatData s, const uint32_t* __restrict__ ids, int W, int H, RasterConsts k,
+                   ForwardImages out) {
   __shared__ Batch sm;
+  const uint32_t ib = blockIdx.x;
+  if (ib >= ts.counts[kProduct ? 1 : 0]) return;
+  const uint4 item = ts.items[ib];
+  const uint32_t seg = item.y, nseg = item.z;
+  if (kProduct && seg + 1 >= nseg) return;  // the last segment's product is nobody's start
   const int tiles_x = (W + kTileSize - 1) / kTileSize;
-  const int tile = int(order[blockIdx.x]);
+  const int tile = int(item.x);
   int lx, ly;
   pixel_of_thread(threadIdx.x, lx, ly);
   const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;  // the tile's first pixel
@@ -78,18 +90,24 @@ __global__ void __launch_bounds__(kBlock)
   const bool inside = x < W && y < H;
   const float fx = float(x), fy = float(y);
   const uint2 range = ranges[tile];
+  const uint32_t begin = range.x + seg * ts.segment;
+  const uint32_t end = nseg == 1 ? range.y : min(range.y, begin + ts.segment);
 
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
 
   float T = 1.f, acc[5] = {0, 0, 0, 0, 0}, best_w = 0.f;
+  if (!kProduct)
+    for (uint32_t i = 0; i < seg; ++i)
+      T *= ts.seg[(size_t(ib - seg + i) * kSegmentValues + seg_product) * kBlock + threadIdx.x];
   int best = -1;
   uint32_t cnt = 0;
-  bool done = !inside;
-  for (uint32_t base = range.x; base < range.y; base += kBlock) {
+  // Below min_T at the start: a segment before this one stopped the pixel.
+  bool done = !inside || T < k.min_T;
+  for (uint32_t base = begin; base < end; base += kBlock) {
     if (__syncthreads_count(done) == kBlock) break;
-    load_batch<8, 4>(sm, list, s, base, range.y, x0, y0);
+    load_batch<8, 4>(sm, list, s, base, end, x0, y0);
     __syncthreads();
-    const int m = min(kBlock, int(range.y - base));
+    const int m = min(kBlock, int(end - base));
     for (int g0 = 0; g0 < m; g0 += 32) {
       if (__all_sync(0xffffffffu, done)) break;
       for (uint32_t bits = reaching(sm, g0, m, warp, lane); bits; bits &= bits - 1) {
@@ -101,29 +119,41 @@ __global__ void __launch_bounds__(kBlock)
         if (!(power >= a.w)) continue;
         const float alpha = fminf(k.alpha_max, a.z * __expf(power));
         const float nT = T * (1.f - alpha);
-        if (nT < k.min_T) {
-          done = true;
-          continue;
+        if constexpr (kProduct) {
+          // The stopping splat is in the product: the segments after it start below min_T.
+          T = nT;
+          done = nT < k.min_T;
+        } else {
+          if (nT < k.min_T) {
+            done = true;
+            continue;
+          }
+          const float w = alpha * T;
+          const float4 c = sm.c[i];
+          acc[0] += w * c.x, acc[1] += w * c.y, acc[2] += w * c.z, acc[3] += w * b.w, acc[4] += w * c.w;
+          T = nT;
+          if (w > best_w) best_w = w, best = int(sm.j[i]);
+          cnt = base - range.x + i + 1;
         }
-        const float w = alpha * T;
-        const float4 c = sm.c[i];
-        acc[0] += w * c.x, acc[1] += w * c.y, acc[2] += w * c.z, acc[3] += w * b.w, acc[4] += w * c.w;
-        T = nT;
-        if (w > best_w) best_w = w, best = int(sm.j[i]);
-        cnt = base - range.x + i + 1;
       }
     }
   }
-  if (!inside) return;
-  const size_t p = size_t(y) * W + x;
-  out.rgb[3 * p] = acc[0] + T * k.bg[0];
-  out.rgb[3 * p + 1] = acc[1] + T * k.bg[1];
-  out.rgb[3 * p + 2] = acc[2] + T * k.bg[2];
-  out.depth[p] = acc[3];
-  out.inv_depth[p] = acc[4];
-  out.alpha[p] = 1.f - T;
-  out.top_id[p] = best < 0 ? kNoGaussian : ids[best];
-  out.last[p] = cnt;
+  if (kProduct || nseg > 1) {
+    float* const mine = ts.seg + size_t(ib) * kSegmentValues * kBlock + threadIdx.x;
+    if constexpr (kProduct) {
+      mine[seg_product * kBlock] = T;
+    } else {
+#pragma unroll
+      for (int c = 0; c < 5; ++c) mine[(seg_acc + c) * kBlock] = acc[c];
+      mine[seg_T * kBlock] = T;
+      mine[seg_best_w * kBlock] = best_w;
+      mine[seg_best * kBlock] = __int_as_float(best);
+      mine[seg_count * kBlock] = __uint_as_float(cnt);
+      mine[seg_done * kBlock] = done && inside ? 1.f : 0.f;
+    }
+    return;
+  }
+  if (inside) write_pixel(out, size_t(y) * W + x, acc, T, best, cnt, ids, k.bg);
 }
 
 // Sums N values over the warp in log2(32) shuffle rounds that each halve the values a lane holds
@@ -163,16 +193,20 @@ __device__ __forceinline__ int reduced_index(int lane) {
 // reduces its gradient once for 32 P pixels.
 template <int P>
 __global__ void __launch_bounds__(kBlock / P)
-    backward_kernel(const uint2* __restrict__ ranges, const uint32_t* __restrict__ order,
-                    const uint32_t* __restrict__ list, SplatData s, int W, int H, RasterConsts k, const float* __restrict__ rgb, const float* __restrict__ depth,
-                    const float* __restrict__ inv_depth, const float* __restrict__ alpha_img,
-                    const uint32_t* __restrict__ last, DeviceRenderGrads dl,
-                    float* __restrict__ splat_grads) {
+    backward_kernel(const uint2* __restrict__ ranges, TileSegments ts, const uint32_t* __restrict__ list,
+                    SplatData s, int W, int H, RasterConsts k, const float* __restrict__ rgb,
+                    const float* __restrict__ depth, const float* __restrict__ inv_depth,
+                    const float* __restrict__ alpha_img, const uint32_t* __restrict__ last,
+                    DeviceRenderGrads dl, float* __restrict__ splat_grads) {
   constexpr int kThreads = kBlock / P;
   __shared__ Batch sm;
   __shared__ uint32_t max_stop;
+  const uint32_t ib = blockIdx.x;
+  if (ib >= ts.counts[0]) return;
+  const uint4 item = ts.items[ib];
+  const uint32_t seg = item.y, nseg = item.z;
   const int tiles_x = (W + kTileSize - 1) / kTileSize;
-  const int tile = int(order[blockIdx.x]);
+  const int tile = int(item.x);
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
   const int lx = (warp & 1) * 8 + (lane & 7), ly0 = (warp >> 1) * 4 * P + (lane >> 3);
   const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;  // the tile's first pixel
@@ -218,17 +252,34 @@ __global__ void __launch_bounds__(kBlock / P)
   if (my_stop > 0) atomicMax(&max_stop, my_stop);
   __syncthreads();
   const uint2 range = ranges[tile];
-  const uint32_t end = range.x + max_stop;
+  const uint32_t begin = range.x + seg * ts.segment;
+  const uint32_t end = min(range.x + max_stop, nseg == 1 ? range.y : min(range.y, begin + ts.segment));
+  if (begin >= end) return;  // block-uniform: no pixel walked this far
+  if (seg > 0) {
+    // A later segment of a split tile starts where the forward's segments before it left its pixels:
+    // T is their products, and Q has lost what they composited (sum_c g_c C_c of each).
+#pragma unroll
+    for (int q = 0; q < P; ++q) {
+      const float* v = ts.seg + thread_of_pixel(lx, ly0 + 4 * q);
+      for (uint32_t i = 0; i < seg; ++i) {
+        const float* before = v + size_t(ib - seg + i) * kSegmentValues * kBlock;
+        T[q] *= before[seg_product * kBlock];
+#pragma unroll
+        for (int c = 0; c < 5; ++c) Q[q] -= g[q][c] * before[(seg_acc + c) * kBlock];
+      }
+    }
+  }
   // Entries past the last one any pixel of this warp walked need no work from the warp.
   uint32_t warp_stop = my_stop;
 #pragma unroll
   for (int o = 16; o > 0; o >>= 1) warp_stop = max(warp_stop, __shfl_xor_sync(0xffffffffu, warp_stop, o));
+  const uint32_t warp_end = min(end, range.x + warp_stop);
 
-  for (uint32_t base = range.x; base < end; base += kThreads) {
+  for (uint32_t base = begin; base < end; base += kThreads) {
     __syncthreads();  // the previous batch is consumed
     load_batch<kThreads / 32, 4 * P>(sm, list, s, base, end, x0, y0);
     __syncthreads();
-    const int m = min(kThreads, int(range.x + warp_stop) - int(base));
+    const int m = min(kThreads, int(warp_end) - int(base));
     for (int g0 = 0; g0 < m; g0 += 32) {
       for (uint32_t bits = reaching(sm, g0, m, warp, lane); bits; bits &= bits - 1) {
         const int i = g0 + __ffs(bits) - 1;
@@ -286,24 +337,24 @@ __global__ void __launch_bounds__(kBlock / P)
 
 }  // namespace
 
-void composite_forward(const uint2* ranges, const uint32_t* order, const uint32_t* list, SplatData s,
+void composite_forward(const uint2* ranges, const TileSegments& t, const uint32_t* list, SplatData s,
                        const uint32_t* ids, int width, int height, const RasterConsts& k, ForwardImages out,
                        cudaStream_t stream) {
-  const int tiles = ((width + kTileSize - 1) / kTileSize) * ((height + kTileSize - 1) / kTileSize);
-  forward_kernel<<<tiles, kBlock, 0, stream>>>(ranges, order, list, s, ids, width, height, k, out);
+  if (t.split_grid > 0)  // the split tiles' segment products (blocks past the split items return at once)
+    forward_kernel<true><<<t.split_grid, kBlock, 0, stream>>>(ranges, t, list, s, ids, width, height, k, out);
+  forward_kernel<false><<<t.grid, kBlock, 0, stream>>>(ranges, t, list, s, ids, width, height, k, out);
+  if (t.split_grid > 0) merge_tile_segments(t, ids, width, height, k, out, stream);
 }
 
-void composite_backward(const uint2* ranges, const uint32_t* order, const uint32_t* list, SplatData s, int width,
-                        int height,
-                        const RasterConsts& k, const float* rgb, const float* depth, const float* inv_depth,
-                        const float* alpha, const uint32_t* last, const DeviceRenderGrads& dl,
-                        float* splat_grads, cudaStream_t stream) {
-  const int tiles = ((width + kTileSize - 1) / kTileSize) * ((height + kTileSize - 1) / kTileSize);
+void composite_backward(const uint2* ranges, const TileSegments& t, const uint32_t* list, SplatData s,
+                        int width, int height, const RasterConsts& k, const float* rgb, const float* depth,
+                        const float* inv_depth, const float* alpha, const uint32_t* last,
+                        const DeviceRenderGrads& dl, float* splat_grads, cudaStream_t stream) {
   // 2 pixels per thread measured 1-3 % faster forward + backward than 1 on every benchmark case, and
   // steadier than 4 (H100, bench/README.md).
   constexpr int kPixels = 2;
-  backward_kernel<kPixels><<<tiles, kBlock / kPixels, 0, stream>>>(
-      ranges, order, list, s, width, height, k, rgb, depth, inv_depth, alpha, last, dl, splat_grads);
+  backward_kernel<kPixels><<<t.grid, kBlock / kPixels, 0, stream>>>(
+      ranges, t, list, s, width, height, k, rgb, depth, inv_depth, alpha, last, dl, splat_grads);
 }
 
 }  // namespace chungs::cuda::detail

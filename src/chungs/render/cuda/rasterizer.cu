@@ -1,9 +1,12 @@
 // Forward orchestration of the CUDA rasterizer: per-Gaussian projection, depth sort, tile-entry
 // emission in depth order, stable sort by tile, tile ranges, then the compositing (composite.cu).
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_scan.cuh>
+#include <numeric>
+#include <vector>
 
 #include "chungs/common/error.hpp"
 #include "chungs/render/cuda/device_buffer.hpp"
@@ -189,8 +192,9 @@ struct CudaRasterizer::State {
   RasterConfig config;
   RasterConsts consts;
   bool timing = false;
-  CudaRasterTimings timings;
-  cudaEvent_t ev[4] = {};
+  // ev[0..3]: the forward's stage boundaries, ev[4..6] the backward's; timed_*: recorded with timing on.
+  cudaEvent_t ev[7] = {};
+  bool timed_forward = false, timed_backward = false;
   cudaStream_t stream = nullptr;  // legacy default stream
   // Last forward.
   bool have_forward = false;
@@ -212,6 +216,11 @@ struct CudaRasterizer::State {
   DeviceArray<uint32_t> keys, keys_sorted, vals, vals_sorted;
   DeviceArray<uint2> ranges;
   DeviceArray<uint32_t> tile_work, tile_work_sorted, tile_ids, tile_order;  // most entries first
+  // Crowded tiles in segments (kernels.cuh): per tile, per work item, per split item's pixel.
+  DeviceArray<uint32_t> tile_segments, tile_first_item, item_counts;
+  DeviceArray<uint4> items;
+  DeviceArray<float> segment_values;
+  TileSegments segments{};
   DeviceArray<float> rgb, depth, inv_depth, alpha;
   DeviceArray<uint32_t> top_id, last;
   DeviceBytes temp;
@@ -226,6 +235,7 @@ struct CudaRasterizer::State {
     check(cudaEventCreateWithFlags(&counted, cudaEventDisableTiming), "cudaEventCreate");
     check(cudaMallocHost(&host_flags, 4 * sizeof(uint32_t)), "cudaMallocHost");
     flags.resize(4);
+    item_counts.resize(2);
   }
   ~State() {
     for (auto& e : ev) cudaEventDestroy(e);
@@ -235,7 +245,7 @@ struct CudaRasterizer::State {
   void mark(int i) {
     if (timing) check(cudaEventRecord(ev[i], stream), "cudaEventRecord");
   }
-  double elapsed(int i0, int i1) {
+  double elapsed(int i0, int i1) const {
     float ms = 0;
     check(cudaEventSynchronize(ev[i1]), "cudaEventSynchronize");
     check(cudaEventElapsedTime(&ms, ev[i0], ev[i1]), "cudaEventElapsedTime");
@@ -261,8 +271,34 @@ void CudaRasterizer::set_config(const RasterConfig& config) {
 }
 void CudaRasterizer::enable_timings(bool on) { s_->timing = on; }
 const DeviceRenderOutput& CudaRasterizer::output() const { return s_->out; }
-const CudaRasterTimings& CudaRasterizer::timings() const { return s_->timings; }
+CudaRasterTimings CudaRasterizer::timings() const {
+  const State& s = *s_;
+  CudaRasterTimings t;
+  if (s.timed_forward) {
+    t.preprocess = s.elapsed(0, 1), t.sort = s.elapsed(1, 2), t.composite = s.elapsed(2, 3);
+    std::vector<uint2> ranges;
+    s.ranges.download(ranges);
+    std::vector<uint32_t> counts;
+    for (const uint2& r : ranges) counts.push_back(r.y - r.x);
+    std::sort(counts.begin(), counts.end(), std::greater<>());
+    if (!counts.empty() && s.total > 0) {
+      t.largest_tile = counts[0];
+      const size_t top = std::max<size_t>(1, counts.size() / 100);
+      t.top_percent_share =
+          double(std::accumulate(counts.begin(), counts.begin() + top, uint64_t(0))) / s.total;
+    }
+  }
+  if (s.timed_backward) t.composite_backward = s.elapsed(4, 5), t.project_backward = s.elapsed(5, 6);
+  return t;
+}
 size_t CudaRasterizer::tile_entries() const { return s_->total; }
+size_t CudaRasterizer::split_items() const {
+  if (!s_->have_forward) return 0;
+  uint32_t counts[2] = {0, 0};
+  check(cudaMemcpy(counts, s_->item_counts.data(), sizeof counts, cudaMemcpyDeviceToHost),
+        "copy item counts");
+  return counts[1];
+}
 
 const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g, const uint32_t* ids,
                                                   size_t n, const RenderCamera<float>& cam) {
@@ -289,7 +325,9 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
   const size_t npix = size_t(W) * H;
   s.rgb.resize(3 * npix), s.depth.resize(npix), s.inv_depth.resize(npix), s.alpha.resize(npix);
   s.top_id.resize(npix), s.last.resize(npix), s.ranges.resize(ntiles);
-  for (auto* arr : {&s.tile_work, &s.tile_work_sorted, &s.tile_ids, &s.tile_order}) arr->resize(ntiles);
+  for (auto* arr :
+       {&s.tile_work, &s.tile_work_sorted, &s.tile_ids, &s.tile_order, &s.tile_segments, &s.tile_first_item})
+    arr->resize(ntiles);
   for (auto* arr : {&s.tiles, &s.zkey, &s.zkey_sorted, &s.order, &s.order_sorted, &s.ends}) arr->resize(n);
   s.a.resize(n), s.b.resize(n), s.c.resize(n), s.rect.resize(n), s.radius.resize(n), s.visible.resize(n);
   cudaStream_t st = s.stream;
@@ -366,19 +404,35 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
                                                     s.tile_order.data(), int(ntiles), 0, bits, st),
           "tile order");
   }
+  {
+    // Work items: tiles, the crowded ones cut into segments. A tile of e entries makes ceil(e / segment)
+    // items, so all items number at most tiles + total / segment, and those of split tiles (e > segment)
+    // at most 2 total / segment.
+    const uint32_t segment = uint32_t(s.config.segment_entries);
+    const uint32_t per = segment > 0 ? total / segment : 0;
+    s.segments.segment = segment;
+    s.segments.grid = ntiles + per;
+    s.segments.split_grid = 2 * per;
+    s.items.resize(s.segments.grid);
+    s.segment_values.resize(size_t(s.segments.split_grid) * kSegmentValues * kBlock);
+    const size_t bytes = tile_segments_scratch_bytes(ntiles);
+    build_tile_segments(s.ranges.data(), ntiles, segment, s.tile_order.data(), s.tile_segments.data(),
+                        s.tile_first_item.data(), s.items.data(), s.item_counts.data(), s.scratch(bytes),
+                        bytes, st);
+    check(cudaGetLastError(), "tile segments");
+    s.segments.items = s.items.data();
+    s.segments.counts = s.item_counts.data();
+    s.segments.seg = s.segment_values.data();
+  }
   s.mark(2);
-  composite_forward(s.ranges.data(), s.tile_order.data(), s.vals_sorted.data(), SplatData{s.a.data(), s.b.data(), s.c.data()}, ids,
-                    W, H, s.consts,
+  composite_forward(s.ranges.data(), s.segments, s.vals_sorted.data(),
+                    SplatData{s.a.data(), s.b.data(), s.c.data()}, ids, W, H, s.consts,
                     ForwardImages{s.rgb.data(), s.depth.data(), s.inv_depth.data(), s.alpha.data(),
                                   s.top_id.data(), s.last.data()},
                     st);
   check(cudaGetLastError(), "composite launch");
   s.mark(3);
-  if (s.timing) {
-    s.timings.preprocess = s.elapsed(0, 1);
-    s.timings.sort = s.elapsed(1, 2);
-    s.timings.composite = s.elapsed(2, 3);
-  }
+  s.timed_forward = s.timing, s.timed_backward = false;
   s.out = DeviceRenderOutput{W,
                              H,
                              n,
@@ -403,22 +457,20 @@ const DeviceGaussianGrads& CudaRasterizer::backward(const DeviceRenderGrads& dlo
   s.g_sh.resize(size_t(kShFloats) * n);
   s.grads =
       DeviceGaussianGrads{n, s.g_mean.data(), s.g_scale.data(), s.g_rot.data(), s.g_op.data(), s.g_sh.data()};
-  s.mark(0);
+  s.mark(4);
   if (n > 0) check(cudaMemsetAsync(s.splat_grads.data(), 0, n * kSplatGrads * sizeof(float), st), "memset");
   if (n > 0 && s.total > 0)
-    composite_backward(s.ranges.data(), s.tile_order.data(), s.vals_sorted.data(), SplatData{s.a.data(), s.b.data(), s.c.data()},
-                       s.cam.width, s.cam.height, s.consts, s.rgb.data(), s.depth.data(), s.inv_depth.data(),
-                       s.alpha.data(), s.last.data(), dloss, s.splat_grads.data(), st);
+    composite_backward(s.ranges.data(), s.segments, s.vals_sorted.data(),
+                       SplatData{s.a.data(), s.b.data(), s.c.data()}, s.cam.width, s.cam.height, s.consts,
+                       s.rgb.data(), s.depth.data(), s.inv_depth.data(), s.alpha.data(), s.last.data(), dloss,
+                       s.splat_grads.data(), st);
   check(cudaGetLastError(), "composite backward launch");
-  s.mark(1);
+  s.mark(5);
   if (n > 0)
     gaussian_backward(s.g, s.ids, n, s.cam, s.consts, s.visible.data(), s.splat_grads.data(), s.grads, st);
   check(cudaGetLastError(), "Gaussian backward launch");
-  s.mark(2);
-  if (s.timing) {
-    s.timings.composite_backward = s.elapsed(0, 1);
-    s.timings.project_backward = s.elapsed(1, 2);
-  }
+  s.mark(6);
+  s.timed_backward = s.timing && s.timed_forward;
   return s.grads;
 }
 

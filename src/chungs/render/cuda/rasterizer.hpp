@@ -51,11 +51,14 @@ struct DeviceGaussianGrads {
   float* sh = nullptr;         // 48
 };
 
-// Milliseconds of the stages of the last calls, from device events (only when timing is enabled:
-// the events synchronise).
+// Milliseconds of the stages of the last forward and backward, from device events recorded while
+// timing is enabled; timings() waits for them, the calls themselves do not.
 struct CudaRasterTimings {
   double preprocess = 0, sort = 0, composite = 0;  // forward
   double composite_backward = 0, project_backward = 0;
+  // How the forward's tile entries were spread: a crowded tile is walked by one block alone.
+  uint32_t largest_tile = 0;     // entries of the most crowded tile
+  double top_percent_share = 0;  // share of all entries in the 1 % most crowded tiles
 };
 
 class CudaRasterizer {
@@ -79,8 +82,11 @@ class CudaRasterizer {
   const DeviceGaussianGrads& backward(const DeviceRenderGrads& dloss);
 
   const DeviceRenderOutput& output() const;
-  const CudaRasterTimings& timings() const;
-  size_t tile_entries() const;  // (tile, Gaussian) pairs of the last forward
+  CudaRasterTimings timings() const;  // zeros for a stage not run with timing on
+  size_t tile_entries() const;        // (tile, Gaussian) pairs of the last forward
+  // Blocks of the last forward that composited a segment of a crowded tile (RasterConfig::segment_entries);
+  // 0 when no tile was split. Waits for the forward.
+  size_t split_items() const;
 
   // Copies of the device results into host types (for tests and tools).
   void download(RenderOutput<float>& out) const;
