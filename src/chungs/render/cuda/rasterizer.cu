@@ -406,13 +406,13 @@ const DeviceRenderOutput& CudaRasterizer::forward(const GaussianArrays<float>& g
   }
   {
     // Work items: tiles, the crowded ones cut into segments. A tile of e entries makes ceil(e / segment)
-    // items, so all items number at most tiles + total / segment, and those of split tiles (e > segment)
-    // at most 2 total / segment.
+    // <= e / segment + 1 items, so all items number at most tiles + total / segment, and those of split
+    // tiles (e > segment: at most total / segment such tiles) at most total / segment + min(tiles, that).
     const uint32_t segment = uint32_t(s.config.segment_entries);
     const uint32_t per = segment > 0 ? total / segment : 0;
     s.segments.segment = segment;
     s.segments.grid = ntiles + per;
-    s.segments.split_grid = 2 * per;
+    s.segments.split_grid = per + std::min(ntiles, per);
     s.items.resize(s.segments.grid);
     s.segment_values.resize(size_t(s.segments.split_grid) * kSegmentValues * kBlock);
     const size_t bytes = tile_segments_scratch_bytes(ntiles);
