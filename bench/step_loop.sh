@@ -8,7 +8,8 @@
 #   kold      the same run with the keyframe rule of the issue's "before" and 200 final steps
 #   street    the 1 km street at 72 km/h (anytime, --speed 2)
 # Env: WHAT (default all of the above), BUNDLE (default .gpu/rt), DATA (folder holding kitti_seq1, default
-# .gpu/data), WORK (default /tmp/w), DENSITY (b1m's sampler density, default 10), OUT (step.tgz written there).
+# .gpu/data), WORK (default /tmp/w), DENSITY (b1m's sampler density, default 10), SEGMENTS (b200's and b1m's
+# segment_entries timed after the default on the same map, default 0,512,0,512), OUT (step.tgz written there).
 # Kernel by kernel: ncu --metrics gpu__time_duration.sum -k regex:'forward|backward|ssim|adam' \
 #   --launch-skip 400 --launch-count 40 bench_step_loop --map WORK/k30 --steps 30
 set -uo pipefail
@@ -18,6 +19,7 @@ data=${DATA:-$root/.gpu/data}
 export LD_LIBRARY_PATH=$bundle/lib PATH=$PATH:/usr/local/cuda/bin
 bin=$bundle/bin
 w=${WORK:-/tmp/w}; mkdir -p "$w"
+SEGMENTS=${SEGMENTS:-0,512,0,512}
 nvidia-smi --query-gpu=name --format=csv,noheader | tee "$w/device.txt"
 printf 'mapper:\n  keyframe_every: 1\n  keyframe_parallax: 0\n  keyframe_rotation_deg: 0\n' >"$w/old_kf.yaml"
 kitti=(--dataset "kitti:$data/kitti_seq1" --poses gt --iterations 30 --device cuda)
@@ -37,9 +39,10 @@ for x in ${WHAT:-tests memcheck b200 b1m kitti kmap kold street}; do
     compute-sanitizer --tool memcheck --leak-check full --error-exitcode 3 "$bin/test_render" \
       --gtest_filter='CudaSky*:CudaRaster*' >"$w/memcheck_render.log" 2>&1
     echo "memcheck render rc $?" ;;
-  b200) "$bin/bench_step_loop" --visible 200000 --steps 500 --json "$w/step_200k.json" >"$w/step_200k.log" 2>&1 ;;
-  b1m) "$bin/bench_step_loop" --visible 1000000 --steps 300 --density "${DENSITY:-10}" --json "$w/step_1m.json" \
-         >"$w/step_1m.log" 2>&1 ;;
+  b200) "$bin/bench_step_loop" --visible 200000 --steps 500 --segments "$SEGMENTS" --json "$w/step_200k.json" \
+          >"$w/step_200k.log" 2>&1 ;;
+  b1m) "$bin/bench_step_loop" --visible 1000000 --steps 300 --density "${DENSITY:-10}" --segments "$SEGMENTS" \
+         --json "$w/step_1m.json" >"$w/step_1m.log" 2>&1 ;;
   kitti) rm -rf "$w/k30"; "$bin/diskchungs" run "${kitti[@]}" --out "$w/k30" >"$w/kitti30.log" 2>&1 ;;
   kmap) "$bin/bench_step_loop" --map "$w/k30" --steps 500 --json "$w/step_kitti.json" >"$w/step_kitti.log" 2>&1 ;;
   kold) rm -rf "$w/kold"; "$bin/diskchungs" run "${kitti[@]}" --final-iterations 200 --config "$w/old_kf.yaml" \
