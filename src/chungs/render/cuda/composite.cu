@@ -96,7 +96,7 @@ __global__ void __launch_bounds__(kBlock)
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
 
   float T = 1.f, acc[5] = {0, 0, 0, 0, 0}, best_w = 0.f;
-  if (!kProduct)
+  if constexpr (!kProduct)
     for (uint32_t i = 0; i < seg; ++i)
       T *= ts.seg[(size_t(ib - seg + i) * kSegmentValues + seg_product) * kBlock + threadIdx.x];
   int best = -1;
