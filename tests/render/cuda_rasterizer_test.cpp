@@ -194,6 +194,24 @@ void expect_grads_match(const GaussianGrads<float>& got, const GaussianGrads<dou
   for (double v : e) EXPECT_LT(v, 1e-3);
 }
 
+// The float64 CPU twin's render of a scene's slots and its gradients for dl, and the GPU's forward of the
+// same slots (their device copies kept here for its backward).
+struct TwinRun {
+  RenderOutput<double> want;
+  GaussianGrads<double> ref;
+  DeviceScene dg;
+  cuda::DeviceArray<uint32_t> dids;
+  TwinRun(cuda::CudaRasterizer& gpu, const test::RandomScene& scene, const RasterConfig& cfg,
+          const std::vector<uint32_t>& ids, const RenderGrads<double>& dl)
+      : dg(scene.g.cast<float>()), dids(ids) {
+    CpuRasterizer<double> cpu(cfg);
+    want = cpu.forward(scene.g.view(), ids, make_render_camera<double>(scene.camera, scene.pose));
+    cpu.backward(dl, ref);
+    gpu.set_config(cfg);
+    gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose));
+  }
+};
+
 TEST(CudaRasterizer, GradientsMatchFloat64CpuTwin) {
   CHUNGS_REQUIRE_GPU();
   cuda::CudaRasterizer gpu;
@@ -204,19 +222,9 @@ TEST(CudaRasterizer, GradientsMatchFloat64CpuTwin) {
     const auto scene = test::make_random_scene(seed, n, w, h);
     RasterConfig cfg = seed <= 12 ? smooth_raster_config() : RasterConfig{};
     if (seed == 14) cfg.background = {0.3, 0.1, 0.6};
-    const auto ids = sparse_ids(size_t(n) * 3 / 4, size_t(n), seed);
-    const auto cam64 = make_render_camera<double>(scene.camera, scene.pose);
-    CpuRasterizer<double> cpu(cfg);
-    cpu.forward(scene.g.view(), ids, cam64);
     const auto dl = random_grads(w, h, seed);
-    GaussianGrads<double> ref;
-    cpu.backward(dl, ref);
-
-    gpu.set_config(cfg);
-    const DeviceScene dg(scene.g.cast<float>());
-    const cuda::DeviceArray<uint32_t> dids(ids);
-    gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose));
-    expect_grads_match(gpu_backward(gpu, dl), ref);
+    const TwinRun twins(gpu, scene, cfg, sparse_ids(size_t(n) * 3 / 4, size_t(n), seed), dl);
+    expect_grads_match(gpu_backward(gpu, dl), twins.ref);
   }
 }
 
@@ -229,18 +237,11 @@ TEST(CudaRasterizer, SmallSplatsMatchTheCpuTwinAtEveryPixelAndGaussian) {
   const int w = 133, h = 71, n = 9000;
   const auto scene = test::make_random_scene(31, n, w, h);
   const auto ids = sparse_ids(size_t(n) * 9 / 10, size_t(n), 31);
-  RasterConfig cfg;
-  const auto cam64 = make_render_camera<double>(scene.camera, scene.pose);
-  CpuRasterizer<double> cpu(cfg);
-  const RenderOutput<double> want = cpu.forward(scene.g.view(), ids, cam64);
   const auto dl = random_grads(w, h, 31);
-  GaussianGrads<double> ref;
-  cpu.backward(dl, ref);
-
-  cuda::CudaRasterizer gpu(cfg);
-  const DeviceScene dg(scene.g.cast<float>());
-  const cuda::DeviceArray<uint32_t> dids(ids);
-  gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose));
+  cuda::CudaRasterizer gpu;
+  const TwinRun twins(gpu, scene, RasterConfig{}, ids, dl);
+  const RenderOutput<double>& want = twins.want;
+  const GaussianGrads<double>& ref = twins.ref;
   RenderOutput<float> got;
   gpu.download(got);
   EXPECT_LT(largest_difference(got, want), 2e-3) << "largest difference of a pixel's colour or alpha";
@@ -277,18 +278,9 @@ TEST(CudaRasterizer, CrowdedTilesInSegmentsMatchTheCpuTwin) {
     RasterConfig cfg = seed == 42 ? smooth_raster_config() : RasterConfig{};
     cfg.segment_entries = seed == 43 ? 300 : 32;
     if (seed == 44) cfg.background = {0.3, 0.1, 0.6};
-    const auto ids = sparse_ids(size_t(n) * 4 / 5, size_t(n), seed);
-    const auto cam64 = make_render_camera<double>(scene.camera, scene.pose);
-    CpuRasterizer<double> cpu(cfg);
-    const RenderOutput<double> want = cpu.forward(scene.g.view(), ids, cam64);
     const auto dl = random_grads(w, h, seed);
-    GaussianGrads<double> ref;
-    cpu.backward(dl, ref);
-
-    gpu.set_config(cfg);
-    const DeviceScene dg(scene.g.cast<float>());
-    const cuda::DeviceArray<uint32_t> dids(ids);
-    gpu.forward(dg.view(), dids.data(), ids.size(), make_render_camera<float>(scene.camera, scene.pose));
+    const TwinRun twins(gpu, scene, cfg, sparse_ids(size_t(n) * 4 / 5, size_t(n), seed), dl);
+    const RenderOutput<double>& want = twins.want;
     const size_t tiles = size_t((w + 15) / 16) * size_t((h + 15) / 16);
     EXPECT_GT(gpu.split_items(), seed == 43 ? size_t(0) : 2 * tiles)
         << "the tiles were not cut into segments";
@@ -300,7 +292,7 @@ TEST(CudaRasterizer, CrowdedTilesInSegmentsMatchTheCpuTwin) {
     for (size_t i = 0; i < got.top_id.vec().size(); ++i) same += got.top_id.vec()[i] == want.top_id.vec()[i];
     EXPECT_GE(double(same), 0.995 * double(got.top_id.vec().size()));
 
-    expect_grads_match(gpu_backward(gpu, dl), ref);
+    expect_grads_match(gpu_backward(gpu, dl), twins.ref);
   }
 }
 

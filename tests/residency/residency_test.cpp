@@ -58,6 +58,21 @@ TEST(Residency, LoadsPinnedChunksExactlyAsStored) {
   EXPECT_EQ(all.size(), 350u);
 }
 
+TEST(Residency, WrittenSlotsAreTheAppendedListAndWrongRoomIsRefused) {
+  Rig r({100, 200, 50}, 1000);
+  const std::vector<ChunkId> ids{cid(2), cid(0), cid(1)};
+  ASSERT_TRUE(r.res->pin(ids).ok);
+  std::vector<uint32_t> appended;
+  r.res->append_slots(ids, appended);
+  ASSERT_EQ(r.res->slot_count(ids), 350u);
+  std::vector<uint32_t> written(350, 0xFFFFFFFFu);
+  r.res->write_slots(ids, written);
+  EXPECT_EQ(written, appended);
+  std::vector<uint32_t> small(349), large(351);
+  EXPECT_THROW(r.res->write_slots(ids, small), Error);
+  EXPECT_THROW(r.res->write_slots(ids, large), Error);
+}
+
 TEST(Residency, CleanChunkIsDroppedWithoutAWrite) {
   Rig r({300, 300}, 1000);
   r.pin1(cid(0));

@@ -160,15 +160,8 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   step_times_.pin_ms += ms_since(tp);
   try {
     // Written where the backend uploads it from (the GPU's pinned staging): no copy of the list.
-    size_t listed = 0;
-    for (ChunkId c : chunks) listed += residency_->slots(c).size();
-    const std::span<uint32_t> slots = backend_->slot_buffer(listed);
-    listed = 0;
-    for (ChunkId c : chunks) {
-      const std::vector<uint32_t>& s = residency_->slots(c);
-      std::copy(s.begin(), s.end(), slots.begin() + std::ptrdiff_t(listed));
-      listed += s.size();
-    }
+    const std::span<uint32_t> slots = backend_->slot_buffer(residency_->slot_count(chunks));
+    residency_->write_slots(chunks, slots);
     step_times_.chunks_ms += ms_since(t0);
     const auto t1 = clock::now();
     // Pruning runs on the step that completes `every` iterations, as before the backend split.

@@ -105,6 +105,23 @@ void Residency::append_slots(std::span<const ChunkId> ids, std::vector<uint32_t>
   }
 }
 
+size_t Residency::slot_count(std::span<const ChunkId> ids) const {
+  size_t n = 0;
+  for (ChunkId id : ids) n += slots(id).size();
+  return n;
+}
+
+void Residency::write_slots(std::span<const ChunkId> ids, std::span<uint32_t> out) const {
+  size_t at = 0;
+  for (ChunkId id : ids) {
+    const std::vector<uint32_t>& s = slots(id);
+    if (s.size() > out.size() - at) fail("residency: room for ", out.size(), " slots is too small for ", ids.size(), " chunks");
+    std::copy(s.begin(), s.end(), out.begin() + std::ptrdiff_t(at));
+    at += s.size();
+  }
+  if (at != out.size()) fail("residency: room for ", out.size(), " slots given for ", at);
+}
+
 std::vector<ChunkId> Residency::resident_chunks() const {
   std::vector<ChunkId> out;
   out.reserve(resident_.size());

@@ -137,6 +137,9 @@ class Residency {
   const std::vector<uint32_t>& slots(ChunkId id) const;  // throws when not resident
   // Appends the slots of the given resident chunks (the index list a renderer takes).
   void append_slots(std::span<const ChunkId> ids, std::vector<uint32_t>& out) const;
+  // The same list written into room of its own size (slot_count), e.g. a backend's upload buffer.
+  size_t slot_count(std::span<const ChunkId> ids) const;
+  void write_slots(std::span<const ChunkId> ids, std::span<uint32_t> out) const;
   std::vector<ChunkId> resident_chunks() const;
 
   uint64_t count(ChunkId id) const;  // Gaussians in any chunk of the map (0 if unknown)
