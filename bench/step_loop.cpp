@@ -135,6 +135,7 @@ Timed time_steps(Mapper& m, int steps, bool profile) {
   t.mapper.backend_ms -= before.backend_ms, t.mapper.pick_ms -= before.pick_ms;
   t.mapper.cull_ms -= before.cull_ms, t.mapper.pin_ms -= before.pin_ms;
   t.mapper.bookkeeping_ms -= before.bookkeeping_ms, t.mapper.keyframe_load_ms -= before.keyframe_load_ms;
+  t.mapper.slots_ms -= before.slots_ms, t.mapper.prune_ms -= before.prune_ms;
   t.backend = m.step_phase_times();
   m.set_step_profiling(false);
   return t;
@@ -151,9 +152,11 @@ nlohmann::json report(const Timed& t, int steps) {
                       // Between the cull and the backend beside the pin: partial-view and trimmed-view
                       // masks, coverage, the slot list.
                       {"view", (t.mapper.chunks_ms - t.mapper.cull_ms - t.mapper.pin_ms) / n},
+                      {"slot_list", t.mapper.slots_ms / n},
                       {"backend", t.mapper.backend_ms / n},
                       {"keyframe_load", t.mapper.keyframe_load_ms / n},
-                      {"bookkeeping", t.mapper.bookkeeping_ms / n}};
+                      {"bookkeeping", t.mapper.bookkeeping_ms / n},
+                      {"pruned_out", t.mapper.prune_ms / n}};
   if (t.backend.steps) {
     const double b = double(t.backend.steps);
     nlohmann::json host, device;
@@ -179,9 +182,12 @@ nlohmann::json report(const Timed& t, int steps) {
 void print(const char* title, const nlohmann::json& j) {
   std::printf("%s: %.3f ms per step (%.0f steps/s), %.0f Gaussians rendered per step\n", title,
               j["ms_per_step"].get<double>(), j["steps_per_s"].get<double>(), j["rendered_mean"].get<double>());
-  std::printf("  mapper   pick %.3f  cull %.3f  view %.3f  pin %.3f  backend %.3f  bookkeeping %.3f ms\n",
-              j["pick"].get<double>(), j["cull"].get<double>(), j["view"].get<double>(), j["pin"].get<double>(),
-              j["backend"].get<double>(), j["bookkeeping"].get<double>());
+  std::printf(
+      "  mapper   pick %.3f  cull %.3f  view %.3f (slot list %.3f)  pin %.3f  backend %.3f  bookkeeping %.3f "
+      "(pruned leaving their chunks %.3f) ms\n",
+      j["pick"].get<double>(), j["cull"].get<double>(), j["view"].get<double>(), j["slot_list"].get<double>(),
+      j["pin"].get<double>(), j["backend"].get<double>(), j["bookkeeping"].get<double>(),
+      j["pruned_out"].get<double>());
   if (!j.contains("backend_host")) return;
   std::printf("  %-10s %10s %10s\n", "phase", "host ms", "device ms");
   for (int p = 0; p < StepPhaseTimes::count; ++p)

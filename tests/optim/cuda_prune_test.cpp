@@ -1,5 +1,5 @@
 // The pruning rule on the GPU against its CPU twin (select_for_pruning) on random opacities, radii and
-// visit counts: the same slots in the same order.
+// visit counts: the same places in the view in the same order.
 #ifdef CHUNGS_WITH_CUDA
 #include <gtest/gtest.h>
 
@@ -72,6 +72,35 @@ TEST(CudaPrune, SelectsWhatTheCpuRuleSelectsInTheSameOrder) {
     ASSERT_LT(want.size(), n) << "round " << round;
     EXPECT_EQ(got, want) << "round " << round;
   }
+}
+
+TEST(CudaPrune, AListInSlotOrderReportsThePlacesOfTheCallersList) {
+  // The step renders its list in slot order (SlotOrder) and must get back places in the list it wrote.
+  CHUNGS_REQUIRE_GPU();
+  std::mt19937 rng(23);
+  cuda::CudaPruneSelector selector;
+  const size_t capacity = 20000, n = 9000;
+  const Case c = random_case(capacity, n, rng);
+  std::vector<uint32_t> places(n);
+  std::iota(places.begin(), places.end(), 0u);
+  std::sort(places.begin(), places.end(), [&](uint32_t a, uint32_t b) { return c.ids[a] < c.ids[b]; });
+  std::vector<uint32_t> sorted(n);
+  std::vector<float> sorted_radius(n);
+  for (size_t i = 0; i < n; ++i) sorted[i] = c.ids[places[i]], sorted_radius[i] = c.radius[places[i]];
+  cuda::DeviceArray<float> op(c.opacity), rad(sorted_radius);
+  cuda::DeviceArray<uint32_t> ids(sorted), where(places), visits(c.visits);
+  PruneConfig cfg;
+  cfg.min_opacity = 0.1f;
+  cfg.max_radius_fraction = 0.5f;
+  cfg.min_visits = 30;
+  const float* o = c.opacity.data();
+  const GaussianArrays<float> view{o, o, o, o, o, capacity};
+  const std::vector<uint32_t> want = select_for_pruning(cfg, view, c.ids, c.radius, 1241, c.visits);
+  std::vector<uint32_t> got;
+  selector.select(cfg, op.data(), capacity, ids.data(), n, rad.data(), 1241, visits.data(), got,
+                  where.data());
+  ASSERT_GT(want.size(), 10u);
+  EXPECT_EQ(got, want);
 }
 
 TEST(CudaPrune, AnEmptyViewSelectsNothingAndMissingVisitsAreRefused) {

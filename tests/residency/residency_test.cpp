@@ -229,31 +229,43 @@ TEST(Residency, PruningToEmptyRemovesTheChunkFromTheMap) {
   EXPECT_EQ(r.pool->used(), 0u);
 }
 
-TEST(Residency, MarkedSlotsLeaveTheirChunkAsRemoveSlotsWouldHaveIt) {
-  // Two rigs with the same chunks: one removes a list, the other the same slots by marks.
+TEST(Residency, WrittenPlacesLeaveTheirChunksAsRemoveSlotsWouldHaveIt) {
+  // Two rigs with the same chunks: one removes lists of slots chunk by chunk, the other the same Gaussians
+  // by their places in the slot list of a view (chunks 2, 0, 1 in that order, as a step writes it).
   Rig a({50, 60, 40}, 300), b({50, 60, 40}, 300);
-  std::vector<uint8_t> marks;
   for (Rig* r : {&a, &b})
     for (int c = 0; c < 3; ++c) r->pin1(cid(c));
-  std::vector<uint32_t> listed;
-  const auto s0 = a.res->slots(cid(0)), s1 = a.res->slots(cid(1));
-  for (size_t i = 0; i < s0.size(); i += 3) listed.push_back(s0[i]);
-  marks.assign(b.pool->capacity(), 0);
-  for (uint32_t s : listed) marks.at(s) = 1;
-  marks.at(s1[5]) = 1;  // another chunk's slot: left alone by cid(0), taken by cid(1)
-  a.res->remove_slots(cid(0), listed);
-  EXPECT_EQ(b.res->remove_marked_slots(cid(0), marks), listed.size());
-  EXPECT_EQ(b.res->remove_marked_slots(cid(2), marks), 0u);
-  EXPECT_EQ(a.res->slots(cid(0)), b.res->slots(cid(0)));
-  EXPECT_EQ(b.res->count(cid(0)), 50u - listed.size());
+  const std::vector<ChunkId> view{cid(2), cid(0), cid(1)};
+  std::vector<uint32_t> written(b.res->slot_count(view));
+  b.res->write_slots(view, written);
+  std::vector<uint32_t> places, from0;
+  for (uint32_t i = 40; i < 90; i += 3) places.push_back(i), from0.push_back(written[i]);  // within chunk 0
+  places.push_back(90 + 5);                                                                // one of chunk 1's
+  places.push_back(uint32_t(written.size()) - 1);                                          // chunk 1's last
+  const std::vector<uint32_t> from1{written[95], written.back()};
+
+  // Refused, changing nothing: not ascending, past the list, a chunk named twice.
+  EXPECT_THROW(b.res->remove_written_slots(view, std::vector<uint32_t>{7, 7}), Error);
+  EXPECT_THROW(b.res->remove_written_slots(view, std::vector<uint32_t>{9, 3}), Error);
+  EXPECT_THROW(b.res->remove_written_slots(view, std::vector<uint32_t>{uint32_t(written.size())}), Error);
+  EXPECT_THROW(b.res->remove_written_slots(std::vector<ChunkId>{cid(0), cid(0)}, std::vector<uint32_t>{1}),
+               Error);
+  EXPECT_EQ(b.res->count(cid(0)), 50u);
+  EXPECT_FALSE(b.res->is_dirty(cid(0)));
+
+  a.res->remove_slots(cid(0), from0);
+  a.res->remove_slots(cid(1), from1);
+  EXPECT_EQ(b.res->remove_written_slots(view, places), places.size());
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(a.res->slots(cid(c)), b.res->slots(cid(c))) << "chunk " << c;
+  EXPECT_EQ(b.res->count(cid(0)), 50u - from0.size());
+  EXPECT_EQ(b.res->count(cid(1)), 58u);
   EXPECT_TRUE(b.res->is_dirty(cid(0)));
+  EXPECT_TRUE(b.res->is_dirty(cid(1)));
   EXPECT_FALSE(b.res->is_dirty(cid(2)));
-  EXPECT_EQ(b.res->remove_marked_slots(cid(1), marks), 1u);
-  EXPECT_EQ(b.res->count(cid(1)), 59u);
-  EXPECT_EQ(b.res->pinned_gaussians(), 150u - listed.size() - 1);
-  EXPECT_EQ(b.pool->used(), 150u - listed.size() - 1);
+  EXPECT_EQ(b.res->pinned_gaussians(), 150u - from0.size() - 2);
+  EXPECT_EQ(b.pool->used(), 150u - from0.size() - 2);
+  EXPECT_EQ(b.res->remove_written_slots(view, {}), 0u);
   // Freed slots are reused in the same order on both.
-  a.res->remove_slots(cid(1), std::vector<uint32_t>{s1[5]});
   EXPECT_TRUE(a.res->add(cid(7), test::random_block(30, 3)).ok);
   EXPECT_TRUE(b.res->add(cid(7), test::random_block(30, 3)).ok);
   EXPECT_EQ(a.res->slots(cid(7)), b.res->slots(cid(7)));

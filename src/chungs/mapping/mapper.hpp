@@ -145,6 +145,8 @@ class Mapper {
     uint64_t steps = 0, keyframe_loads = 0;
     double total_ms = 0, chunks_ms = 0, keyframe_load_ms = 0, backend_ms = 0;
     double pick_ms = 0, cull_ms = 0, pin_ms = 0, bookkeeping_ms = 0;
+    double slots_ms = 0;  // of chunks_ms: the slot list written
+    double prune_ms = 0;  // of bookkeeping_ms: pruned Gaussians leaving their chunks
   };
   const StepTimes& step_times() const { return step_times_; }
   // The backend's per-phase timings (optim_backend.hpp), for benchmarks: on costs a device wait a step.
@@ -228,7 +230,6 @@ class Mapper {
   double steps_per_keyframe_ = -1;  // smoothed steps the keyframes got (-1: none measured yet)
   nlohmann::json resumed_state_;
   std::vector<uint32_t> slots_, to_prune_;
-  std::vector<uint8_t> prune_marks_;  // by pool slot: selected by this step's pruning
   KeyframeRecord* mutable_keyframe(uint32_t id) {
     return const_cast<KeyframeRecord*>(std::as_const(*this).find_keyframe(id));
   }

@@ -69,8 +69,8 @@ class OptimBackend {
   virtual std::span<uint32_t> slot_buffer(size_t n) = 0;
   // Renders the slots, evaluates the loss against the targets (the images that `targets` names,
   // converted as host_targets does) and, when slots is non-empty, applies
-  // the gradient with sparse Adam to the visible ones. With `prune`, `to_prune` receives the slots
-  // that the pruning rule selects after the update (else it is cleared).
+  // the gradient with sparse Adam to the visible ones. With `prune`, `to_prune` receives the places in
+  // `slots` (ascending) of the Gaussians the pruning rule selects after the update (else it is cleared).
   virtual LossTerms step(std::span<const uint32_t> slots, const RenderCamera<float>& camera,
                          const StepTargets& targets, const LossConfig& loss, const AdamConfig& adam,
                          const PruneConfig* prune, std::vector<uint32_t>& to_prune) = 0;

@@ -23,6 +23,7 @@ std::vector<uint32_t> select_for_pruning(const PruneConfig& cfg, const GaussianA
     fail("pruning: ", ids.size(), " indices but ", radius.size(), " screen radii");
   if (!radius.empty() && image_width <= 0) fail("pruning: image width must be positive, got ", image_width);
   check_indices(g, ids.data(), ids.size(), "pruning");
+  if (ids.size() > 0xFFFFFFFFu) fail("pruning: ", ids.size(), " indices do not fit 32-bit places");
   const bool aged = cfg.min_visits > 0;
   if (aged && visits.size() < g.capacity)
     fail("pruning: ", visits.size(), " visit counts for ", g.capacity, " Gaussians");
@@ -37,7 +38,7 @@ std::vector<uint32_t> select_for_pruning(const PruneConfig& cfg, const GaussianA
     const bool young = aged && std::isfinite(o) && visits[ids[j]] < uint32_t(cfg.min_visits);
     const bool faint = !young && !(o >= min_logit);
     const bool huge = sized && !(radius[j] <= max_radius);
-    if (faint || huge) out.push_back(ids[j]);
+    if (faint || huge) out.push_back(uint32_t(j));
   }
   return out;
 }

@@ -25,12 +25,12 @@ struct PruneConfig {
   void validate() const;
 };
 
-// Slots among ids to remove. The opacity test applies to every listed Gaussian; the size test to
-// those with a screen radius from the last render (radius[j], rasterizer layout; 0 = not visible)
-// when max_radius_fraction > 0.
-// radius may be empty (size test skipped). visits holds each slot's count of optimiser steps it was
-// visible in (the Adam step count), read when min_visits > 0; a non-finite opacity is pruned at any
-// age. Throws Error when sizes disagree.
+// Places in ids (ascending) of the Gaussians to remove: their place names their chunk to the caller at
+// once (Residency::remove_written_slots), where a slot would have to be looked up. The opacity test applies
+// to every listed Gaussian; the size test to those with a screen radius from the last render (radius[j],
+// rasterizer layout; 0 = not visible) when max_radius_fraction > 0. radius may be empty (size test skipped).
+// visits holds each slot's count of optimiser steps it was visible in (the Adam step count), read when
+// min_visits > 0; a non-finite opacity is pruned at any age. Throws Error when sizes disagree.
 std::vector<uint32_t> select_for_pruning(const PruneConfig& config, const GaussianArrays<float>& g,
                                          std::span<const uint32_t> ids, std::span<const float> radius,
                                          int image_width, std::span<const uint32_t> visits = {});

@@ -371,30 +371,59 @@ void Residency::remove_slots(ChunkId id, std::span<const uint32_t> slots) {
     if (!std::binary_search(gone.begin(), gone.end(), s)) kept.push_back(s);
   if (e.slots.size() - kept.size() != gone.size())
     fail("residency: remove_slots lists slots that do not belong to ", chunk_name(id));
-  drop_slots(id, gone, std::move(kept));
+  e.slots = std::move(kept);
+  drop_slots(id, gone);
 }
 
-size_t Residency::remove_marked_slots(ChunkId id, std::span<const uint8_t> marks) {
-  Resident& e = resident_entry(id, "remove_marked_slots");
-  const auto marked = [&](uint32_t s) { return s < marks.size() && marks[s] != 0; };
+size_t Residency::remove_written_slots(std::span<const ChunkId> ids, std::span<const uint32_t> positions) {
+  if (positions.empty()) return 0;
+  for (size_t i = 1; i < positions.size(); ++i)
+    if (positions[i] <= positions[i - 1])
+      fail("residency: positions to remove are not strictly ascending (", positions[i - 1], " then ",
+           positions[i], ")");
+  std::vector<ChunkId> sorted(ids.begin(), ids.end());
+  std::sort(sorted.begin(), sorted.end());
+  if (const auto twice = std::adjacent_find(sorted.begin(), sorted.end()); twice != sorted.end())
+    fail("residency: remove_written_slots lists ", chunk_name(*twice), " twice");
+  if (positions.back() >= slot_count(ids))
+    fail("residency: position ", positions.back(), " is past the ", slot_count(ids), " slots written");
+  size_t at = 0, start = 0;  // next position; where the chunk's slots begin in the written list
   std::vector<uint32_t> gone;
-  for (uint32_t s : e.slots)
-    if (marked(s)) gone.push_back(s);
-  if (gone.empty()) return 0;
-  copy_out(id);
-  std::vector<uint32_t> kept;
-  kept.reserve(e.slots.size() - gone.size());
-  for (uint32_t s : e.slots)
-    if (!marked(s)) kept.push_back(s);
-  std::sort(gone.begin(), gone.end());  // freed in the order remove_slots frees them: same reuse of slots
-  drop_slots(id, gone, std::move(kept));
-  return gone.size();
+  for (ChunkId id : ids) {
+    if (at == positions.size()) break;
+    Resident& e = resident_entry(id, "remove_written_slots");
+    const size_t end = start + e.slots.size();
+    if (positions[at] >= end) {
+      start = end;
+      continue;
+    }
+    copy_out(id);
+    // Kept in their order, compacted in place; the gone ones freed in slot order as remove_slots frees them,
+    // so that the pool reuses slots as it did when pruning looked the slots up.
+    // The runs between gone entries move down whole (a memmove each), not entry by entry.
+    gone.clear();
+    std::vector<uint32_t>& s = e.slots;
+    size_t write = positions[at] - start, read = write;
+    for (; at < positions.size() && positions[at] < end; ++at) {
+      const size_t p = positions[at] - start;
+      std::copy(s.begin() + std::ptrdiff_t(read), s.begin() + std::ptrdiff_t(p),
+                s.begin() + std::ptrdiff_t(write));
+      write += p - read;
+      gone.push_back(s[p]);  // write <= read <= p: the copy above ends before p
+      read = p + 1;
+    }
+    std::copy(s.begin() + std::ptrdiff_t(read), s.end(), s.begin() + std::ptrdiff_t(write));
+    s.resize(write + (s.size() - read));
+    std::sort(gone.begin(), gone.end());
+    drop_slots(id, gone);
+    start = end;
+  }
+  return positions.size();
 }
 
-void Residency::drop_slots(ChunkId id, std::vector<uint32_t>& gone, std::vector<uint32_t>&& kept) {
+void Residency::drop_slots(ChunkId id, std::span<const uint32_t> gone) {
   Resident& e = resident_.at(id);
   pool_.release(gone);
-  e.slots = std::move(kept);
   e.dirty = true;
   checkpoint_clean_.erase(id);
   resident_gaussians_ -= gone.size();

@@ -91,9 +91,11 @@ class Residency {
   PinResult add(ChunkId id, const GaussianBlock& block);
   // Deletes Gaussians (by pool slot) from a resident chunk, e.g. after pruning.
   void remove_slots(ChunkId id, std::span<const uint32_t> slots);
-  // The same for the chunk's slots s with marks[s] != 0 (a byte map by pool slot that the caller keeps,
-  // e.g. of a pruning pass over many chunks): one pass over the chunk's slots. Returns how many went.
-  size_t remove_marked_slots(ChunkId id, std::span<const uint8_t> marks);
+  // The same for the entries at `positions` (strictly ascending) of the list write_slots(ids) wrote, e.g.
+  // those a pruning pass selected in a step's view: only the chunks they fall in are touched, each in one
+  // pass. The chunks' slot lists must be as they were when written, and no chunk listed twice. Returns
+  // how many went.
+  size_t remove_written_slots(std::span<const ChunkId> ids, std::span<const uint32_t> positions);
   // Records that the caller changed the chunk's Gaussians in the pool (optimiser step).
   void mark_dirty(ChunkId id);
   void mark_dirty(std::span<const ChunkId> ids);
@@ -162,8 +164,8 @@ class Residency {
   GaussianPool& pool() { return pool_; }
 
  private:
-  // Gives the chunk's `gone` slots back to the pool; `kept` are what it holds after.
-  void drop_slots(ChunkId id, std::vector<uint32_t>& gone, std::vector<uint32_t>&& kept);
+  // Gives the chunk's `gone` slots (ascending) back to the pool, once they have left its slot list.
+  void drop_slots(ChunkId id, std::span<const uint32_t> gone);
   struct Resident {
     std::vector<uint32_t> slots;
     int pins = 0;

@@ -127,9 +127,11 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
     pixel_mask = static_cast<const uint8_t*>(
         mask_staging_.upload(targets.pixel_mask->data(), targets.pixel_mask->pixels(), "pixel mask"));
   }
+  // The step's kernels read the list in slot order (slot_order.hpp); pruning reports the places in `slots`.
+  ordered_.sort(ids_, slots.size(), pool_.device_arrays().capacity);
   mark(P::upload);
   const DeviceRenderOutput& out =
-      raster_.forward(params_of(pool_.device_arrays(), 0), ids_, slots.size(), camera);
+      raster_.forward(params_of(pool_.device_arrays(), 0), ordered_.ids(), slots.size(), camera);
   mark(P::forward);
   if (out.width != t.width || out.height != t.height)
     fail("cuda mapping step: target ", t.width, "x", t.height, " does not match the ", out.width, "x", out.height,
@@ -159,12 +161,13 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
   const PoolDeviceArrays& d = pool_.device_arrays();
   const AdamState state{params_of(d, 1), params_of(d, 2), d.adam_steps, d.lr_position_factor, d.capacity};
   // The forward above refused out-of-range slots of this same list: Adam need not wait to check.
-  sparse_adam_step(adam, params_of(d, 0), state, ids_, out.visible, slots.size(), g, /*ids_checked=*/true);
+  sparse_adam_step(adam, params_of(d, 0), state, ordered_.ids(), out.visible, slots.size(), g,
+                   /*ids_checked=*/true);
   mark(P::adam);
   if (prune) {
-    // On the device: only the selected slots come back (cuda/prune.hpp).
-    pruner_.select(*prune, d.opacity[0], d.capacity, ids_, slots.size(), out.radius, camera.width,
-                   prune->min_visits > 0 ? d.adam_steps : nullptr, to_prune);
+    // On the device: only the selected places come back (cuda/prune.hpp).
+    pruner_.select(*prune, d.opacity[0], d.capacity, ordered_.ids(), slots.size(), out.radius, camera.width,
+                   prune->min_visits > 0 ? d.adam_steps : nullptr, to_prune, ordered_.places());
     mark(P::prune);
   }
   const LossTerms terms = loss_.finish();

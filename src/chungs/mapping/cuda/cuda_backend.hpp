@@ -1,10 +1,11 @@
 // The optimisation on the GPU: CudaGaussianPool (VRAM slots; Residency loads and evicts chunks through
 // its host<->device copies), CudaRasterizer, the fused CUDA loss and fused sparse Adam. Per step only
 // the slot list goes up (keyframe images stay in DeviceTargetCache), and only the loss sums come back (plus
-// the selected slots on pruning steps); render() downloads the images for the evaluation; the sampler's map is computed on the device.
-// Built only with CHUNGS_WITH_CUDA; no CUDA headers here.
+// the selected places on pruning steps); render() downloads the images for the evaluation; the sampler's map
+// is computed on the device. Built only with CHUNGS_WITH_CUDA; no CUDA headers here.
 #pragma once
 #include "chungs/mapping/cuda/log_probability.hpp"
+#include "chungs/mapping/cuda/slot_order.hpp"
 #include "chungs/mapping/cuda/target_cache.hpp"
 #include "chungs/mapping/optim_backend.hpp"
 #include "chungs/mapping/step_phases.hpp"
@@ -55,6 +56,7 @@ class CudaOptimBackend final : public OptimBackend {
   DeviceTargetCache targets_;
   StagedUpload staging_;  // the slot list goes up without holding the host or the default stream
   const uint32_t* ids_ = nullptr;  // the device copy of the last slot list
+  SlotOrder ordered_;              // a step's list in slot order: what its kernels read
   DeviceArray<float> target_rgb_, target_inv_, probability_;
   DeviceArray<uint8_t> mask_;
   StagedUpload mask_staging_;  // a trimmed step's pixel mask, as the slot list

@@ -11,9 +11,9 @@
 
 namespace chungs::cuda {
 
-void CudaPruneSelector::select(const PruneConfig& cfg, const float* opacity, size_t capacity, const uint32_t* ids,
-                               size_t n, const float* radius, int image_width, const uint32_t* visits,
-                               std::vector<uint32_t>& out) {
+void CudaPruneSelector::select(const PruneConfig& cfg, const float* opacity, size_t capacity,
+                               const uint32_t* ids, size_t n, const float* radius, int image_width,
+                               const uint32_t* visits, std::vector<uint32_t>& out, const uint32_t* places) {
   cfg.validate();
   out.clear();
   if (n == 0) return;
@@ -33,6 +33,7 @@ void CudaPruneSelector::select(const PruneConfig& cfg, const float* opacity, siz
                         cfg.min_opacity > 0 ? std::log(cfg.min_opacity / (1 - cfg.min_opacity)) : -INFINITY,
                         aged ? visits : nullptr,
                         uint32_t(cfg.min_visits),
+                        places,
                         flags_.data(),
                         selected_.data(),
                         count_.data()};
@@ -40,7 +41,8 @@ void CudaPruneSelector::select(const PruneConfig& cfg, const float* opacity, siz
   temp_.reserve(std::max<size_t>(bytes, 1));
   const uint32_t count = detail::launch_prune_select(a, temp_.data(), bytes);
   out.resize(count);
-  if (count) copy_to_host(out.data(), selected_.data(), count * sizeof(uint32_t), "pruned slots");
+  if (count) copy_to_host(out.data(), selected_.data(), count * sizeof(uint32_t), "pruned places");
+  if (places) std::sort(out.begin(), out.end());  // they came in the order of ids
 }
 
 }  // namespace chungs::cuda
