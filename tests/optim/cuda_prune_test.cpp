@@ -53,8 +53,11 @@ TEST(CudaPrune, SelectsWhatTheCpuRuleSelectsInTheSameOrder) {
     const size_t capacity = 5000 + 3000 * size_t(round), n = capacity / 2 + 17;
     const Case c = random_case(capacity, n, rng);
     cuda::DeviceArray<float> op, rad;
-    cuda::DeviceArray<uint32_t> ids, visits;
+    cuda::DeviceArray<uint32_t> ids, visits, places;
     op.upload(c.opacity), rad.upload(c.radius), ids.upload(c.ids), visits.upload(c.visits);
+    std::vector<uint32_t> in_order(n);  // the list is the caller's own
+    std::iota(in_order.begin(), in_order.end(), 0u);
+    places.upload(in_order);
     PruneConfig cfg;
     cfg.min_visits = round % 2 ? 30 : 0;
     cfg.min_opacity = round == 4 ? 0.f : 0.05f + 0.02f * float(round);
@@ -67,7 +70,7 @@ TEST(CudaPrune, SelectsWhatTheCpuRuleSelectsInTheSameOrder) {
                            1241, cfg.min_visits > 0 ? std::span<const uint32_t>(c.visits) : std::span<const uint32_t>());
     std::vector<uint32_t> got;
     selector.select(cfg, op.data(), capacity, ids.data(), n, with_radius ? rad.data() : nullptr, 1241,
-                    cfg.min_visits > 0 ? visits.data() : nullptr, got);
+                    cfg.min_visits > 0 ? visits.data() : nullptr, places.data(), got);
     ASSERT_FALSE(want.empty()) << "round " << round;
     ASSERT_LT(want.size(), n) << "round " << round;
     EXPECT_EQ(got, want) << "round " << round;
@@ -97,8 +100,8 @@ TEST(CudaPrune, AListInSlotOrderReportsThePlacesOfTheCallersList) {
   const GaussianArrays<float> view{o, o, o, o, o, capacity};
   const std::vector<uint32_t> want = select_for_pruning(cfg, view, c.ids, c.radius, 1241, c.visits);
   std::vector<uint32_t> got;
-  selector.select(cfg, op.data(), capacity, ids.data(), n, rad.data(), 1241, visits.data(), got,
-                  where.data());
+  selector.select(cfg, op.data(), capacity, ids.data(), n, rad.data(), 1241, visits.data(), where.data(),
+                  got);
   ASSERT_GT(want.size(), 10u);
   EXPECT_EQ(got, want);
 }
@@ -109,11 +112,12 @@ TEST(CudaPrune, AnEmptyViewSelectsNothingAndMissingVisitsAreRefused) {
   cuda::DeviceArray<float> op(4);
   cuda::DeviceArray<uint32_t> ids(4);
   std::vector<uint32_t> got{7};
-  selector.select(PruneConfig{}, op.data(), 4, ids.data(), 0, nullptr, 100, nullptr, got);
+  selector.select(PruneConfig{}, op.data(), 4, ids.data(), 0, nullptr, 100, nullptr, ids.data(), got);
   EXPECT_TRUE(got.empty());
   PruneConfig aged;
   aged.min_visits = 5;
-  EXPECT_THROW(selector.select(aged, op.data(), 4, ids.data(), 4, nullptr, 100, nullptr, got), Error);
+  EXPECT_THROW(selector.select(aged, op.data(), 4, ids.data(), 4, nullptr, 100, nullptr, ids.data(), got),
+               Error);
 }
 
 }  // namespace

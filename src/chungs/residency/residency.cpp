@@ -385,8 +385,8 @@ size_t Residency::remove_written_slots(std::span<const ChunkId> ids, std::span<c
   std::sort(sorted.begin(), sorted.end());
   if (const auto twice = std::adjacent_find(sorted.begin(), sorted.end()); twice != sorted.end())
     fail("residency: remove_written_slots lists ", chunk_name(*twice), " twice");
-  if (positions.back() >= slot_count(ids))
-    fail("residency: position ", positions.back(), " is past the ", slot_count(ids), " slots written");
+  if (const size_t written = slot_count(ids); positions.back() >= written)
+    fail("residency: position ", positions.back(), " is past the ", written, " slots written");
   size_t at = 0, start = 0;  // next position; where the chunk's slots begin in the written list
   std::vector<uint32_t> gone;
   for (ChunkId id : ids) {

@@ -167,7 +167,7 @@ LossTerms CudaOptimBackend::step(std::span<const uint32_t> slots, const RenderCa
   if (prune) {
     // On the device: only the selected places come back (cuda/prune.hpp).
     pruner_.select(*prune, d.opacity[0], d.capacity, ordered_.ids(), slots.size(), out.radius, camera.width,
-                   prune->min_visits > 0 ? d.adam_steps : nullptr, to_prune, ordered_.places());
+                   prune->min_visits > 0 ? d.adam_steps : nullptr, ordered_.places(), to_prune);
     mark(P::prune);
   }
   const LossTerms terms = loss_.finish();

@@ -13,12 +13,12 @@ namespace chungs::cuda {
 
 void CudaPruneSelector::select(const PruneConfig& cfg, const float* opacity, size_t capacity,
                                const uint32_t* ids, size_t n, const float* radius, int image_width,
-                               const uint32_t* visits, std::vector<uint32_t>& out, const uint32_t* places) {
+                               const uint32_t* visits, const uint32_t* places, std::vector<uint32_t>& out) {
   cfg.validate();
   out.clear();
   if (n == 0) return;
   if (n >= 0x7FFFFFFFu || capacity > 0xFFFFFFFFu) fail("CUDA pruning: too many indices (", n, ")");
-  if (!opacity || !ids) fail("CUDA pruning: device arrays are missing (null pointer)");
+  if (!opacity || !ids || !places) fail("CUDA pruning: device arrays are missing (null pointer)");
   if (radius && image_width <= 0) fail("pruning: image width must be positive, got ", image_width);
   const bool aged = cfg.min_visits > 0;
   if (aged && !visits) fail("CUDA pruning: min_visits is set but no visit counts were given");
@@ -42,7 +42,7 @@ void CudaPruneSelector::select(const PruneConfig& cfg, const float* opacity, siz
   const uint32_t count = detail::launch_prune_select(a, temp_.data(), bytes);
   out.resize(count);
   if (count) copy_to_host(out.data(), selected_.data(), count * sizeof(uint32_t), "pruned places");
-  if (places) std::sort(out.begin(), out.end());  // they came in the order of ids
+  std::sort(out.begin(), out.end());  // they came in the order of ids
 }
 
 }  // namespace chungs::cuda

@@ -1,9 +1,7 @@
 // One thread per view entry flags it with the rule of select_for_pruning; cub's flagged select of the
 // entries' places keeps the order of the view, so the list matches the CPU twin's entry for entry.
 #include <cuda_runtime.h>
-#include <thrust/iterator/counting_iterator.h>
 
-#include <algorithm>
 #include <cub/device/device_select.cuh>
 
 #include "chungs/common/error.hpp"
@@ -36,28 +34,19 @@ void check(cudaError_t e, const char* what) {
 }  // namespace
 
 size_t prune_temp_bytes(uint32_t n) {
-  size_t counted = 0, listed = 0;  // both inputs: the same scratch serves either
-  check(cub::DeviceSelect::Flagged(nullptr, counted, thrust::counting_iterator<uint32_t>(0),
+  size_t bytes = 0;
+  check(cub::DeviceSelect::Flagged(nullptr, bytes, static_cast<const uint32_t*>(nullptr),
                                    static_cast<const uint8_t*>(nullptr), static_cast<uint32_t*>(nullptr),
                                    static_cast<uint32_t*>(nullptr), int(n)),
         "select size");
-  check(cub::DeviceSelect::Flagged(nullptr, listed, static_cast<const uint32_t*>(nullptr),
-                                   static_cast<const uint8_t*>(nullptr), static_cast<uint32_t*>(nullptr),
-                                   static_cast<uint32_t*>(nullptr), int(n)),
-        "select size");
-  return std::max(counted, listed);
+  return bytes;
 }
 
 uint32_t launch_prune_select(const PruneLaunch& a, void* temp, size_t temp_bytes) {
   flag_kernel<<<unsigned((size_t(a.n) + 255) / 256), 256>>>(a);
   check(cudaGetLastError(), "flag launch");
-  if (a.places)
-    check(cub::DeviceSelect::Flagged(temp, temp_bytes, a.places, a.flags, a.selected, a.count, int(a.n)),
-          "select");
-  else
-    check(cub::DeviceSelect::Flagged(temp, temp_bytes, thrust::counting_iterator<uint32_t>(0), a.flags,
-                                     a.selected, a.count, int(a.n)),
-          "select");
+  check(cub::DeviceSelect::Flagged(temp, temp_bytes, a.places, a.flags, a.selected, a.count, int(a.n)),
+        "select");
   uint32_t count = 0;
   check(cudaMemcpy(&count, a.count, sizeof count, cudaMemcpyDeviceToHost), "count");
   return count;

@@ -17,12 +17,12 @@ class CudaPruneSelector {
   // opacity: logits by pool slot (device, `capacity` of them); ids: the n slots of the view (device);
   // radius: their screen radii from the last render (device, n) or null to skip the size test;
   // visits: optimiser steps by pool slot (device, capacity) or null, read when config.min_visits > 0.
-  // places: where each entry of ids stands in the caller's list (device, n; e.g. SlotOrder's), or null
-  // when ids is that list. `out` receives the selected entries' places in the caller's list, ascending.
+  // places: where each entry of ids stands in the caller's list (device, n; e.g. SlotOrder's). `out`
+  // receives the selected entries' places in the caller's list, ascending.
   // Slots out of range are never selected (the rasterizer refuses them first).
   void select(const PruneConfig& config, const float* opacity, size_t capacity, const uint32_t* ids, size_t n,
-              const float* radius, int image_width, const uint32_t* visits, std::vector<uint32_t>& out,
-              const uint32_t* places = nullptr);
+              const float* radius, int image_width, const uint32_t* visits, const uint32_t* places,
+              std::vector<uint32_t>& out);
 
  private:
   DeviceArray<uint8_t> flags_;

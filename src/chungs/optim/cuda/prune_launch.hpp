@@ -15,7 +15,7 @@ struct PruneLaunch {
   float max_radius, min_logit;
   const uint32_t* visits;  // by slot, or null: no age test
   uint32_t min_visits;
-  const uint32_t* places;  // n: what to report for entry j (places[j]), or null: j itself
+  const uint32_t* places;  // n: what to report for entry j
   uint8_t* flags;      // n
   uint32_t* selected;  // n
   uint32_t* count;     // 1
@@ -23,8 +23,8 @@ struct PruneLaunch {
 
 // Scratch bytes the compaction of n entries needs.
 size_t prune_temp_bytes(uint32_t n);
-// Flags the entries and compacts what is reported for the flagged ones (places[j], or j), in the order of
-// ids, into selected; returns their count
+// Flags the entries and compacts the flagged ones' places, in the order of ids, into selected; returns their
+// count
 // (waits for the device). temp holds prune_temp_bytes(n).
 uint32_t launch_prune_select(const PruneLaunch& a, void* temp, size_t temp_bytes);
 
