@@ -5,8 +5,9 @@
 // of an 800 m street under a 25 k budget, smeared sky and opaque blobs metres wide). So each chunk
 // remembers its best view, and a step on a view that shows it on under `share` of that view's blocks
 // does not score its pixels while the best view is outside the window. Nor does the sampler add to
-// them from that view: a far view's sky pixels, sampled at the fill depth, had put opaque blobs metres
-// wide on a street mapped long before.
+// them from that view, whether or not the best view is still trained: a far view's sky pixels, sampled
+// at the fill depth, had put opaque blobs metres wide on a street mapped long before, and without a
+// budget far views hazed a street no later view came near.
 #pragma once
 #include <cstdint>
 #include <functional>

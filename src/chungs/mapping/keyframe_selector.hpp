@@ -54,7 +54,9 @@ struct KeyframeSelectorConfig {
   // Under a window, a step leaves out the pixels of a chunk its view shows on fewer than this share of
   // the blocks its best view (the keyframe that showed it largest) did, once that view has left the
   // window: later views that glimpse it from afar or at a grazing angle would otherwise reshape what
-  // nothing holds in place any more (2 km street at a 100 k budget: +1.1 dB held-out). 0: off.
+  // nothing holds in place any more (2 km street at a 100 k budget: +1.1 dB held-out). With or without a
+  // window, a keyframe samples nothing into such chunks (without a budget, glimpses had hazed a stretch of
+  // a 2 km street; +0.5-0.7 dB held-out on it at 310x94, bench/README.md). 0: off.
   double best_view_share = 0.5;
   // When the map exceeds the budget, a view needs only its core chunks: the fewest, largest first, that
   // show this share of its 4x4 blocks (ViewCoverage::core); its other chunks are drawn when resident and

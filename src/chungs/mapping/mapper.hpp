@@ -263,6 +263,8 @@ class Mapper {
   bool loads_cores() const { return config_.selector.core_share < 1 && !residency_->all_resident(); }
   // The chunks of the view that a step leaves out under best_view_share (empty: none), sorted.
   std::vector<ChunkId> chunks_shown_better(uint32_t keyframe, const ViewCoverage& coverage) const;
+  // The chunks of the view that the sampler leaves out under best_view_share, window or not, sorted.
+  std::vector<ChunkId> chunks_sampled_better(uint32_t keyframe, const ViewCoverage& coverage) const;
   bool loop_batch_allowed_ = true;
   bool sky_on_ = false;  // the backend holds a sky (render/sky.hpp), saved with each checkpoint
   uint64_t nonfinite_losses_ = 0;  // steps whose loss was NaN or infinite (warned once)

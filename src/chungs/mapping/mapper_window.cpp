@@ -68,4 +68,12 @@ std::vector<ChunkId> Mapper::chunks_shown_better(uint32_t keyframe, const ViewCo
   return best_views_.shown_better(keyframe, coverage, share, [&](uint32_t k) { return selector_.in_window(k); });
 }
 
+std::vector<ChunkId> Mapper::chunks_sampled_better(uint32_t keyframe, const ViewCoverage& coverage) const {
+  // Unlike a step's mask, whether the better view is still trained does not matter: what a glimpse adds is
+  // placed by the depth of far or grazing pixels, and the view that showed the chunk larger has sampled it.
+  const double share = config_.selector.best_view_share;
+  if (!(share > 0)) return {};
+  return best_views_.shown_better(keyframe, coverage, share, [](uint32_t) { return false; });
+}
+
 }  // namespace chungs
