@@ -19,8 +19,8 @@ TEST(MapperBestViewSampling, AFarGlimpseAddsNothingToChunksANearViewShowedLarger
     Config c = test::tiny_mapping_config();
     c.mapper.device = "cpu";
     c.selector.best_view_share = share;
-    const test::WallSequence near(2);                      // the wall 3 m ahead
-    const test::WallSequence far(1, 64, 48, 0.08, 9.0);    // the same wall's texture, 9 m ahead ...
+    const test::WallSequence near(2);                    // the wall 3 m ahead
+    const test::WallSequence far(1, 64, 48, 0.08, 9.0);  // the same wall's texture, 9 m ahead ...
     Mapper m(dir / "map", c, false);
     Frame f = near.frame(0);
     const SampleStats first = m.add_keyframe(0, f.timestamp, f.left, f.depth, f.camera, *f.gt_pose);
@@ -29,7 +29,8 @@ TEST(MapperBestViewSampling, AFarGlimpseAddsNothingToChunksANearViewShowedLarger
     const SampleStats beside = m.add_keyframe(1, f.timestamp, f.left, f.depth, f.camera, *f.gt_pose);
     EXPECT_EQ(beside.excluded, 0u) << "a view of the wall as near as the first one samples it";
     f = far.frame(0);
-    const SE3 back(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0, -6));  // ... seen from 6 m further back
+    const SE3 back(Eigen::Quaterniond::Identity(),
+                   Eigen::Vector3d(0, 0, -6));  // ... seen from 6 m further back
     const SampleStats glimpse = m.add_keyframe(2, f.timestamp, f.left, f.depth, f.camera, back);
     EXPECT_FALSE(m.window_stats().narrowed) << "no budget, no window";
     if (share > 0)

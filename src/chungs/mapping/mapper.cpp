@@ -304,19 +304,19 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   // without a budget, views that glimpsed a street from afar had put a haze over it (2 km street at 310x94:
   // 8.8-17.2 dB held-out on a stretch no later view came within 40 m of; bench/README.md, issue 19).
   std::optional<ViewCoverage> coverage;
-  std::vector<ChunkId> shown_better;
+  std::vector<ChunkId> not_sampled;
   std::vector<ChunkId> core;
   const bool cores = config_.selector.core_share < 1;
   if ((config_.selector.best_view_share > 0 || cores) && depth) {
     coverage.emplace(*depth, camera, pose, store_->chunk_size(), config_.sampler.fill_depth);
-    shown_better = chunks_sampled_better(id, *coverage);
+    not_sampled = chunks_sampled_better(id, *coverage);
     if (cores) core = coverage->core(config_.selector.core_share);
   }
   if (depth || seeds) {
     // Seeds need no depth map: without one (a keyframe whose depth comes later) only they are taken.
     const ImageF none = depth ? ImageF() : ImageF(color.width(), color.height(), 1, 0.0f);
     stats = sample_view(id, color, depth ? *depth : none, camera, pose, new_gaussian_cap(color), seeds,
-                        &shown_better, coverage && cores ? &core : nullptr);
+                        &not_sampled, coverage && cores ? &core : nullptr);
   }
   steps_at_last_keyframe_ = steps_at_last_sampling_ = iterations_;
   KeyframeRecord rec;
