@@ -113,6 +113,7 @@ class Readers:
         self.retries = 0  # reads that started over from a newer checkpoint
         self.during = 0  # reads that ended while the mapper was still running
         self.seen = set()  # checkpoints that successful exports matched
+        self.exports = 0
         self.views = sum(1 for line in open(poses) if line.strip() and not line.startswith("#"))
         self.stride = max(1, self.views // 4)  # a handful of views along the whole street
         self.bad = []
@@ -124,6 +125,7 @@ class Readers:
         kind = ("export", "export", "render")[n % 3]
         renders = self.work / "renders"
         if kind == "export":
+            self.exports += 1
             (self.work / "r.ply").unlink(missing_ok=True)
             args = ["export", "--map", str(self.folder), "--out", str(self.work / "r.ply")]
         else:
@@ -158,8 +160,7 @@ class Readers:
             if not match:
                 # The read took the checkpoint committed when it began or a newer one: if the watcher
                 # missed one of those, the count cannot be checked against it.
-                latest = max(self.watcher.totals, default=0)
-                if any(k not in self.watcher.totals for k in range(max(latest_before, 1), latest + 1)):
+                if any(k >= latest_before for k in self.watcher.gaps()):
                     return "unseen", ""
                 return "bad", f"export wrote {got} Gaussians, no committed checkpoint had that many"
             self.seen.add(max(match))
@@ -255,8 +256,7 @@ def main():
         ratio = fps_readers / fps_alone
         print(f"mapper FPS: {fps_alone:.2f} alone, {fps_readers:.2f} with readers ({ratio:.3f})")
         shutil.rmtree(out, ignore_errors=True)
-    exports = reads - reads // 3
-    failed = (readers.counts["bad"] > 0 or 5 * readers.counts["unseen"] > exports or readers.during < args.reads
+    failed = (readers.counts["bad"] > 0 or 5 * readers.counts["unseen"] > readers.exports or readers.during < args.reads
               or ratio < 1 - args.max_drop)
     return 1 if failed else 0
 
