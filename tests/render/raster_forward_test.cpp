@@ -87,36 +87,47 @@ TEST(RasterConfig, SegmentEntriesAreOffOrAWorkableRun) {
   }
 }
 
+// With and without the anti-aliased low-pass: with it, the peak opacity is o sqrt(det(cov - lp I) /
+// det(cov)), so a splat the low-pass widens keeps the weight it had (RasterConfig::antialias). The sub-pixel
+// case (0.004 m at 2.5 m: ~0.1 px) is where that factor is far from 1.
 TEST(RasterForward, SingleGaussianFollowsClosedFormAtIntegerPixelCentres) {
   const Camera cam(40, 30, 50, 60, 13.25, 17.5);
-  test::SceneArrays<double> g;
-  const double z = 2.5, sigma = 0.1, o = 0.7;
-  put(g, cam, 20.0, 12.0, z, sigma, std::log(o / (1 - o)), {0.9, 0.3, 0.6});
-  CpuRasterizer<double> r;
-  const auto& out = r.forward(g.view(), test::iota_ids(1), make_render_camera<double>(cam, SE3()));
-  // On the optical axis of the pixel grid the projected covariance is diagonal only at the principal
-  // point; evaluate the EWA formula exactly for this position instead.
-  const double x = (20.0 - cam.cx) / cam.fx * z, y = (12.0 - cam.cy) / cam.fy * z;
-  Eigen::Matrix<double, 2, 3> J;
-  J << cam.fx / z, 0, -cam.fx * x / (z * z), 0, cam.fy / z, -cam.fy * y / (z * z);
-  // 40x30 is below the reference size: the low-pass is 0.3 px^2 / 16 (RasterConfig::low_pass_for).
-  const Eigen::Matrix2d cov = sigma * sigma * J * J.transpose() + 0.3 / 16 * Eigen::Matrix2d::Identity();
-  const Eigen::Matrix2d conic = cov.inverse();
-  for (int v : {12, 14, 9})
-    for (int u : {20, 21, 17}) {
-      const Eigen::Vector2d d(u - 20.0, v - 12.0);
-      const double a = o * std::exp(-0.5 * d.dot(conic * d));
-      EXPECT_NEAR(out.rgb(u, v, 0), a * 0.9, 1e-12) << u << "," << v;
-      EXPECT_NEAR(out.rgb(u, v, 1), a * 0.3, 1e-12);
-      EXPECT_NEAR(out.alpha(u, v), a, 1e-12);
-      EXPECT_NEAR(out.depth(u, v), a * z, 1e-12);
-      EXPECT_NEAR(out.inv_depth(u, v), a / z, 1e-12);
-      EXPECT_EQ(out.top_id(u, v), 0u);
-    }
-  EXPECT_EQ(out.top_id(0, 0), kNoGaussian);  // far outside 3 sigma
-  EXPECT_EQ(out.alpha(0, 0), 0.0);
-  EXPECT_EQ(out.visible[0], 1);
-  EXPECT_NEAR(out.radius[0], 3 * std::sqrt(cov.eigenvalues().real().maxCoeff()), 1e-9);
+  const double z = 2.5, o = 0.7;
+  for (auto [antialias, sigma] : {std::pair{true, 0.1}, std::pair{false, 0.1}, std::pair{true, 0.004}}) {
+    test::SceneArrays<double> g;
+    put(g, cam, 20.0, 12.0, z, sigma, std::log(o / (1 - o)), {0.9, 0.3, 0.6});
+    // On the optical axis of the pixel grid the projected covariance is diagonal only at the principal
+    // point; evaluate the EWA formula exactly for this position instead.
+    const double x = (20.0 - cam.cx) / cam.fx * z, y = (12.0 - cam.cy) / cam.fy * z;
+    Eigen::Matrix<double, 2, 3> J;
+    J << cam.fx / z, 0, -cam.fx * x / (z * z), 0, cam.fy / z, -cam.fy * y / (z * z);
+    // 40x30 is below the reference size: the low-pass is 0.3 px^2 / 16 (RasterConfig::low_pass_for).
+    const Eigen::Matrix2d bare = sigma * sigma * J * J.transpose();
+    const Eigen::Matrix2d cov = bare + 0.3 / 16 * Eigen::Matrix2d::Identity();
+    const Eigen::Matrix2d conic = cov.inverse();
+    RasterConfig cfg;
+    cfg.antialias = antialias;
+    CpuRasterizer<double> r(cfg);
+    const auto& out = r.forward(g.view(), test::iota_ids(1), make_render_camera<double>(cam, SE3()));
+    const double peak = antialias ? o * std::sqrt(bare.determinant() / cov.determinant()) : o;
+    if (sigma < 0.01) EXPECT_LT(peak, 0.5 * o);  // the case must exercise the factor
+    for (int v : {12, 14, 9})
+      for (int u : {20, 21, 17}) {
+        const Eigen::Vector2d d(u - 20.0, v - 12.0);
+        const double q = d.dot(conic * d), a0 = peak * std::exp(-0.5 * q);
+        const double a = q <= 9 && a0 >= 1.0 / 255 ? a0 : 0.0;  // the 3-sigma and alpha cut-offs
+        EXPECT_NEAR(out.rgb(u, v, 0), a * 0.9, 1e-12) << u << "," << v << " antialias " << antialias;
+        EXPECT_NEAR(out.rgb(u, v, 1), a * 0.3, 1e-12);
+        EXPECT_NEAR(out.alpha(u, v), a, 1e-12);
+        EXPECT_NEAR(out.depth(u, v), a * z, 1e-12);
+        EXPECT_NEAR(out.inv_depth(u, v), a / z, 1e-12);
+        EXPECT_EQ(out.top_id(u, v), a > 0 ? 0u : kNoGaussian);
+      }
+    EXPECT_EQ(out.top_id(0, 0), kNoGaussian);  // far outside 3 sigma
+    EXPECT_EQ(out.alpha(0, 0), 0.0);
+    EXPECT_EQ(out.visible[0], 1);
+    EXPECT_NEAR(out.radius[0], 3 * std::sqrt(cov.eigenvalues().real().maxCoeff()), 1e-9);
+  }
 }
 
 TEST(RasterForward, FrontGaussianOccludesWhateverTheListOrder) {
@@ -124,7 +135,9 @@ TEST(RasterForward, FrontGaussianOccludesWhateverTheListOrder) {
   test::SceneArrays<double> g;
   put(g, cam, 16, 16, 5.0, 0.3, 0.5, {0.1, 0.2, 0.9});  // far, blue
   put(g, cam, 16, 16, 2.0, 0.1, 0.8, {0.9, 0.1, 0.1});  // near, red
-  CpuRasterizer<double> r;
+  RasterConfig cfg;
+  cfg.antialias = false;  // the peaks as given: this is about the order, not the low-pass
+  CpuRasterizer<double> r(cfg);
   const double on = 1 / (1 + std::exp(-0.8)), of = 1 / (1 + std::exp(-0.5));
   for (const auto& ids : {std::vector<uint32_t>{0, 1}, std::vector<uint32_t>{1, 0}}) {
     const auto& out = r.forward(g.view(), ids, make_render_camera<double>(cam, SE3()));
@@ -141,7 +154,9 @@ TEST(RasterForward, StopsBeforeTheSplatThatTakesTransmittanceBelowCutoff) {
   test::SceneArrays<double> g;
   const double logit = std::log(0.95 / 0.05);
   for (int i = 0; i < 6; ++i) put(g, cam, 8, 8, 1.0 + i, 0.5 * (1.0 + i), logit, {0.1 * i, 0.5, 0.2});
-  CpuRasterizer<double> r;
+  RasterConfig cfg;
+  cfg.antialias = false;  // the peaks as given: this is about the cut-off, not the low-pass
+  CpuRasterizer<double> r(cfg);
   const auto& out = r.forward(g.view(), test::iota_ids(6), make_render_camera<double>(cam, SE3()));
   // T after 3 splats is 0.05^3 = 1.25e-4; the 4th would leave 6.25e-6 < 1e-4, so it and the rest are
   // skipped (G = 1 at the centre, sigma chosen to keep it so).

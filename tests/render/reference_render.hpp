@@ -50,11 +50,16 @@ inline RenderOutput<double> reference_render(const SceneArrays<double>& g, const
     Eigen::Matrix<double, 2, 3> J;
     J << cam.fx / z, 0, -cam.fx * rx / z, 0, cam.fy / z, -cam.fy * ry / z;
     const double low_pass = cfg.low_pass_for(cam.width, cam.height);
-    const Eigen::Matrix2d cov = J * W * Sigma * W.transpose() * J.transpose() + low_pass * Eigen::Matrix2d::Identity();
+    const Eigen::Matrix2d cov =
+        J * W * Sigma * W.transpose() * J.transpose() + low_pass * Eigen::Matrix2d::Identity();
     RefSplat r;
     r.mean = cam.project(pc);
     r.conic = cov.inverse();
     r.opacity = 1 / (1 + std::exp(-g.opacity[slot]));
+    // The anti-aliased low-pass keeps a splat's weight: opacity x sqrt(det without / det with it).
+    if (cfg.antialias)
+      r.opacity *= std::sqrt(
+          std::max(0.0, (cov - low_pass * Eigen::Matrix2d::Identity()).determinant() / cov.determinant()));
     r.z = z;
     r.power_min = -0.5 * cfg.extent_sigma * cfg.extent_sigma;
     if (cfg.min_alpha > 0) r.power_min = std::max(r.power_min, std::log(cfg.min_alpha / r.opacity));

@@ -67,8 +67,9 @@ async function start(): Promise<void> {
   document.body.appendChild(renderer.domElement);
 
   const scene = new THREE.Scene();
-  // Drawn as `diskchungs render` draws: a 0.3 px^2 low-pass without opacity compensation, 3 sigma,
-  // alpha below 1/255 skipped, depth-sorted, float32 centres through the accumulation.
+  // Drawn as `diskchungs render` draws by default: a 0.3 px^2 low-pass with the opacity compensation of
+  // `raster.antialias` (Spark's blurAmount; preBlurAmount is the plain one), 3 sigma, alpha below 1/255
+  // skipped, depth-sorted, float32 centres through the accumulation.
   // Spark sorts on a worker and calls onDirty when the new order (or a level-of-detail update) is
   // ready: the page draws then, instead of drawing every frame in case it had finished.
   let sparkDirty = false;
@@ -77,8 +78,8 @@ async function start(): Promise<void> {
     onDirty: () => {
       sparkDirty = true;
     },
-    preBlurAmount: 0.3,
-    blurAmount: 0,
+    preBlurAmount: 0,
+    blurAmount: 0.3,
     maxStdDev: 3,
     minAlpha: 1 / 255,
     sortRadial: false,

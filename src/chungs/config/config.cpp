@@ -64,6 +64,7 @@ void fields(V& v, RasterConfig& c) {
   v("low_pass", c.low_pass, "px^2 added to each 2D covariance");
   v("small_image_reference_px", c.small_image_reference_px,
     "below this many pixels, low_pass x pixels / reference, at least 1/16 (0: off)");
+  v("antialias", c.antialias, "scale a splat's opacity by what the low-pass widened it (keeps far looks)");
   v("alpha_max", c.alpha_max, "");
   v("min_alpha", c.min_alpha, "");
   v("min_transmittance", c.min_transmittance, "");

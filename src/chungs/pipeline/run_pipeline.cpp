@@ -454,6 +454,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                         {"lr_steps_factor", mapper.rate_steps_factor()},
                         {"sampler_density", cfg.sampler.density},
                         {"low_pass_px2", cfg.raster.low_pass_for(width, height)},
+                        {"antialias", cfg.raster.antialias},
                         {"seed", mc.seed}};
   report["device"] = mapper.device();
   if (tracked) report["tracking"] = feed->report();

@@ -7,14 +7,19 @@ namespace chungs {
 constexpr int kTileSize = 16;  // tiles are 16x16 pixels
 
 struct RasterConfig {
-  double near_plane = 0.01;         // metres; Gaussians with view-space z below this are culled
-  double low_pass = 0.3;            // px^2 added to the diagonal of every 2D covariance (EWA low-pass)
+  double near_plane = 0.01;  // metres; Gaussians with view-space z below this are culled
+  double low_pass = 0.3;     // px^2 added to the diagonal of every 2D covariance (EWA low-pass)
   // low_pass holds for images of at least this many pixels (620x188). On smaller ones it keeps the
   // solid angle it covers there: x pixels / reference, at least 1/16 (0: low_pass at any size). At
   // 310x94, 0.3 px^2 blurred every splat over 4x the angle and the map scored 0.95-1.40 dB under
   // 620x188 on three streets at 10 steps per keyframe; with the same angle, 0.74-0.93 dB on five
   // (bench/README, issue 20).
   double small_image_reference_px = 620.0 * 188.0;
+  // The low-pass widens a splat smaller than a pixel; true scales its opacity by sqrt(det before / det
+  // after) so that what it covers keeps its weight (an anti-aliased splat): a Gaussian trained from near
+  // views keeps its look from afar instead of growing to a 0.3 px^2 blob of full opacity (2 km street at
+  // 620x188: +0.22-0.37 dB held-out in the three pacings, bench/README.md). false: the plain 3DGS low-pass.
+  bool antialias = true;
   double alpha_max = 0.99;          // per-splat alpha clamp (keeps 1 - alpha away from zero)
   double min_alpha = 1.0 / 255.0;   // splats fainter than this at a pixel are skipped
   double min_transmittance = 1e-4;  // a pixel stops before the splat that would take T below this

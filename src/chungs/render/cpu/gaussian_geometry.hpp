@@ -24,11 +24,25 @@ struct GaussianGeometry {
   bool clamp_x, clamp_y;
   T Tm[6];         // J * W, 2x3 row-major
   T A, B, C, det;  // 2D covariance [[A, B], [B, C]] (low-pass included) and its determinant
+  T det0;          // the determinant without the low-pass
+  T comp;          // opacity factor of the anti-aliased low-pass, sqrt(det0 / det) (1 without it)
   T dir[3], dist;  // unit direction camera centre -> mean, and the distance
   T raw[3];        // SH colour + 0.5 before the clamp at 0
   T basis[kShCoeffs];
-  T opacity;
+  T opacity;  // sigmoid of the logit (the splat's is opacity * comp)
 };
+
+// Adds to the 2D covariance's gradient (gA, gB per off-diagonal entry, gC) what flows through comp, given
+// dL/dcomp. Below det0 = 1e-6 det the splat is all but transparent (comp < 1e-3) and 1/det0 would blow
+// up, so nothing flows there.
+template <typename T>
+inline void comp_backward(const GaussianGeometry<T>& o, T low_pass, T gcomp, T& gA, T& gB, T& gC) {
+  if (!(o.det0 > T(1e-6) * o.det)) return;
+  const T h = T(0.5) * gcomp * o.comp;  // d comp = comp / 2 (d ln det0 - d ln det)
+  gA += h * ((o.C - low_pass) / o.det0 - o.C / o.det);
+  gC += h * ((o.A - low_pass) / o.det0 - o.A / o.det);
+  gB += h * (o.B / o.det - o.B / o.det0);
+}
 
 // False when the Gaussian cannot be rendered (behind the near plane, zero quaternion, degenerate
 // covariance, mean at the camera centre).
@@ -86,6 +100,9 @@ inline bool compute_geometry(const GaussianArrays<T>& g, uint32_t slot, const Re
   o.C = TS[3] * o.Tm[3] + TS[4] * o.Tm[4] + TS[5] * o.Tm[5] + T(cfg.low_pass);
   o.det = o.A * o.C - o.B * o.B;
   if (!(o.det > T(0))) return false;
+  const T lp = T(cfg.low_pass);
+  o.det0 = (o.A - lp) * (o.C - lp) - o.B * o.B;
+  o.comp = cfg.antialias ? (o.det0 > T(0) ? std::sqrt(o.det0 / o.det) : T(0)) : T(1);
 
   // Colour along the ray from the camera centre to the mean.
   T v[3];

@@ -17,7 +17,7 @@ Splat<T> make_splat(const GaussianGeometry<T>& o, const RenderCamera<T>& cam, co
   s.ca = o.C / o.det;
   s.cb = -o.B / o.det;
   s.cc = o.A / o.det;
-  s.opacity = o.opacity;
+  s.opacity = o.opacity * o.comp;
   s.z = z;
   s.inv_z = T(1) / z;
   for (int c = 0; c < 3; ++c) s.color[c] = std::max(o.raw[c], T(0));
@@ -31,7 +31,7 @@ Splat<T> make_splat(const GaussianGeometry<T>& o, const RenderCamera<T>& cam, co
   // The splat reaches a pixel while alpha >= min_alpha and q <= extent^2; both are one bound on the
   // exponent -q/2, and the footprint box is the bounding box of that ellipse.
   T pmin = T(-0.5 * cfg.extent_sigma * cfg.extent_sigma);
-  if (cfg.min_alpha > 0) pmin = std::max(pmin, T(std::log(cfg.min_alpha)) - std::log(o.opacity));
+  if (cfg.min_alpha > 0) pmin = std::max(pmin, T(std::log(cfg.min_alpha)) - std::log(s.opacity));
   s.power_min = pmin;
   if (!(pmin < T(0))) return s;  // too faint to reach any pixel: empty box
   const T qmax = -2 * pmin;

@@ -32,8 +32,8 @@ void backward_one(const GaussianArrays<T>& g, uint32_t slot, const GaussianGeome
   T gpc[3] = {0, 0, 0};
   T gmean[3] = {0, 0, 0};
 
-  // Opacity logit.
-  out.opacity[j] = gs[kGOpacity] * o.opacity * (1 - o.opacity);
+  // Opacity logit (the splat's opacity is sigmoid * comp).
+  out.opacity[j] = gs[kGOpacity] * o.comp * o.opacity * (1 - o.opacity);
 
   // Colour: SH coefficients and, through the viewing direction, the mean.
   const T graw[3] = {o.raw[0] > 0 ? gs[kGR] : T(0), o.raw[1] > 0 ? gs[kGG] : T(0),
@@ -61,7 +61,8 @@ void backward_one(const GaussianArrays<T>& g, uint32_t slot, const GaussianGeome
   const T Ga = gs[kGCa], Gb = gs[kGCb] / 2, Gc = gs[kGCc];
   const T KG00 = ka * Ga + kb * Gb, KG01 = ka * Gb + kb * Gc, KG10 = kb * Ga + kc * Gb,
           KG11 = kb * Gb + kc * Gc;
-  const T gA = -(KG00 * ka + KG01 * kb), gB2 = -(KG00 * kb + KG01 * kc), gC = -(KG10 * kb + KG11 * kc);
+  T gA = -(KG00 * ka + KG01 * kb), gB2 = -(KG00 * kb + KG01 * kc), gC = -(KG10 * kb + KG11 * kc);
+  if (cfg.antialias) comp_backward(o, T(cfg.low_pass), gs[kGOpacity] * o.opacity, gA, gB2, gC);
   // G2 = [[gA, gB2], [gB2, gC]] is the symmetric gradient of Sigma2 = Tm Sigma Tm^T.
   const T G2[4] = {gA, gB2, gB2, gC};
   T G2T[6];  // G2 * Tm

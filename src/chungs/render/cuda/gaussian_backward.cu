@@ -47,7 +47,7 @@ __global__ void __launch_bounds__(128)
   const float x = o.pc[0], y = o.pc[1], z = o.pc[2];
   float gpc[3] = {0, 0, 0}, gmean[3] = {0, 0, 0};
 
-  out.opacity[j] = gs[5] * o.opacity * (1 - o.opacity);
+  out.opacity[j] = gs[5] * o.comp * o.opacity * (1 - o.opacity);
 
   // Colour: SH coefficients and, through the viewing direction, the mean.
   const float graw[3] = {o.raw[0] > 0 ? gs[6] : 0.f, o.raw[1] > 0 ? gs[7] : 0.f, o.raw[2] > 0 ? gs[8] : 0.f};
@@ -77,7 +77,8 @@ __global__ void __launch_bounds__(128)
   const float Ga = gs[2], Gb = gs[3] / 2, Gc = gs[4];
   const float KG00 = ka * Ga + kb * Gb, KG01 = ka * Gb + kb * Gc, KG10 = kb * Ga + kc * Gb,
               KG11 = kb * Gb + kc * Gc;
-  const float gA = -(KG00 * ka + KG01 * kb), gB2 = -(KG00 * kb + KG01 * kc), gC = -(KG10 * kb + KG11 * kc);
+  float gA = -(KG00 * ka + KG01 * kb), gB2 = -(KG00 * kb + KG01 * kc), gC = -(KG10 * kb + KG11 * kc);
+  if (k.antialias) comp_backward(o, k.low_pass, gs[5] * o.opacity, gA, gB2, gC);
   const float G2[4] = {gA, gB2, gB2, gC};
   float G2T[6];
 #pragma unroll

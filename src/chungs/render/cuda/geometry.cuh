@@ -83,10 +83,22 @@ struct Geometry {
   bool clamp_x, clamp_y;
   float Tm[6];
   float A, B, C, det;
+  // The determinant without the low-pass, and the anti-aliased opacity factor (as the CPU twin).
+  float det0, comp;
   float dir[3], dist;
   float raw[3];
   float opacity;
 };
+
+// What flows through comp into the 2D covariance's gradient (the CPU twin's comp_backward).
+__device__ __forceinline__ void comp_backward(const Geometry& o, float low_pass, float gcomp, float& gA,
+                                              float& gB, float& gC) {
+  if (!(o.det0 > 1e-6f * o.det)) return;
+  const float h = 0.5f * gcomp * o.comp;
+  gA += h * ((o.C - low_pass) / o.det0 - o.C / o.det);
+  gC += h * ((o.A - low_pass) / o.det0 - o.A / o.det);
+  gB += h * (o.B / o.det - o.B / o.det0);
+}
 
 // The SH coefficients of one slot (48 floats, 16-byte aligned when the array is).
 __device__ __forceinline__ void load_sh(const float* sh, uint32_t slot, float* out) {
@@ -160,6 +172,8 @@ __device__ __forceinline__ bool compute_geometry(const GaussianArrays<float>& g,
   o.C = TS[3] * o.Tm[3] + TS[4] * o.Tm[4] + TS[5] * o.Tm[5] + k.low_pass;
   o.det = o.A * o.C - o.B * o.B;
   if (!(o.det > 0.f)) return false;
+  o.det0 = (o.A - k.low_pass) * (o.C - k.low_pass) - o.B * o.B;
+  o.comp = k.antialias ? (o.det0 > 0.f ? sqrtf(o.det0 / o.det) : 0.f) : 1.f;
 
   float v[3] = {p0 - cam.centre[0], p1 - cam.centre[1], p2 - cam.centre[2]};
   o.dist = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);

@@ -21,6 +21,7 @@ struct RasterConsts {
   float min_alpha, log_min_alpha;  // log only used when min_alpha > 0
   float bg[3];
   int sh_degree;
+  bool antialias;  // opacity scaled by sqrt(det0 / det), as the CPU twin
 };
 RasterConsts make_consts(const RasterConfig& c);
 

@@ -31,6 +31,7 @@ RasterConsts make_consts(const RasterConfig& c) {
   k.log_min_alpha = c.min_alpha > 0 ? float(std::log(c.min_alpha)) : 0.f;
   for (int i = 0; i < 3; ++i) k.bg[i] = float(c.background[i]);
   k.sh_degree = c.sh_degree;
+  k.antialias = c.antialias;
   return k;
 }
 
@@ -75,13 +76,14 @@ __device__ uint32_t project_one(const GaussianArrays<float>& g, const uint32_t* 
   const float z = G.pc[2];
   const float mx = cam.fx * G.pc[0] / z + cam.cx, my = cam.fy * G.pc[1] / z + cam.cy;
   const float ca = G.C / G.det, cb = -G.B / G.det, cc = G.A / G.det;
-  if (!isfinite(mx) || !isfinite(my) || !isfinite(ca + cb + cc) || !isfinite(G.opacity) ||
+  const float opacity = G.opacity * G.comp;
+  if (!isfinite(mx) || !isfinite(my) || !isfinite(ca + cb + cc) || !isfinite(opacity) ||
       !isfinite(G.raw[0] + G.raw[1] + G.raw[2]))
     return 0;
   const float mid = (G.A + G.C) / 2, half = (G.A - G.C) / 2;
   const float radius = 3 * sqrtf(mid + sqrtf(half * half + G.B * G.B));
   float pmin = -0.5f * k.extent_sigma * k.extent_sigma;
-  if (k.min_alpha > 0) pmin = fmaxf(pmin, k.log_min_alpha - logf(G.opacity));
+  if (k.min_alpha > 0) pmin = fmaxf(pmin, k.log_min_alpha - logf(opacity));
   if (!(pmin < 0.f)) return 0;
   const float qmax = -2 * pmin;
   const float ex = sqrtf(qmax * G.A), ey = sqrtf(qmax * G.C);
@@ -91,7 +93,7 @@ __device__ uint32_t project_one(const GaussianArrays<float>& g, const uint32_t* 
   const int x0 = int(fmaxf(fx0, 0.f)), x1 = int(fminf(fx1, W1));
   const int y0 = int(fmaxf(fy0, 0.f)), y1 = int(fminf(fy1, H1));
   const int tx0 = x0 / kTileSize, tx1 = x1 / kTileSize, ty0 = y0 / kTileSize, ty1 = y1 / kTileSize;
-  o.a[j] = make_float4(mx, my, G.opacity, pmin);
+  o.a[j] = make_float4(mx, my, opacity, pmin);
   o.b[j] = make_float4(ca, cb, cc, z);
   o.c[j] = make_float4(fmaxf(G.raw[0], 0.f), fmaxf(G.raw[1], 0.f), fmaxf(G.raw[2], 0.f), 1.f / z);
   o.rect[j] = make_ushort4(tx0, tx1, ty0, ty1);
