@@ -224,6 +224,11 @@ void fields(V& v, KeyframeSelectorConfig& c) {
   v("core_share", c.core_share,
     "over budget, a view loads only the chunks showing this share of its pixels, largest first; the rest "
     "are drawn when resident (1: all it sees)");
+  v("revisit_share", c.revisit_share,
+    "share of the steps on keyframes revisit_min_distance .. cell_size / 2 behind the latest, whole, in bursts (0: off)");
+  v("revisit_burst", c.revisit_burst, "steps of one revisit, on keyframes near one drawn at random");
+  v("revisit_min_distance", c.revisit_min_distance, "metres behind the latest keyframe where revisits start");
+  v("revisit_group_m", c.revisit_group_m, "a burst trains the keyframes within this many metres of the one drawn");
 }
 template <class V>
 void fields(V& v, SkyConfig& c) {

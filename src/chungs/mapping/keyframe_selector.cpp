@@ -8,6 +8,14 @@
 namespace chungs {
 
 void KeyframeSelectorConfig::validate() const {
+  if (!(revisit_share >= 0 && revisit_share < 1))
+    fail("keyframe selector: revisit_share must be in [0, 1), got ", revisit_share);
+  if (revisit_burst < 1 || revisit_burst > 100000)
+    fail("keyframe selector: revisit_burst must be 1..100000 steps, got ", revisit_burst);
+  if (!(revisit_min_distance >= 0 && std::isfinite(revisit_min_distance)))
+    fail("keyframe selector: revisit_min_distance must be >= 0 metres, got ", revisit_min_distance);
+  if (!(revisit_group_m >= 0 && std::isfinite(revisit_group_m)))
+    fail("keyframe selector: revisit_group_m must be >= 0 metres, got ", revisit_group_m);
   if (!(cell_size > 0 && std::isfinite(cell_size)))
     fail("keyframe selector: cell_size must be a finite number of metres > 0, got ", cell_size);
   if (!(budget_cell_size > 0 && std::isfinite(budget_cell_size)))

@@ -64,6 +64,18 @@ struct KeyframeSelectorConfig {
   // the budget together (2 km street at a 100 k budget: a window of 43 keyframes instead of 26, +0.4 dB
   // over best_view_share alone, and a quarter of the chunk loads). 1: every visible chunk.
   double core_share = 0.9;
+  // Revisits: this share of the steps trains keyframes between revisit_min_distance and cell_size / 2
+  // behind the latest one, whole (their cores loaded, as a window keyframe's), in bursts of revisit_burst
+  // steps on the keyframes within revisit_group_m of one drawn at random, so that one load serves a burst.
+  // A wide cell keeps places trained from the views that saw them long after the car passed: on a 600 m
+  // street at 620x188 (CPU, 10 steps per keyframe, no budget) a 200 m cell scored 23.80 dB held-out
+  // against 24.53 at 600 m, and with 20 % / 50 % of its picks on keyframes 100-300 m back 24.53 / 25.03;
+  // an 80 k budget (a window of ~100 m) scored 23.82, as the 200 m cell. Off by default: in bursts of 32
+  // on 10 m it gained 0.13 dB without a budget and nothing at 80 k (bench/README.md, issue 19). 0: off.
+  double revisit_share = 0.0;
+  int revisit_burst = 32;
+  double revisit_min_distance = 100.0;
+  double revisit_group_m = 10.0;
   void validate() const;
 };
 

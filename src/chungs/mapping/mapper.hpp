@@ -41,6 +41,7 @@ struct StepStats {
   size_t rendered = 0;  // Gaussians in the visible chunks
   size_t chunks = 0;
   size_t pruned = 0;
+  bool revisit = false;  // a keyframe revisited far behind the latest (selector.revisit_share)
 };
 
 class Mapper {
@@ -174,6 +175,8 @@ class Mapper {
     uint64_t best_view_steps = 0;
     // Steps on a window keyframe that left out chunks beyond its core that were not resident.
     uint64_t beyond_core_steps = 0;
+    // Steps and bursts on keyframes revisited far behind the latest (selector.revisit_share).
+    uint64_t revisit_steps = 0, revisit_bursts = 0;
     double keyframes = 0, cell_keyframes = 0, reach_m = 0;  // sums over the narrowed updates
   };
   const WindowStats& window_stats() const { return window_stats_; }
@@ -203,7 +206,8 @@ class Mapper {
                           const std::vector<ChunkId>* core = nullptr);
   // One optimisation step on the given keyframe: on its whole view (loading what it needs) when it is
   // in the training window or `whole_view`, else on the resident part (view_coverage.hpp).
-  StepStats step_keyframe(uint32_t keyframe, bool whole_view = false);
+  // `revisit`: a keyframe revisited behind the window (selector.revisit_share), trained as a window keyframe.
+  StepStats step_keyframe(uint32_t keyframe, bool whole_view = false, bool revisit = false);
   // Where the keyframe's pixels see surfaces, by chunk (built on first use while it is in the cell).
   const ViewCoverage& coverage_of(const KeyframeRecord& kf);
   // Narrows the selector's candidates to the keyframes whose views fit the budget together
@@ -245,9 +249,16 @@ class Mapper {
   struct PickAhead {
     uint32_t keyframe;
     std::vector<ChunkId> chunks;
+    bool revisit = false;  // drawn by revisit_pick, not the selector
   };
   std::deque<PickAhead> picks_ahead_;
   void draw_pick_ahead();
+  // The next pick of a revisit burst (selector.revisit_share), or none: revisit_credit_ gains the share at
+  // every pick and a burst starts once it holds a whole burst; revisit_group_ is the burst's keyframes.
+  std::optional<uint32_t> revisit_pick();
+  double revisit_credit_ = 0;
+  int revisit_left_ = 0;
+  std::vector<uint32_t> revisit_group_;
   void give_back_picks_ahead();
   uint32_t window_pick_ahead();  // the first window pick drawn ahead (taken from the list), or a new one
   KeyframeChunkIndex keyframe_chunks_;  // saved in run_state at each checkpoint

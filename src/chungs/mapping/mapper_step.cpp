@@ -11,7 +11,50 @@
 
 namespace chungs {
 
+std::optional<uint32_t> Mapper::revisit_pick() {
+  const KeyframeSelectorConfig& sc = config_.selector;
+  if (!(sc.revisit_share > 0) || keyframes_.empty()) return std::nullopt;
+  revisit_credit_ += sc.revisit_share;  // at every pick, a burst's own included
+  if (revisit_left_ == 0) {
+    if (revisit_credit_ < double(sc.revisit_burst)) return std::nullopt;
+    // A burst: one keyframe drawn among those far enough behind, and its neighbours.
+    const Eigen::Vector3d at = keyframes_.back().pose.t;
+    const double far = sc.cell_size / 2;
+    std::vector<const KeyframeRecord*> behind;
+    for (const KeyframeRecord& k : keyframes_) {
+      const double d = (k.pose.t - at).norm();
+      if (d > sc.revisit_min_distance && d <= far) behind.push_back(&k);
+    }
+    if (behind.empty()) {
+      revisit_credit_ = double(sc.revisit_burst);  // a drive still too short: kept, not piled up
+      return std::nullopt;
+    }
+    revisit_credit_ -= double(sc.revisit_burst);
+    const KeyframeRecord* anchor = behind[std::uniform_int_distribution<size_t>(0, behind.size() - 1)(rng_)];
+    revisit_group_.clear();
+    for (const KeyframeRecord* k : behind)
+      if ((k->pose.t - anchor->pose.t).norm() <= sc.revisit_group_m) revisit_group_.push_back(k->id);
+    revisit_left_ = sc.revisit_burst;
+    ++window_stats_.revisit_bursts;
+  }
+  --revisit_left_;
+  return revisit_group_[std::uniform_int_distribution<size_t>(0, revisit_group_.size() - 1)(rng_)];
+}
+
 void Mapper::draw_pick_ahead() {
+  if (const std::optional<uint32_t> r = revisit_pick()) {
+    if (const KeyframeRecord* k = find_keyframe(*r)) {
+      // Its core is loaded as a window keyframe's would be; the burst's next picks need the same chunks.
+      PickAhead p{k->id, visible_chunks(k->camera, k->pose), true};
+      if (loads_cores()) {
+        const std::vector<ChunkId>& core = core_chunks_of(*k);
+        std::erase_if(p.chunks, [&](ChunkId c) { return !std::binary_search(core.begin(), core.end(), c); });
+      }
+      keyframe_store_->prefetch(k->id);
+      picks_ahead_.push_back(std::move(p));
+      return;
+    }
+  }
   const PickScope scope = config_.selector.partial_views ? PickScope::cell : PickScope::window;
   PickAhead p{selector_.pick(rng_, scope), {}};
   // A pick outside the window loads no chunk: its step uses what is resident. Its images are read
@@ -32,7 +75,8 @@ void Mapper::draw_pick_ahead() {
 }
 
 void Mapper::give_back_picks_ahead() {
-  for (const PickAhead& p : picks_ahead_) selector_.give_back(p.keyframe);
+  for (const PickAhead& p : picks_ahead_)
+    if (!p.revisit) selector_.give_back(p.keyframe);
   picks_ahead_.clear();
 }
 
@@ -58,6 +102,7 @@ StepStats Mapper::step() {
   const size_t ahead = size_t(config_.mapper.read_ahead_steps);
   while (picks_ahead_.size() <= ahead) draw_pick_ahead();
   const uint32_t keyframe = picks_ahead_.front().keyframe;
+  const bool revisit = picks_ahead_.front().revisit;
   if (!residency_->all_resident()) {  // else nothing to read, and nothing is evicted
     std::vector<ChunkId> wanted;  // in the order of use, this step's first (what is staged for it stays)
     for (const PickAhead& p : picks_ahead_) wanted.insert(wanted.end(), p.chunks.begin(), p.chunks.end());
@@ -65,7 +110,7 @@ StepStats Mapper::step() {
   }
   picks_ahead_.pop_front();
   step_times_.pick_ms += ms_since(t0);
-  return step_keyframe(keyframe);
+  return step_keyframe(keyframe, false, revisit);
 }
 
 const ViewCoverage& Mapper::coverage_of(const KeyframeRecord& kf) {
@@ -81,7 +126,7 @@ const ViewCoverage& Mapper::coverage_of(const KeyframeRecord& kf) {
 }
 
 
-StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
+StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view, bool revisit) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   StepStats st;
@@ -100,7 +145,9 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   std::optional<Image8> pixel_mask;
   bool part_of_view = false;  // a partial or trimmed view
   std::vector<ChunkId> beyond_core_drawn;
-  if (!whole_view && !selector_.in_window(kf.id)) {
+  if (revisit) ++window_stats_.revisit_steps;
+  st.revisit = revisit;
+  if (!whole_view && !revisit && !selector_.in_window(kf.id)) {
     std::erase_if(chunks, [&](ChunkId c) { return !residency_->is_resident(c); });
     std::sort(chunks.begin(), chunks.end());
     const auto rendered = [&](ChunkId c) { return std::binary_search(chunks.begin(), chunks.end(), c); };
@@ -208,7 +255,7 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view) {
   residency_->unpin(chunks);
   // Only once the sampler has been idle that long: keyframes arriving at least that often are sampled
   // on arrival and their steps add nothing, so fast intakes keep their maps and budgets as they were.
-  if (!part_of_view && config_.sampler.resample_every > 0 &&
+  if (!part_of_view && !revisit && config_.sampler.resample_every > 0 &&
       iterations_ - steps_at_last_sampling_ >= uint64_t(config_.sampler.resample_every)) {
     steps_at_last_sampling_ = iterations_;
     resample(kf);

@@ -29,6 +29,10 @@ nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSam
                              {"best_view_step_share", double(w.best_view_steps) / steps},
                              {"beyond_core_step_share", double(w.beyond_core_steps) / steps}};
   }
+  if (const Mapper::WindowStats& w = mapper.window_stats(); w.revisit_bursts) {
+    const double steps = double(std::max<uint64_t>(mapper.iterations(), 1));
+    pj["revisits"] = {{"step_share", double(w.revisit_steps) / steps}, {"bursts", w.revisit_bursts}};
+  }
   return pj;
 }
 
