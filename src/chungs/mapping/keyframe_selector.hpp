@@ -71,8 +71,9 @@ struct KeyframeSelectorConfig {
   // street at 620x188 (CPU, 10 steps per keyframe, no budget) a 200 m cell scored 23.80 dB held-out
   // against 24.53 at 600 m, and with 20 % / 50 % of its picks on keyframes 100-300 m back 24.53 / 25.03;
   // an 80 k budget (a window of ~100 m) scored 23.82, as the 200 m cell. Off by default: in bursts of 32
-  // on 10 m it gained 0.13 dB without a budget and nothing at 80 k, and scattered (bursts of 1) under the
-  // 80 k budget it lowered the map by 0.1-0.4 dB (bench/README.md, issue 19). 0: off.
+  // on 10 m it gained 0.13 dB without a budget and nothing at 80 k; scattered (bursts of 1) at 0.3, +0.41 dB
+  // without a budget but -0.1 dB under 80 k (77x the chunk loads). Not measured on the GPU yet
+  // (bench/README.md, issue 19). 0: off.
   double revisit_share = 0.0;
   int revisit_burst = 32;
   double revisit_min_distance = 100.0;
