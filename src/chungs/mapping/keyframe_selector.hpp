@@ -72,8 +72,11 @@ struct KeyframeSelectorConfig {
   // against 24.53 at 600 m, and with 20 % / 50 % of its picks on keyframes 100-300 m back 24.53 / 25.03;
   // an 80 k budget (a window of ~100 m) scored 23.82, as the 200 m cell. Off by default: in bursts of 32
   // on 10 m it gained 0.13 dB without a budget and nothing at 80 k; scattered (bursts of 1) at 0.3, +0.41 dB
-  // without a budget but -0.1 dB under 80 k (77x the chunk loads). Not measured on the GPU yet
-  // (bench/README.md, issue 19). 0: off.
+  // without a budget but -0.1 dB under 80 k (77x the chunk loads). On the GPU (2 km street, 30 steps per
+  // keyframe) revisits lower the map with or without a budget: 0.2 of the steps cost the default budget
+  // 0.29 dB and a 300 k budget 0.28-0.66 dB, whether bursts walk back along the drive loading whole views
+  // or land at random on cores; the CPU's 10 steps per keyframe had left far places undertrained, the
+  // GPU's 600 m cell does not (bench/README.md, issue 19). 0: off.
   double revisit_share = 0.0;
   int revisit_burst = 32;
   double revisit_min_distance = 100.0;
