@@ -12,6 +12,7 @@
 #include "chungs/config/presets.hpp"
 #include "chungs/pipeline/ply_export.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
+#include "chungs/pipeline/run_report.hpp"
 #include "chungs/synth/room.hpp"
 #include "chungs/synth/sequence.hpp"
 #include "command.hpp"
@@ -136,6 +137,8 @@ int run_demo(const DemoArgs& a) {
               (unsigned long long)(io["evictions_clean"].get<uint64_t>() + io["evictions_dirty"].get<uint64_t>()),
               (unsigned long long)io["saves"].get<uint64_t>(), (unsigned long long)io["loads"].get<uint64_t>(),
               io["mean_load_ms"].get<double>(), 100.0 * r["time"]["io_wait_share"].get<double>());
+  if (r.contains("pacing"))
+    if (const std::string w = training_window_line(r["pacing"]); !w.empty()) std::printf("  %s\n", w.c_str());
   if (r["memory"].contains("after_budget")) {
     const auto& f = r["memory"]["after_budget"]["rss"];
     std::printf("  host RSS once the budget was full: plateau %.0f MB, %.0f %% of samples within 5 %% (memory.png)\n",

@@ -4,6 +4,7 @@
 
 #include "chungs/common/log.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
+#include "chungs/pipeline/run_report.hpp"
 #include "chungs/serve/live_view.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
@@ -102,6 +103,7 @@ const Command cmd{
             std::printf("; per 100 m: %.0f Gaussians sampled, %.0f pruned", p["sampled_per_100m"].get<double>(),
                         p["pruned_per_100m"].get<double>());
           std::printf("\n");
+          if (const std::string w = training_window_line(p); !w.empty()) std::printf("%s\n", w.c_str());
         }
         if (r["memory"].contains("after_budget")) {
           // Flat memory is the point of the chunked map: say how level it stayed once the budget was full.

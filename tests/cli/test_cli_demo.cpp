@@ -78,6 +78,9 @@ TEST(CliDemo, TheStreetOutgrowsItsBudgetAndLoadsChunksBack) {
   EXPECT_TRUE(fs::exists(dir / "map.ply"));
   EXPECT_NE(r.out.find("loaded back from disk"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("x the budget"), std::string::npos) << r.out;
+  // The budget narrowed training: the summary says how many views it held together.
+  EXPECT_GT(j["pacing"]["training_window"]["narrowed_share"].get<double>(), 0) << r.out;
+  EXPECT_NE(r.out.find("training window: the budget narrowed training"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir / "room"));
   auto bad = run_cli("-q demo --scene garden --out " + (dir / "x").string());
   EXPECT_NE(bad.code, 0);

@@ -2,6 +2,7 @@
 // up (pacing), where a step's time went, host and device memory, chunk and keyframe I/O.
 #pragma once
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "chungs/mapping/mapper.hpp"
@@ -11,6 +12,9 @@ namespace chungs {
 
 nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSample>& timeline,
                              int min_steps_per_keyframe);
+// One line for the run's summary when the budget narrowed training (pacing_report's "training_window",
+// its narrowed_share above 0); empty otherwise.
+std::string training_window_line(const nlohmann::json& pacing);
 nlohmann::json step_report(const Mapper::StepTimes& t);  // per step, ms; t.steps > 0
 nlohmann::json memory_report(const Mapper& mapper, const std::vector<TimelineSample>& timeline);
 nlohmann::json chunk_io_report(const IoStats& io, double map_seconds);
