@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "chungs/common/log.hpp"
+#include "chungs/pipeline/pacing_summary.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/pipeline/run_report.hpp"
 #include "chungs/serve/live_view.hpp"
@@ -99,9 +100,12 @@ const Command cmd{
                       p["steps_per_keyframe_mean"].get<double>(), p["steps_per_keyframe_lowest_minute"].get<double>(),
                       p["min_steps_per_keyframe"].get<int>(), p["dropped_keyframes"].get<unsigned long long>(),
                       100 * p["checkpoint_share"].get<double>(), 100 * r["time"]["io_wait_share"].get<double>());
-          if (p["path_m"].get<double>() > 0)
+          if (p["path_m"].get<double>() >= PacingSummary::kMinPathForRates_m)
             std::printf("; per 100 m: %.0f Gaussians sampled, %.0f pruned", p["sampled_per_100m"].get<double>(),
                         p["pruned_per_100m"].get<double>());
+          else
+            std::printf("; %llu Gaussians sampled, %llu pruned over %.2f m", p["sampled"].get<unsigned long long>(),
+                        p["pruned"].get<unsigned long long>(), p["path_m"].get<double>());
           std::printf("\n");
           if (const std::string w = training_window_line(p); !w.empty()) std::printf("%s\n", w.c_str());
         }

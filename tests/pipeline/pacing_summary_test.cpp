@@ -44,6 +44,8 @@ TEST(PacingSummary, StepsPerKeyframeMeanLowestMinuteAndLeastAfterTheFirstMinute)
   EXPECT_NEAR(p.path_m, 238.0, 1e-9);
   EXPECT_NEAR(p.sampled_per_100m, 500.0 * 120 / 238.0 * 100, 1e-6);
   EXPECT_NEAR(p.pruned_per_100m, 200.0 * 119 / 238.0 * 100, 1e-6);
+  EXPECT_EQ(p.sampled, 500u * 120);
+  EXPECT_EQ(p.pruned, 200u * 119);
   EXPECT_NEAR(p.checkpoint_share, 3.0 * 119 / 1000.0 / (1.5 * 119), 1e-12);
   const auto j = p.to_json();
   EXPECT_EQ(j["steps_per_keyframe_min_after_first_minute"].get<int>(), 7);
@@ -69,6 +71,22 @@ TEST(PacingSummary, EmptyAndStillRuns) {
   const PacingSummary p = pacing_summary(s);
   EXPECT_EQ(p.sampled_per_100m, 0.0);
   EXPECT_EQ(p.steps_mean, 5.0);
+  EXPECT_EQ(p.sampled, 1000u);
+}
+
+TEST(PacingSummary, NoRatesPer100mBelowAChunkOfTravelOnlyTotals) {
+  // A camera that barely moved (EuRoC's first seconds: under 3 mm) would give hundreds of millions per 100 m.
+  std::vector<TimelineSample> s = run_with_steps({5, 5, 5});
+  for (auto& t : s) t.path_m *= 0.001;
+  PacingSummary p = pacing_summary(s);
+  EXPECT_EQ(p.sampled_per_100m, 0.0);
+  EXPECT_EQ(p.pruned_per_100m, 0.0);
+  EXPECT_EQ(p.to_json()["sampled"].get<uint64_t>(), 1500u);
+  EXPECT_EQ(p.to_json()["pruned"].get<uint64_t>(), 400u);
+  // Just past a chunk's length the rates are given.
+  for (auto& t : s) t.path_m = t.path_m * 1000.0 * 2.6;  // 4 m steps: 10.4 m at the end
+  p = pacing_summary(s);
+  EXPECT_NEAR(p.sampled_per_100m, 1500.0 / 10.4 * 100, 1e-6);
 }
 
 }  // namespace

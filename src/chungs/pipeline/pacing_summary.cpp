@@ -40,7 +40,9 @@ PacingSummary pacing_summary(const std::vector<TimelineSample>& samples) {
   p.dropped = last.dropped;
   p.path_m = last.path_m;
   p.checkpoint_share = last.seconds > 0 ? last.checkpoint_ms / 1000.0 / last.seconds : 0;
-  if (last.path_m > 0) {
+  p.sampled = last.sampled;
+  p.pruned = last.pruned;
+  if (last.path_m >= PacingSummary::kMinPathForRates_m) {
     p.sampled_per_100m = double(last.sampled) / last.path_m * 100.0;
     p.pruned_per_100m = double(last.pruned) / last.path_m * 100.0;
   }
@@ -55,6 +57,8 @@ nlohmann::json PacingSummary::to_json() const {
           {"dropped_keyframes", dropped},
           {"checkpoint_share", checkpoint_share},
           {"path_m", path_m},
+          {"sampled", sampled},
+          {"pruned", pruned},
           {"sampled_per_100m", sampled_per_100m},
           {"pruned_per_100m", pruned_per_100m}};
 }

@@ -20,7 +20,11 @@ struct PacingSummary {
   uint64_t dropped = 0;
   double checkpoint_share = 0;  // optimiser time in checkpoints / run time
   double path_m = 0;
-  double sampled_per_100m = 0, pruned_per_100m = 0;  // 0 when the camera did not move
+  uint64_t sampled = 0, pruned = 0;  // Gaussians, over the whole run
+  // 0 when the camera moved less than kMinPathForRates_m: a camera held still (EuRoC's first seconds)
+  // would turn a few thousand Gaussians into hundreds of millions per 100 m.
+  double sampled_per_100m = 0, pruned_per_100m = 0;
+  static constexpr double kMinPathForRates_m = 10.0;  // one chunk
   std::vector<std::pair<double, uint64_t>> per_keyframe;  // (seconds at the keyframe, steps it got)
   nlohmann::json to_json() const;  // without per_keyframe
 };
