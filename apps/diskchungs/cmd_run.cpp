@@ -95,10 +95,14 @@ const Command cmd{
         if (r.contains("pacing")) {
           // A run that starves the optimiser says so here, before anyone looks at the renders.
           const auto& p = r["pacing"];
-          std::printf("pacing: %.1f steps per keyframe (lowest minute %.1f, floor %d), %llu keyframes dropped, "
+          // The floor binds only a real-time intake; fixed pacing gives every keyframe its --iterations.
+          const bool anytime = r["settings"].value("pacing", std::string()) == "anytime";
+          const std::string bound = anytime ? cat("floor ", p["min_steps_per_keyframe"].get<int>())
+                                            : cat("fixed at ", r["settings"].value("iterations_per_keyframe", 0));
+          std::printf("pacing: %.1f steps per keyframe (lowest minute %.1f, %s), %llu keyframes dropped, "
                       "checkpoints %.2f %% of the time, I/O wait %.2f %%",
                       p["steps_per_keyframe_mean"].get<double>(), p["steps_per_keyframe_lowest_minute"].get<double>(),
-                      p["min_steps_per_keyframe"].get<int>(), p["dropped_keyframes"].get<unsigned long long>(),
+                      bound.c_str(), p["dropped_keyframes"].get<unsigned long long>(),
                       100 * p["checkpoint_share"].get<double>(), 100 * r["time"]["io_wait_share"].get<double>());
           if (p["path_m"].get<double>() >= PacingSummary::kMinPathForRates_m)
             std::printf("; per 100 m: %.0f Gaussians sampled, %.0f pruned", p["sampled_per_100m"].get<double>(),

@@ -68,6 +68,11 @@ TEST(Cli, ARunWithoutHeldOutFramesSaysSoInsteadOfAScore) {
   EXPECT_NE(r.out.find("held-out: none (every 8th frame is held out and the run has 4 frames)"), std::string::npos)
       << r.out;
   EXPECT_EQ(r.out.find("held-out PSNR 0.000"), std::string::npos) << r.out;
+  // Fixed pacing names its steps, not the real-time floor; a few metres give totals, not rates per 100 m.
+  EXPECT_NE(r.out.find(", fixed at 1), "), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("floor"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(" pruned over "), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("per 100 m"), std::string::npos) << r.out;
   std::ifstream f(dir / "map" / "report.json");
   const auto j = nlohmann::json::parse(f, nullptr, false);
   ASSERT_TRUE(j.contains("held_out")) << r.out;
