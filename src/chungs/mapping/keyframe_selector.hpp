@@ -1,6 +1,6 @@
 // KeyframeSelector: which keyframe the next optimisation step trains on. Only keyframes near the
 // latest one are candidates, so training stays near the car and the chunks it needs stay resident (no
-// thrashing between distant places): by default those within 100 m of it (around_latest); the paper's
+// thrashing between distant places): by default those within cell_size / 2 of it (around_latest); the paper's
 // rule, a coarse grid of 200 m cells and the latest keyframe's cell, is kept as a setting.
 // Within the cell, CaRtGS's usage rule: a new keyframe has `new_uses` remaining uses; when no
 // candidate has any left, every candidate gets +1 and the top quarter by last loss another +1; the
@@ -37,7 +37,12 @@ struct KeyframeSelectorConfig {
   // what the CUDA backend's image cache holds by default. A 600 m cell of keyframes a metre apart held
   // 523, and a step at 1241x376 then spent 1.4 ms fetching and uploading images (bench_step_loop).
   size_t max_candidates = 400;
-  int new_uses = 8;
+  // A new keyframe's uses are spent at once, in a burst on its view alone; the rest of its steps come
+  // from the refills, spread over its time in the cell. 4 instead of CaRtGS's 8 (2 km street, 30 steps
+  // per keyframe, GPU): +0.35 dB held-out at the default budget, +0.25 dB at 300 k, the gain spread along
+  // the whole drive; at 300 m and 310x94 on the CPU: +0.44 dB at 10 steps, +0.15 at 30, level at 5
+  // (bench/README.md, issue 19).
+  int new_uses = 4;
   double top_loss_fraction = 0.25;
   // The keyframes trained on together may need at most this share of the budget (their chunks'
   // Gaussians): the rest leaves room for new Gaussians and eviction's hysteresis.
