@@ -3,7 +3,6 @@
 #include <cstdio>
 
 #include "chungs/common/log.hpp"
-#include "chungs/pipeline/pacing_summary.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/pipeline/run_report.hpp"
 #include "chungs/serve/live_view.hpp"
@@ -94,24 +93,8 @@ const Command cmd{
                     (o.out / "report.json").string().c_str());
         if (r.contains("pacing")) {
           // A run that starves the optimiser says so here, before anyone looks at the renders.
-          const auto& p = r["pacing"];
-          // The floor binds only a real-time intake; fixed pacing gives every keyframe its --iterations.
-          const bool anytime = r["settings"].value("pacing", std::string()) == "anytime";
-          const std::string bound = anytime ? cat("floor ", p["min_steps_per_keyframe"].get<int>())
-                                            : cat("fixed at ", r["settings"].value("iterations_per_keyframe", 0));
-          std::printf("pacing: %.1f steps per keyframe (lowest minute %.1f, %s), %llu keyframes dropped, "
-                      "checkpoints %.2f %% of the time, I/O wait %.2f %%",
-                      p["steps_per_keyframe_mean"].get<double>(), p["steps_per_keyframe_lowest_minute"].get<double>(),
-                      bound.c_str(), p["dropped_keyframes"].get<unsigned long long>(),
-                      100 * p["checkpoint_share"].get<double>(), 100 * r["time"]["io_wait_share"].get<double>());
-          if (p["path_m"].get<double>() >= PacingSummary::kMinPathForRates_m)
-            std::printf("; per 100 m: %.0f Gaussians sampled, %.0f pruned", p["sampled_per_100m"].get<double>(),
-                        p["pruned_per_100m"].get<double>());
-          else
-            std::printf("; %llu Gaussians sampled, %llu pruned over %.2f m", p["sampled"].get<unsigned long long>(),
-                        p["pruned"].get<unsigned long long>(), p["path_m"].get<double>());
-          std::printf("\n");
-          if (const std::string w = training_window_line(p); !w.empty()) std::printf("%s\n", w.c_str());
+          std::printf("%s\n", pacing_line(r).c_str());
+          if (const std::string w = training_window_line(r["pacing"]); !w.empty()) std::printf("%s\n", w.c_str());
         }
         if (r["memory"].contains("after_budget")) {
           // Flat memory is the point of the chunked map: say how level it stayed once the budget was full.

@@ -1,4 +1,5 @@
-// The run summary's line on the training window: the report's figures, and nothing without narrowing.
+// The run summary's lines on pacing and on the training window: the report's figures, what bounds the
+// steps, and nothing on the window without narrowing.
 #include <gtest/gtest.h>
 
 #include <random>
@@ -34,6 +35,26 @@ TEST(TrainingWindowLine, NothingWhenTrainingWasNeverNarrowed) {
   nlohmann::json p;
   p["training_window"] = {{"narrowed_share", 0.0}, {"mean_keyframes", 0.0}, {"mean_cell_keyframes", 0.0}};
   EXPECT_EQ(training_window_line(p), "");
+}
+
+TEST(PacingLine, NamesWhatBoundsTheStepsAndGivesRatesOnlyOverAChunkOfTravel) {
+  nlohmann::json r;
+  r["pacing"] = {{"steps_per_keyframe_mean", 42.26},  {"steps_per_keyframe_lowest_minute", 31.5},
+                 {"min_steps_per_keyframe", 12},      {"dropped_keyframes", 3},
+                 {"checkpoint_share", 0.0071},        {"path_m", 250.0},
+                 {"sampled", 5000},                   {"pruned", 1200},
+                 {"sampled_per_100m", 2000.0},        {"pruned_per_100m", 480.0}};
+  r["settings"] = {{"pacing", "anytime"}, {"iterations_per_keyframe", 30}};
+  r["time"] = {{"io_wait_share", 0.0123}};
+  EXPECT_EQ(pacing_line(r),
+            "pacing: 42.3 steps per keyframe (lowest minute 31.5, floor 12), 3 keyframes dropped, checkpoints 0.71 % "
+            "of the time, I/O wait 1.23 %; per 100 m: 2000 Gaussians sampled, 480 pruned");
+  r["settings"]["pacing"] = "fixed";
+  r["pacing"]["path_m"] = 0.02;
+  const std::string still = pacing_line(r);
+  EXPECT_NE(still.find("(lowest minute 31.5, fixed at 30)"), std::string::npos) << still;
+  EXPECT_NE(still.find("; 5000 Gaussians sampled, 1200 pruned over 0.02 m"), std::string::npos) << still;
+  EXPECT_EQ(still.find("per 100 m"), std::string::npos) << still;
 }
 
 }  // namespace

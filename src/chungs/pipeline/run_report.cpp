@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "chungs/common/error.hpp"
 #include "chungs/mapping/map_state.hpp"
 #include "chungs/pipeline/memory_flatness.hpp"
 #include "chungs/pipeline/pacing_summary.hpp"
@@ -35,6 +36,29 @@ nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSam
     pj["revisits"] = {{"step_share", double(w.revisit_steps) / steps}, {"bursts", w.revisit_bursts}};
   }
   return pj;
+}
+
+std::string pacing_line(const nlohmann::json& report) {
+  const nlohmann::json& p = report["pacing"];
+  // The floor binds only a real-time intake; fixed pacing gives every keyframe its --iterations.
+  const bool anytime = report["settings"].value("pacing", std::string()) == "anytime";
+  const std::string bound = anytime ? cat("floor ", p["min_steps_per_keyframe"].get<int>())
+                                    : cat("fixed at ", report["settings"].value("iterations_per_keyframe", 0));
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "pacing: %.1f steps per keyframe (lowest minute %.1f, %s), %llu keyframes dropped, checkpoints "
+                "%.2f %% of the time, I/O wait %.2f %%",
+                p["steps_per_keyframe_mean"].get<double>(), p["steps_per_keyframe_lowest_minute"].get<double>(),
+                bound.c_str(), p["dropped_keyframes"].get<unsigned long long>(),
+                100 * p["checkpoint_share"].get<double>(), 100 * report["time"]["io_wait_share"].get<double>());
+  std::string out = line;
+  if (p.value("path_m", 0.0) >= PacingSummary::kMinPathForRates_m)
+    std::snprintf(line, sizeof line, "; per 100 m: %.0f Gaussians sampled, %.0f pruned",
+                  p["sampled_per_100m"].get<double>(), p["pruned_per_100m"].get<double>());
+  else
+    std::snprintf(line, sizeof line, "; %llu Gaussians sampled, %llu pruned over %.2f m", p.value("sampled", 0ull),
+                  p.value("pruned", 0ull), p.value("path_m", 0.0));
+  return out + line;
 }
 
 std::string training_window_line(const nlohmann::json& pacing) {

@@ -12,6 +12,10 @@ namespace chungs {
 
 nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSample>& timeline,
                              int min_steps_per_keyframe);
+// The run summary's pacing line from a whole report (its "pacing", "settings" and "time"): steps per
+// keyframe and what bounds them, drops, checkpoints, I/O wait, and Gaussians sampled and pruned (per
+// 100 m when pacing_summary gave rates, else totals over the path). No newline.
+std::string pacing_line(const nlohmann::json& report);
 // One line for the run's summary when the budget narrowed training (pacing_report's "training_window",
 // its narrowed_share above 0); empty otherwise.
 std::string training_window_line(const nlohmann::json& pacing);
