@@ -122,15 +122,8 @@ const Command synth_cmd("synth", "render synthetic sequences (room, street, a me
   auto size_opts = [a](CLI::App* s) {
     s->add_option("--width", a->width, "image width (default per scene)");
     s->add_option("--height", a->height, "image height (default per scene)");
-    // The check reads the typed text: converted first, -1 would become 2^64 - 1 without a word.
-    s->add_option("--seed", a->seed, "random seed: same seed, same bytes")
-        ->check(CLI::Validator(
-            [](std::string& typed) {
-              return typed.rfind('-', 0) == 0
-                         ? cat("must be a whole number from 0 to ", UINT64_MAX, ", got ", typed)
-                         : std::string();
-            },
-            "SEED"));
+    // A typed -1 is refused by main (whole_number_flags.hpp), not wrapped to 2^64 - 1.
+    s->add_option("--seed", a->seed, "random seed: same seed, same bytes");
     s->add_flag("--no-depth", a->no_depth, "KITTI layout: leave out depth/ (uint16, metres * 256)");
   };
   auto* room = app.add_subcommand("room", "furnished textured room, RGB-D (TUM layout, 640x480, 30 Hz)");

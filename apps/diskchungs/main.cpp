@@ -10,6 +10,7 @@
 #include "allocator.hpp"
 #include "chungs/common/log.hpp"
 #include "command.hpp"
+#include "whole_number_flags.hpp"
 
 namespace chungs::app {
 
@@ -101,6 +102,10 @@ int main(int argc, char** argv) {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return cli.exit(e);
+  }
+  if (const std::string why = app::misread_whole_number(cli); !why.empty()) {
+    std::fprintf(stderr, "diskchungs: error: %s\n", why.c_str());
+    return 1;
   }
   if (quiet) log::set_level(log::Level::Warn);
   if (verbose) log::set_level(log::Level::Debug);

@@ -177,4 +177,40 @@ TEST(CliNumbers, RenderAndExportRefuseOutOfRangeValuesNamingTheFlag) {
     expect_refused(args, flag, out);
 }
 
+TEST(CliNumbers, WholeNumbersAreReadAsWrittenOrRefused) {
+  // CLI11 kept what strtoll / strtoull returned: a number past 64 bits became the largest one (run then
+  // refused "9223372036854775807", which nobody typed; synth took it as a seed), -1 became 2^64 - 1 for
+  // an unsigned flag, and a leading zero made a number octal (--budget 010 was 8).
+  chungs::test::TempDir dir;
+  const auto out = dir / "out";
+  const std::string run = "run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --out " +
+                          out.string() + " ";
+  const std::string street = "synth street --out " + out.string() + " --width 32 --height 32 --frames 2 ";
+  for (const auto& [args, flag] : std::vector<std::pair<std::string, std::string>>{
+           {run + "--budget 99999999999999999999", "--budget"},
+           {run + "--budget 10000000000000000000", "--budget"},
+           {run + "--budget 010", "--budget"},
+           {run + "--budget 0x100", "--budget"},
+           {run + "--max-frames 99999999999999999999", "--max-frames"},
+           {street + "--seed 99999999999999999999", "--seed"},
+           {street + "--seed 18446744073709551616", "--seed"},
+           {street + "--seed -1", "--seed"},
+           {"view --port 99999999999999999999 " + (dir / "map").string(), "--port"},
+           {"render --map " + (dir / "map").string() + " --poses t.txt --out " + out.string() +
+                " --stride 99999999999999999999",
+            "--stride"}}) {
+    auto r = run_cli(args);
+    EXPECT_NE(r.code, 0) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("error: " + flag + " must be a whole number"), std::string::npos) << args << "\n" << r.out;
+    EXPECT_EQ(r.out.find("9223372036854775807"), std::string::npos) << args << "\n" << r.out;
+    EXPECT_FALSE(std::filesystem::exists(out)) << args << " wrote " << out;
+  }
+  // The largest seed there is, and a '+', are numbers as written.
+  auto r = run_cli(street + "--length-m 10 --seed 18446744073709551615");
+  EXPECT_EQ(r.code, 0) << r.out;
+  std::filesystem::remove_all(out);
+  r = run_cli(street + "--length-m 10 --seed +7");
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
 }  // namespace

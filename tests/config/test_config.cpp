@@ -48,6 +48,12 @@ TEST(Config, TyposAndBadValuesNameTheKeyAndLine) {
   expect_error("store:\n  chunk_size: ten\n", "store.chunk_size");
   expect_error("loss:\n  lambda_ssim: 3\n", "my.yaml");
   expect_error("store: [1, 2\n", "not valid YAML");
+  // yaml-cpp read these as octal 8 and hexadecimal 256.
+  expect_error("residency:\n  budget_gaussians: 010\n", "my.yaml:2: residency.budget_gaussians: '010'");
+  expect_error("residency:\n  budget_gaussians: 0x100\n", "residency.budget_gaussians: '0x100'");
+  expect_error("residency:\n  budget_gaussians: 99999999999999999999\n", "residency.budget_gaussians");
+  EXPECT_EQ(config_from_yaml("residency:\n  budget_gaussians: 120000\n", "my.yaml").residency.budget_gaussians,
+            120000u);
   // A likely typo names the nearest key; a renamed key names what replaced it; a far-off word neither.
   expect_error("sampler:\n  densty: 3\n", "unknown key 'sampler.densty'; did you mean 'sampler.density'?");
   expect_error("samplr:\n  density: 3\n", "unknown section 'samplr'; did you mean 'sampler'?");
