@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "chungs/common/error.hpp"
+#include "chungs/mapping/mapper_config.hpp"
 
 namespace chungs::app {
 namespace {
@@ -85,8 +86,8 @@ std::vector<ParetoSetting> parse_pareto_settings(const std::string& iterations, 
     for (const std::string& e : entries(speeds, "--speeds")) {
       ParetoSetting s;
       s.anytime = true;
-      if (!parse_whole(e, s.speed) || !std::isfinite(s.speed) || s.speed <= 0)
-        fail("--speeds entries must be positive factors, got '", e, "'");
+      if (!parse_whole(e, s.speed) || !std::isfinite(s.speed) || !(s.speed >= kMinSpeed))
+        fail("--speeds entries must be finite factors of at least ", kMinSpeed, ", got '", e, "'");
       out.push_back(s);
     }
   if (out.empty()) fail("--iterations and --speeds are both none: there is no point to map");

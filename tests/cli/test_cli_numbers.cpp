@@ -37,6 +37,8 @@ TEST(CliNumbers, RunRefusesOutOfRangeValuesNamingTheFlag) {
                                                         {"--final-iterations -1", "--final-iterations"},
                                                         {"--speed inf", "--speed"},
                                                         {"--speed 0", "--speed"},
+                                                        {"--speed 1e-320", "--speed"},
+                                                        {"--speed 0.001", "--speed"},
                                                         {"--fill-depth -2", "--fill-depth"},
                                                         {"--max-frames 0", "--max-frames"},
                                                         {"--max-frames -5", "--max-frames"}})

@@ -141,6 +141,7 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
   // speed: .inf was taken; beta1: 1.5 said "betas must be in [0, 1)", stereo said "disparities".
   for (const auto& [yaml, needle] : std::vector<std::pair<std::string, std::string>>{
            {"mapper: {speed: .inf}", "mapper: speed must be"},
+           {"mapper: {speed: 0.001}", "mapper: speed must be a finite factor of at least 0.01, got 0.001"},
            {"adam: {beta1: 1.5}", "beta1 must be in [0, 1), got 1.5"},
            {"adam: {beta2: -0.5}", "beta2 must be in [0, 1), got -0.5"},
            {"stereo: {num_disparities: 1000}", "num_disparities must be in [16, 256], got 1000"}}) {

@@ -13,7 +13,8 @@ void MapperConfig::validate() const {
     fail("mapper: iterations_per_keyframe must be >= 0, got ", iterations_per_keyframe);
   if (final_iterations < 0) fail("mapper: final_iterations must be >= 0, got ", final_iterations);
   // An infinite speed would make every frame arrive at once: anytime pacing would train on none.
-  if (!(speed > 0) || !std::isfinite(speed)) fail("mapper: speed must be a finite number > 0, got ", speed);
+  if (!(speed >= kMinSpeed) || !std::isfinite(speed))
+    fail("mapper: speed must be a finite factor of at least ", kMinSpeed, ", got ", speed);
   if (keyframe_every < 0) fail("mapper: keyframe_every must be >= 0, got ", keyframe_every);
   if (!(keyframe_translation >= 0) || !(keyframe_parallax >= 0) || !(keyframe_rotation_deg >= 0))
     fail("mapper: keyframe_translation, keyframe_parallax and keyframe_rotation_deg must be >= 0");

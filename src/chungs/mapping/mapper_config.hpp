@@ -5,12 +5,16 @@
 
 namespace chungs {
 
+// The slowest intake anytime pacing takes: a hundredth of the recorded rate. Slower, a run of a few
+// frames waited for ever (--speed 1e-320 put the second frame 1e319 s after the first).
+inline constexpr double kMinSpeed = 0.01;
+
 struct MapperConfig {
   std::string pacing = "fixed";     // fixed: iterations_per_keyframe steps per keyframe (deterministic);
                                     // anytime: frames arrive in real time, the mapper trains in between
   int iterations_per_keyframe = 30;
   int final_iterations = 0;         // refinement steps after the last frame
-  double speed = 1.0;               // anytime: frames arrive at the dataset rate times this
+  double speed = 1.0;               // anytime: frames arrive at the dataset rate times this (>= kMinSpeed)
   // A training frame becomes a keyframe when any rule that is on (> 0) fires; the first always does.
   // By default the view must have changed: moved by a share of the scene's depth (parallax) or
   // turned. Every frame a keyframe floods a real-time intake with ingestion work.
