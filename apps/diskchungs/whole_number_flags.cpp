@@ -5,18 +5,18 @@
 #include <limits>
 #include <string_view>
 
+#include "chungs/common/decimal.hpp"
 #include "chungs/common/error.hpp"
 
 namespace chungs::app {
 
 namespace {
 
-// Decimal digits with an optional '+' (and '-' where signed), no leading zero, within 64 bits.
+// Written in decimal and within T (from_chars refuses a minus sign for an unsigned T, and knows no '+').
 template <class T>
 bool reads_as_written(std::string_view text) {
-  if (!text.empty() && text[0] == '+') text.remove_prefix(1);
-  const std::string_view digits = !text.empty() && text[0] == '-' ? text.substr(1) : text;
-  if (digits.empty() || (digits.size() > 1 && digits[0] == '0')) return false;
+  if (!written_in_decimal(text)) return false;
+  if (text[0] == '+') text.remove_prefix(1);
   T value{};
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
   return ec == std::errc() && end == text.data() + text.size();

@@ -6,11 +6,11 @@
 #include <cmath>
 #include <map>
 #include <set>
-#include <string_view>
 #include <type_traits>
 #include <utility>
 #include <vector>
 
+#include "chungs/common/decimal.hpp"
 #include "chungs/common/text_file.hpp"
 
 namespace chungs {
@@ -351,14 +351,6 @@ std::string hint_for(const std::string& prefix, const std::string& name, const s
   return best.empty() ? std::string() : "; did you mean '" + prefix + best + "'?";
 }
 
-// Digits with an optional sign and no leading zero; its range is checked by the conversion.
-bool decimal_whole_number(const std::string& text) {
-  const size_t sign = !text.empty() && (text[0] == '-' || text[0] == '+') ? 1 : 0;
-  const std::string_view digits = std::string_view(text).substr(sign);
-  return !digits.empty() && (digits.size() == 1 || digits[0] != '0') &&
-         std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
-}
-
 struct Loader {
   YAML::Node root;
   std::string source;
@@ -376,9 +368,8 @@ struct Loader {
         if (!n.IsSequence() || n.size() != 3) throw YAML::Exception(n.Mark(), "expected a list of 3 numbers");
         for (size_t i = 0; i < 3; ++i) value[i] = n[i].as<double>();
       } else {
-        // yaml-cpp reads 010 as octal 8 and 0x100 as 256: a whole number is taken only as written in decimal.
         if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>)
-          if (!n.IsScalar() || !decimal_whole_number(n.Scalar())) throw YAML::Exception(n.Mark(), "not decimal");
+          if (!n.IsScalar() || !written_in_decimal(n.Scalar())) throw YAML::Exception(n.Mark(), "not decimal");
         value = n.as<T>();
       }
     } catch (const YAML::Exception&) {
