@@ -162,7 +162,7 @@ const Command cmd{"demo", "synthetic street (or room) -> map larger than its bud
   app.add_option("--frames", a->frames, "room: frames of the sequence (default 120; 600: one loop)");
   app.add_option("--resolution", a->resolution, "image scale for mapping, (0, 1] (room default 0.25)");
   app.add_option("--iterations", a->iterations, "optimisation steps per keyframe")->capture_default_str();
-  app.add_option("--final-iterations", a->final_iterations, "refinement steps after the last frame")
+  app.add_option("--final-iterations", a->final_iterations, "refinement steps after the last frame, spread over every keyframe")
       ->capture_default_str();
   app.add_option("--budget", a->budget, "resident Gaussians at most (street default 12000, room 200000)");
   app.add_option("--chunk-size", a->chunk_size, "chunk edge in metres (street default 10, room 2)");

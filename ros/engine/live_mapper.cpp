@@ -239,7 +239,10 @@ struct LiveMapper::Impl {
         }
       }
       if (has_keyframes()) {
-        for (int k = 0; k < config.mapper.final_iterations; ++k) step();
+        {
+          std::lock_guard lock(map_mutex);
+          mapper->refine(uint64_t(config.mapper.final_iterations));
+        }
         commit(true, false);
         log::info("map ", settings.out, ": ", mapper->total_gaussians(), " Gaussians, ",
                   mapper->keyframes().size(), " keyframes from ", next_frame, " frames");

@@ -9,6 +9,7 @@
 #pragma once
 #include <deque>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -83,6 +84,14 @@ class Mapper {
   double depth_refinement() const { return refine_range_; }
   const SampleRefineTotals& refine_totals() const { return refine_totals_; }
   StepStats step();  // one optimisation step; throws when there is no keyframe yet
+  // The refinement after the last frame: `steps` steps spread over every keyframe, each on its whole
+  // view, in groups of keyframes whose views fit 0.8 of the budget, in a random order within a group
+  // (mapping/refinement_plan.hpp). `after_step` runs after each, given its keyframe. Throws when there is no
+  // keyframe and steps > 0.
+  struct RefineStats {
+    uint64_t steps = 0, groups = 0;
+  };
+  RefineStats refine(uint64_t steps, const std::function<void(uint32_t keyframe)>& after_step = {});
   // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
 

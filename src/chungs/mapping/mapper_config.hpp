@@ -13,7 +13,7 @@ struct MapperConfig {
   std::string pacing = "fixed";     // fixed: iterations_per_keyframe steps per keyframe (deterministic);
                                     // anytime: frames arrive in real time, the mapper trains in between
   int iterations_per_keyframe = 30;
-  int final_iterations = 0;         // refinement steps after the last frame
+  int final_iterations = 0;         // refinement steps after the last frame, spread over every keyframe
   double speed = 1.0;               // anytime: frames arrive at the dataset rate times this (>= kMinSpeed)
   // A training frame becomes a keyframe when any rule that is on (> 0) fires; the first always does.
   // By default the view must have changed: moved by a share of the scene's depth (parallax) or

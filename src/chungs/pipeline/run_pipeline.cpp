@@ -9,6 +9,7 @@
 #include "chungs/common/heap.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
+#include "chungs/common/stopwatch.hpp"
 #include "chungs/depth/learned_prior.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/mapping/optim_backend.hpp"
@@ -390,13 +391,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     log::warn("dataset ", o.dataset,
               ": no keyframe got depth from its neighbours (one camera needs two keyframes "
               "that see the same textured scene from places apart), so the map is empty");
+  nlohmann::json refinement;  // the steps after the last frame, when there were any
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
     Progress refine("refining", mc.final_iterations);
-    for (int k = 0; k < mc.final_iterations; ++k) {
-      mapper.step();
-      refine.step();
-    }
+    const auto t0 = std::chrono::steady_clock::now();
+    const Mapper::RefineStats r = mapper.refine(uint64_t(mc.final_iterations), [&](uint32_t) { refine.step(); });
     refine.finish();
+    if (r.steps > 0)
+      refinement = {{"steps", r.steps}, {"groups", r.groups}, {"seconds", ms_since(t0) / 1000}};
   }
   record(done ? done - 1 : 0);
   double final_checkpoint_ms = 0;
@@ -462,6 +464,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["keyframes"] = mapper.keyframes().size();
   report["keyframes_without_depth"] = mapper.keyframes_without_depth();
   report["pacing"] = pacing_report(mapper, timeline, mc.min_steps_per_keyframe);
+  if (!refinement.is_null()) report["refinement"] = refinement;
   report["iterations"] = mapper.iterations();
   if (mapper.step_times().steps) report["step_ms"] = step_report(mapper.step_times());
   report["time"] = {{"mapping_s", map_seconds},
