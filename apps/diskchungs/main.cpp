@@ -100,6 +100,12 @@ int main(int argc, char** argv) {
   }
   try {
     cli.parse(argc, argv);
+  } catch (const CLI::ConversionError& e) {
+    if (const std::string why = app::conversion_refusal(cli, e); !why.empty()) {
+      std::fprintf(stderr, "diskchungs: error: %s\n", why.c_str());
+      return 1;
+    }
+    return cli.exit(e);
   } catch (const CLI::ParseError& e) {
     return cli.exit(e);
   }

@@ -51,4 +51,41 @@ std::string misread_whole_number(const CLI::App& app) {
   return {};
 }
 
+namespace {
+
+const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
+  for (const CLI::Option* option : app.get_options())
+    if (option->check_name(name)) return option;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+    if (const CLI::Option* found = find_option(*sub, name)) return found;
+  return nullptr;
+}
+
+}  // namespace
+
+std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& e) {
+  static constexpr std::string_view prefix = "Could not convert: ";
+  const std::string_view what = e.what();
+  if (what.substr(0, prefix.size()) != prefix) return {};
+  const std::string_view rest = what.substr(prefix.size());
+  const size_t eq = rest.find(" = ");
+  if (eq == std::string_view::npos) return {};
+  const std::string name(rest.substr(0, eq)), text(rest.substr(eq + 3));
+  const CLI::Option* option = find_option(app, name);
+  if (!option) return {};
+  const std::string full = option->get_type_name();
+  const std::string type = full.substr(0, full.find(':'));
+  if (type == "INT" || type == "UINT") {
+    if (!written_in_decimal(text)) return cat(name, " must be a whole number written in decimal, got ", text);
+    // CLI11 keeps whatever strtoll / strtoull make of decimal text for a 64-bit flag (misread_whole_number
+    // checks those): decimal text it refused was refused by a 32-bit flag.
+    if (type == "UINT")
+      return cat(name, " must be a whole number from 0 to ", std::numeric_limits<uint32_t>::max(), ", got ", text);
+    return cat(name, " must be a whole number from ", std::numeric_limits<int32_t>::min(), " to ",
+               std::numeric_limits<int32_t>::max(), ", got ", text);
+  }
+  if (type == "FLOAT") return cat(name, " must be a number, got ", text);
+  return {};
+}
+
 }  // namespace chungs::app

@@ -12,4 +12,9 @@ namespace chungs::app {
 // given to `app` or to a subcommand it parsed whose text is not read as written; empty when none.
 std::string misread_whole_number(const CLI::App& app);
 
+// CLI11's own refusal of a value its flag's type cannot hold ("Could not convert: --iterations =
+// 3000000000") in the words above: the flag, what it takes (a whole number within 32 or 64 bits, or a
+// number) and the text given; empty when `e` is not such a refusal of a flag of `app`'s tree.
+std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& e);
+
 }  // namespace chungs::app

@@ -207,6 +207,23 @@ TEST(CliNumbers, WholeNumbersAreReadAsWrittenOrRefused) {
     EXPECT_EQ(r.out.find("9223372036854775807"), std::string::npos) << args << "\n" << r.out;
     EXPECT_FALSE(std::filesystem::exists(out)) << args << " wrote " << out;
   }
+  // A 32-bit flag: CLI11 refused these itself ("Could not convert: --iterations = 3000000000", exit 104); now
+  // the same words as above, with the flag's range.
+  for (const auto& [args, says] : std::vector<std::pair<std::string, std::string>>{
+           {run + "--iterations 3000000000", "--iterations must be a whole number from -2147483648 to 2147483647, got 3000000000"},
+           {run + "--iterations 99999999999999999999",
+            "--iterations must be a whole number from -2147483648 to 2147483647, got 99999999999999999999"},
+           {run + "--iterations -3000000000", "--iterations must be a whole number from -2147483648 to 2147483647"},
+           {run + "--iterations ten", "--iterations must be a whole number written in decimal, got ten"},
+           {run + "--budget ten", "--budget must be a whole number written in decimal, got ten"},
+           {run + "--speed fast", "--speed must be a number, got fast"},
+           {"synth street --out " + out.string() + " --width 99999999999", "--width must be a whole number from -2147483648 to 2147483647"}}) {
+    auto r = run_cli(args);
+    EXPECT_EQ(r.code, 1) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("diskchungs: error: " + says), std::string::npos) << args << "\n" << r.out;
+    EXPECT_EQ(r.out.find("Could not convert"), std::string::npos) << args << "\n" << r.out;
+    EXPECT_FALSE(std::filesystem::exists(out)) << args << " wrote " << out;
+  }
   // The largest seed there is, and a '+', are numbers as written.
   auto r = run_cli(street + "--length-m 10 --seed 18446744073709551615");
   EXPECT_EQ(r.code, 0) << r.out;
