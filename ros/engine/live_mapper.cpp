@@ -240,8 +240,12 @@ struct LiveMapper::Impl {
       }
       if (has_keyframes()) {
         {
-          std::lock_guard lock(map_mutex);
-          mapper->refine(uint64_t(config.mapper.final_iterations));
+          // The node's queries get their turns between steps, as during mapping.
+          std::unique_lock lock(map_mutex);
+          mapper->refine(uint64_t(config.mapper.final_iterations), [&](uint32_t) {
+            lock.unlock();
+            lock.lock();
+          });
         }
         commit(true, false);
         log::info("map ", settings.out, ": ", mapper->total_gaussians(), " Gaussians, ",
