@@ -29,11 +29,24 @@ std::string refusal(const CLI::Option& option, const std::string& text, bool is_
   return cat(option.get_name(), " must be a whole number written in decimal that fits in 64 bits, got ", text);
 }
 
+// The type CLI11 reads the flag as (INT, UINT, FLOAT, ...), before any ":" that names its validators.
+std::string read_as(const CLI::Option& option) {
+  const std::string full = option.get_type_name();
+  return full.substr(0, full.find(':'));
+}
+
+// Any option of the app's tree, parsed or not, by one of its names.
+const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
+  for (const CLI::Option* option : app.get_options())
+    if (option->check_name(name)) return option;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+    if (const CLI::Option* found = find_option(*sub, name)) return found;
+  return nullptr;
+}
+
 std::string misread_in(const CLI::Option& option) {
   if (option.count() == 0) return {};
-  // The type CLI11 read the flag as, before any ":" that names the flag's validators.
-  const std::string full = option.get_type_name();
-  const std::string type = full.substr(0, full.find(':'));
+  const std::string type = read_as(option);
   for (const std::string& text : option.results()) {
     if (type == "INT" && !reads_as_written<int64_t>(text)) return refusal(option, text, false);
     if (type == "UINT" && !reads_as_written<uint64_t>(text)) return refusal(option, text, true);
@@ -51,18 +64,6 @@ std::string misread_whole_number(const CLI::App& app) {
   return {};
 }
 
-namespace {
-
-const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
-  for (const CLI::Option* option : app.get_options())
-    if (option->check_name(name)) return option;
-  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
-    if (const CLI::Option* found = find_option(*sub, name)) return found;
-  return nullptr;
-}
-
-}  // namespace
-
 std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& e) {
   static constexpr std::string_view prefix = "Could not convert: ";
   const std::string_view what = e.what();
@@ -73,8 +74,7 @@ std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& 
   const std::string name(rest.substr(0, eq)), text(rest.substr(eq + 3));
   const CLI::Option* option = find_option(app, name);
   if (!option) return {};
-  const std::string full = option->get_type_name();
-  const std::string type = full.substr(0, full.find(':'));
+  const std::string type = read_as(*option);
   if (type == "INT" || type == "UINT") {
     if (!written_in_decimal(text)) return cat(name, " must be a whole number written in decimal, got ", text);
     // CLI11 keeps whatever strtoll / strtoull make of decimal text for a 64-bit flag (misread_whole_number

@@ -21,6 +21,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
   const std::vector<RefinementGroup> groups = plan_refinement(views, fit, steps);
   const size_t ahead = size_t(std::max(1, config_.mapper.read_ahead_steps));
   std::vector<size_t> pass;
+  std::vector<std::vector<ChunkId>> upcoming;  // the chunks of the pass's views, culled when first needed
   for (const RefinementGroup& g : groups) {
     if (g.steps > 0) ++stats.groups;
     for (uint64_t left = g.steps; left > 0;) {
@@ -28,20 +29,24 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
       std::iota(pass.begin(), pass.end(), g.begin);
       std::shuffle(pass.begin(), pass.end(), rng_);
       const size_t take = size_t(std::min<uint64_t>(left, pass.size()));
+      upcoming.assign(take, {});
       for (size_t i = 0; i < take; ++i) {
         residency_->advance_checkpoint();
         if (!residency_->all_resident()) {
-          // This step's chunks first, then those of the next few: read in the background meanwhile.
+          // This step's chunks first, then those of the next few: read in the background meanwhile. Each
+          // view is culled once for this, when it first comes within reach.
           std::vector<ChunkId> wanted;
           for (size_t j = i; j < std::min(take, i + 1 + ahead); ++j) {
-            const KeyframeRecord& k = keyframes_[pass[j]];
-            for (ChunkId c : visible_chunks(k.camera, k.pose)) wanted.push_back(c);
+            if (upcoming[j].empty())
+              upcoming[j] = visible_chunks(keyframes_[pass[j]].camera, keyframes_[pass[j]].pose);
+            wanted.insert(wanted.end(), upcoming[j].begin(), upcoming[j].end());
           }
           residency_->prefetch(wanted);
         }
         // Images further ahead than chunks (they are small): a shuffled pass reads most keyframes from
         // disk. Farthest first, since the store serves its latest request first.
-        for (size_t j = std::min(take, i + 1 + 4 * ahead); j-- > i + 1;) keyframe_store_->prefetch(keyframes_[pass[j]].id);
+        for (size_t j = std::min(take, i + 1 + 4 * ahead); j-- > i + 1;)
+          keyframe_store_->prefetch(keyframes_[pass[j]].id);
         step_keyframe(keyframes_[pass[i]].id, /*whole_view=*/true);
         ++stats.steps;
         if (after_step) after_step(keyframes_[pass[i]].id);
