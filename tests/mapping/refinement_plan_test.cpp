@@ -1,17 +1,19 @@
 // The refinement after the last frame (mapper.final_iterations): its steps spread over every keyframe,
-// in groups of consecutive keyframes whose views fit the budget, shuffled within a group (issue 19).
+// in groups of places whose views fit the budget, shuffled within a group (issue 19).
+#include "chungs/mapping/refinement_plan.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <map>
 #include <random>
 #include <set>
+#include <string>
 #include <vector>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/mapper.hpp"
-#include "chungs/mapping/refinement_plan.hpp"
 #include "synthetic_sequence.hpp"
 #include "test_support.hpp"
 #include "tiny_config.hpp"
@@ -29,44 +31,105 @@ std::vector<std::vector<ChunkCount>> drive(size_t keyframes, int span, std::mt19
   return views;
 }
 
+// Distinct chunks' Gaussians of a set of keyframes.
+uint64_t held_by(const std::vector<std::vector<ChunkCount>>& views, const std::vector<size_t>& keyframes) {
+  std::map<ChunkId, uint64_t> held;
+  for (size_t k : keyframes)
+    for (const ChunkCount& c : views[k]) held[c.id] = c.count;
+  uint64_t sum = 0;
+  for (const auto& [id, n] : held) sum += n;
+  return sum;
+}
+
+// Every keyframe in exactly one group; groups fit; each group ended because no keyframe it could
+// take (sharing a chunk with it, or the earliest left) fitted; shares within one step of exact.
+void expect_valid_plan(const std::vector<std::vector<ChunkCount>>& views, uint64_t fit, uint64_t steps,
+                       const std::vector<RefinementGroup>& groups, const std::string& what) {
+  const size_t keyframes = views.size();
+  std::vector<int> group_of(keyframes, -1);
+  size_t before = 0;
+  uint64_t total = 0;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    const RefinementGroup& gr = groups[g];
+    ASSERT_FALSE(gr.keyframes.empty()) << what << ", group " << g;
+    for (size_t k : gr.keyframes) {
+      ASSERT_LT(k, keyframes) << what;
+      ASSERT_EQ(group_of[k], -1) << what << ": keyframe " << k << " in two groups";
+      group_of[k] = int(g);
+    }
+    const uint64_t sum = held_by(views, gr.keyframes);
+    if (gr.keyframes.size() > 1) {
+      EXPECT_LE(sum, fit) << what << ", group " << g;
+    }
+    std::set<ChunkId> chunks;
+    for (size_t k : gr.keyframes)
+      for (const ChunkCount& c : views[k]) chunks.insert(c.id);
+    size_t earliest_left = keyframes;
+    for (size_t k = 0; k < keyframes; ++k)
+      if (group_of[k] == -1) {
+        earliest_left = k;
+        break;
+      }
+    for (size_t k = 0; k < keyframes; ++k) {
+      if (group_of[k] != -1) continue;
+      bool shares = k == earliest_left;
+      for (const ChunkCount& c : views[k]) shares = shares || chunks.count(c.id);
+      if (!shares) continue;
+      std::vector<size_t> with = gr.keyframes;
+      with.push_back(k);
+      EXPECT_GT(held_by(views, with), fit)
+          << what << ", group " << g << " ended although keyframe " << k << " fits";
+    }
+    const double exact = double(steps) * double(gr.keyframes.size()) / double(keyframes);
+    EXPECT_LE(std::abs(double(gr.steps) - exact), 1.0) << what << ", group " << g;
+    total += gr.steps;
+    before += gr.keyframes.size();
+  }
+  EXPECT_EQ(before, keyframes) << what;
+  EXPECT_EQ(total, steps) << what;
+}
+
 TEST(RefinementPlan, GroupsFitTheBudgetCoverEveryKeyframeAndShareTheStepsByTheirSize) {
   std::mt19937_64 rng(7);
   for (int trial = 0; trial < 20; ++trial) {
     const size_t keyframes = std::uniform_int_distribution<size_t>(1, 300)(rng);
     const int span = std::uniform_int_distribution<int>(1, 12)(rng);
-    const auto views = drive(keyframes, span, rng);
+    auto views = drive(keyframes, span, rng);
+    // Some keyframes look elsewhere: chunks no other keyframe sees.
+    for (size_t k = 0; k < keyframes; ++k)
+      if (rng() % 7 == 0)
+        views[k] = {{ChunkId(1'000'000 + k), std::uniform_int_distribution<uint64_t>(50, 900)(rng)}};
     const uint64_t fit = std::uniform_int_distribution<uint64_t>(100, 20000)(rng);
     const uint64_t steps = std::uniform_int_distribution<uint64_t>(0, 5000)(rng);
     const std::vector<RefinementGroup> groups = plan_refinement(views, fit, steps);
     ASSERT_FALSE(groups.empty());
-    size_t next = 0;
-    uint64_t total = 0;
-    for (size_t g = 0; g < groups.size(); ++g) {
-      const RefinementGroup& gr = groups[g];
-      ASSERT_EQ(gr.begin, next) << "trial " << trial << ": group " << g << " does not follow the one before";
-      ASSERT_GT(gr.end, gr.begin);
-      next = gr.end;
-      std::map<ChunkId, uint64_t> held;
-      for (size_t k = gr.begin; k < gr.end; ++k)
-        for (const ChunkCount& c : views[k]) held[c.id] = c.count;
-      uint64_t sum = 0;
-      for (const auto& [id, n] : held) sum += n;
-      if (gr.end - gr.begin > 1) {
-        EXPECT_LE(sum, fit) << "trial " << trial << ", group " << g;
-      }
-      if (g + 1 < groups.size()) {
-        // It ended because the next keyframe would not have fitted.
-        for (const ChunkCount& c : views[gr.end]) held[c.id] = c.count;
-        uint64_t with_next = 0;
-        for (const auto& [id, n] : held) with_next += n;
-        EXPECT_GT(with_next, fit) << "trial " << trial << ", group " << g << " ended early";
-      }
-      const double exact = double(steps) * double(gr.end - gr.begin) / double(keyframes);
-      EXPECT_LE(std::abs(double(gr.steps) - exact), 1.0) << "trial " << trial << ", group " << g;
-      total += gr.steps;
-    }
-    EXPECT_EQ(next, keyframes);
-    EXPECT_EQ(total, steps) << "trial " << trial;
+    expect_valid_plan(views, fit, steps, groups, "trial " + std::to_string(trial));
+  }
+}
+
+TEST(RefinementPlan, AStreetDrivenTwiceIsTrainedByBothPassesTogether) {
+  // Out along chunks 0..n+span-1 and back: keyframe n + k sees what keyframe n - 1 - k saw. Cut in the
+  // order of the drive, a group of the way out would hold none of the way back.
+  std::mt19937_64 rng(11);
+  for (int trial = 0; trial < 10; ++trial) {
+    const size_t n = std::uniform_int_distribution<size_t>(40, 200)(rng);
+    const int span = std::uniform_int_distribution<int>(3, 10)(rng);
+    auto views = drive(n, span, rng);
+    for (size_t k = 0; k < n; ++k) views.push_back(views[n - 1 - k]);
+    std::vector<size_t> all(2 * n);
+    for (size_t k = 0; k < all.size(); ++k) all[k] = k;
+    // A fifth to a tenth of the map, or the largest view.
+    uint64_t fit = held_by(views, all) / std::uniform_int_distribution<uint64_t>(5, 10)(rng);
+    for (size_t k = 0; k < n; ++k) fit = std::max(fit, held_by(views, {k}));
+    const auto groups = plan_refinement(views, fit, 1000);
+    ASSERT_GE(groups.size(), 2u) << "trial " << trial;
+    expect_valid_plan(views, fit, 1000, groups, "trial " + std::to_string(trial));
+    std::vector<size_t> group_of(2 * n);
+    for (size_t g = 0; g < groups.size(); ++g)
+      for (size_t k : groups[g].keyframes) group_of[k] = g;
+    size_t together = 0;
+    for (size_t k = 0; k < n; ++k) together += group_of[k] == group_of[2 * n - 1 - k];
+    EXPECT_GE(together, n * 9 / 10) << "trial " << trial << ": a place's two views in different groups";
   }
 }
 
@@ -125,12 +188,12 @@ TEST(MapperRefine, EveryKeyframeIsTrainedInGroupsUnderTheBudgetInARandomOrder) {
     EXPECT_GE(n, 1) << "keyframe " << k;
     EXPECT_LE(n, 4) << "keyframe " << k;
   }
-  // Groups in the order of the drive: a step never goes back further than a group is wide.
+  // Groups are places along the wall: a step never goes back further than a group is wide.
   const uint32_t width = 20;
   uint32_t highest = 0;
   for (size_t i = 0; i < order.size(); ++i) {
-    EXPECT_LT(highest, order[i] + width) << "step " << i << " went back to keyframe " << order[i] << " after "
-                                         << highest;
+    EXPECT_LT(highest, order[i] + width)
+        << "step " << i << " went back to keyframe " << order[i] << " after " << highest;
     highest = std::max(highest, order[i]);
   }
   // Not the order of the drive: a shuffled group's steps go back and forth.

@@ -1,6 +1,5 @@
 // Mapper::refine: the steps after the last frame, spread over the whole map by refinement_plan.hpp.
 #include <algorithm>
-#include <numeric>
 
 #include "chungs/common/error.hpp"
 #include "chungs/mapping/mapper.hpp"
@@ -25,8 +24,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
   for (const RefinementGroup& g : groups) {
     if (g.steps > 0) ++stats.groups;
     for (uint64_t left = g.steps; left > 0;) {
-      pass.resize(g.end - g.begin);
-      std::iota(pass.begin(), pass.end(), g.begin);
+      pass = g.keyframes;
       std::shuffle(pass.begin(), pass.end(), rng_);
       const size_t take = size_t(std::min<uint64_t>(left, pass.size()));
       upcoming.assign(take, {});

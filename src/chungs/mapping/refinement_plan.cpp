@@ -1,6 +1,10 @@
 #include "chungs/mapping/refinement_plan.hpp"
 
+#include <functional>
+#include <queue>
+#include <unordered_map>
 #include <unordered_set>
+#include <utility>
 
 #include "chungs/common/error.hpp"
 
@@ -9,26 +13,71 @@ namespace chungs {
 std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<ChunkCount>>& views, uint64_t fit,
                                              uint64_t steps) {
   if (fit == 0) fail("refinement plan: the share of the budget a group may fill is 0");
-  std::vector<RefinementGroup> groups;
-  std::unordered_set<ChunkId> held;
-  uint64_t sum = 0;
-  for (size_t k = 0; k < views.size(); ++k) {
-    uint64_t more = 0;
-    for (const ChunkCount& c : views[k])
-      if (!held.count(c.id)) more += c.count;
-    if (groups.empty() || sum + more > fit) {
-      groups.push_back({k, k, 0});
-      held.clear();
-      sum = 0;
+  const size_t total = views.size();
+  // Who sees a chunk, and with how many Gaussians, so that a chunk joining a group updates only the
+  // keyframes that see it.
+  std::unordered_map<ChunkId, std::vector<std::pair<size_t, uint64_t>>> seen_by;
+  std::vector<uint64_t> whole(total, 0);
+  for (size_t k = 0; k < total; ++k)
+    for (const ChunkCount& c : views[k]) {
+      seen_by[c.id].push_back({k, c.count});
+      whole[k] += c.count;
     }
-    for (const ChunkCount& c : views[k])
-      if (held.insert(c.id).second) sum += c.count;
-    groups.back().end = k + 1;
+  std::vector<uint64_t> more = whole;  // what keyframe k would add to the group being built
+  std::vector<char> taken(total, 0), touched(total, 0);
+  std::vector<size_t> touched_list;
+  std::unordered_set<ChunkId> held;
+  using Entry = std::pair<uint64_t, size_t>;  // (more, keyframe): stale entries are skipped when popped
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
+  std::vector<RefinementGroup> groups;
+  size_t earliest = 0, left = total;
+  while (left > 0) {
+    RefinementGroup group;
+    uint64_t sum = 0;
+    const auto take = [&](size_t k) {
+      taken[k] = 1;
+      --left;
+      group.keyframes.push_back(k);
+      for (const ChunkCount& c : views[k]) {
+        if (!held.insert(c.id).second) continue;
+        sum += c.count;
+        for (const auto& [j, n] : seen_by[c.id]) {
+          if (taken[j]) continue;
+          if (!touched[j]) touched_list.push_back(j);
+          touched[j] = 1;
+          more[j] -= n;
+          heap.push({more[j], j});
+        }
+      }
+    };
+    while (taken[earliest]) ++earliest;
+    take(earliest);
+    for (;;) {
+      while (earliest < total && taken[earliest]) ++earliest;
+      if (earliest < total) heap.push({more[earliest], earliest});
+      while (!heap.empty() && (taken[heap.top().second] || heap.top().first != more[heap.top().second]))
+        heap.pop();
+      if (heap.empty() || sum + heap.top().first > fit) break;
+      const size_t k = heap.top().second;
+      heap.pop();
+      take(k);
+    }
+    for (size_t j : touched_list) {
+      more[j] = whole[j];
+      touched[j] = 0;
+    }
+    touched_list.clear();
+    held.clear();
+    heap = {};
+    groups.push_back(std::move(group));
   }
   // 128-bit products: steps may be near 2^63 and K large.
-  const unsigned __int128 total = views.size();
   const auto share_until = [&](size_t k) { return uint64_t((unsigned __int128)steps * k / total); };
-  for (RefinementGroup& g : groups) g.steps = share_until(g.end) - share_until(g.begin);
+  size_t before = 0;
+  for (RefinementGroup& g : groups) {
+    g.steps = share_until(before + g.keyframes.size()) - share_until(before);
+    before += g.keyframes.size();
+  }
   return groups;
 }
 

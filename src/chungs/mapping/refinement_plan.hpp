@@ -1,11 +1,17 @@
 // How the refinement after the last frame (mapper.final_iterations) spreads its steps: over every
-// keyframe of the map, not only those near the end of the drive. The keyframes, in the order they were
-// added, are cut into consecutive groups whose views fit a share of the budget together, so that each
-// group's chunks are loaded once; each group gets the steps in proportion to its keyframes, spent in
-// passes over it in a fresh random order. The order matters: one step on every keyframe of a 2 km
-// street in the order of the drive lowered the held-out PSNR by 1.2 dB on the GPU, the same steps
-// shuffled raised it by 0.4 dB (bench/README.md, issue 19): consecutive neighbouring views push
-// the Gaussians they share the same way, step after step, and Adam's momentum adds it up.
+// keyframe of the map, not only those near the end of the drive. The keyframes are cut into groups
+// whose views fit a share of the budget together, so that each group's chunks are loaded once; each
+// group gets the steps in proportion to its keyframes, spent in passes over it in a fresh random order.
+//
+// A group is a place, not a stretch of the drive: it grows from the earliest keyframe not yet grouped
+// by the keyframe whose view adds the fewest Gaussians to it, so that the views of a street driven twice
+// (a loop, a way back) are trained together. Under a budget that is what the map lacks against one that
+// fits: the steps a place gets from every view of it together (bench/README.md, issue 19).
+//
+// The order within a group matters: one step on every keyframe of a 2 km street in the order of the
+// drive lowered the held-out PSNR by 1.2 dB on the GPU, the same steps shuffled raised it by 0.4 dB:
+// consecutive neighbouring views push the Gaussians they share the same way, step after step, and
+// Adam's momentum adds it up.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -16,14 +22,17 @@
 namespace chungs {
 
 struct RefinementGroup {
-  size_t begin = 0, end = 0;  // keyframes [begin, end) in the order they were added
-  uint64_t steps = 0;         // the group's share of the steps
+  std::vector<size_t> keyframes;  // indices into the views, in the order they joined the group
+  uint64_t steps = 0;             // the group's share of the steps
 };
 
-// `views[k]`: the chunks keyframe k sees with their Gaussians. A group ends before the keyframe whose
-// chunks would take the group's distinct chunks past `fit` Gaussians (a keyframe that alone needs
-// more is a group of its own). Shares: group g gets floor(steps * end_g / K) - floor(steps * begin_g / K).
-// Throws Error when `fit` is 0.
+// `views[k]`: the chunks keyframe k (in the order keyframes were added) sees, with their Gaussians.
+// A group starts at the earliest keyframe left and takes, one at a time, the keyframe that adds the
+// fewest Gaussians not yet in the group, among those sharing a chunk with it and the earliest keyframe
+// left (ties: the earlier keyframe), while that keeps the group's distinct chunks within `fit`
+// Gaussians (a keyframe that alone needs more is a group of its own). A map that fits is one group.
+// Shares: with n_g keyframes before group g, it gets floor(steps * (n_g + size_g) / K) -
+// floor(steps * n_g / K). Throws Error when `fit` is 0.
 std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<ChunkCount>>& views, uint64_t fit,
                                              uint64_t steps);
 
