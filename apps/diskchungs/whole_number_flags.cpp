@@ -23,10 +23,15 @@ bool reads_as_written(std::string_view text) {
 }
 
 std::string refusal(const CLI::Option& option, const std::string& text, bool is_unsigned) {
+  // Not decimal (0x10, 1e3): the notation is at fault whatever the flag's width.
+  if (!written_in_decimal(text))
+    return cat(option.get_name(), " must be a whole number written in decimal, got ", text);
+  // Decimal text CLI11 kept but that does not read back: beyond 64 bits (32-bit flags refuse it earlier).
   if (is_unsigned)
     return cat(option.get_name(), " must be a whole number from 0 to ", std::numeric_limits<uint64_t>::max(),
                " written in decimal, got ", text);
-  return cat(option.get_name(), " must be a whole number written in decimal that fits in 64 bits, got ", text);
+  return cat(option.get_name(), " must be a whole number from ", std::numeric_limits<int64_t>::min(), " to ",
+             std::numeric_limits<int64_t>::max(), ", got ", text);
 }
 
 // The type CLI11 reads the flag as (INT, UINT, FLOAT, ...), before any ":" that names its validators.
@@ -80,7 +85,8 @@ std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& 
     // CLI11 keeps whatever strtoll / strtoull make of decimal text for a 64-bit flag (misread_whole_number
     // checks those): decimal text it refused was refused by a 32-bit flag.
     if (type == "UINT")
-      return cat(name, " must be a whole number from 0 to ", std::numeric_limits<uint32_t>::max(), ", got ", text);
+      return cat(name, " must be a whole number from 0 to ", std::numeric_limits<uint32_t>::max(), ", got ",
+                 text);
     return cat(name, " must be a whole number from ", std::numeric_limits<int32_t>::min(), " to ",
                std::numeric_limits<int32_t>::max(), ", got ", text);
   }
