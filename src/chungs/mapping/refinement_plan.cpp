@@ -46,7 +46,10 @@ std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<Chunk
           if (!touched[j]) touched_list.push_back(j);
           touched[j] = 1;
           more[j] -= n;
-          heap.push({more[j], j});
+          // The group only grows: a keyframe that does not fit now fits later only by a chunk joining
+          // that it sees, which comes back here. Fewer entries: a group of one view in a crowded
+          // place (100 k budget, loops) would push every neighbour at every chunk.
+          if (sum + more[j] <= fit) heap.push({more[j], j});
         }
       }
     };
