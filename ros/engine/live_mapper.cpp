@@ -242,7 +242,7 @@ struct LiveMapper::Impl {
         {
           // The node's queries get their turns between steps, as during mapping.
           std::unique_lock lock(map_mutex);
-          mapper->refine(uint64_t(config.mapper.final_iterations), [&](uint32_t) {
+          mapper->refine(config.mapper.refinement_steps(mapper->keyframes().size()), [&](uint32_t) {
             lock.unlock();
             lock.lock();
           });

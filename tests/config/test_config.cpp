@@ -142,6 +142,7 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
   for (const auto& [yaml, needle] : std::vector<std::pair<std::string, std::string>>{
            {"mapper: {speed: .inf}", "mapper: speed must be"},
            {"mapper: {speed: 0.001}", "mapper: speed must be a finite factor of at least 0.01, got 0.001"},
+           {"mapper: {final_iterations: -2}", "mapper: final_iterations must be >= 0, or -1 for one a keyframe"},
            {"adam: {beta1: 1.5}", "beta1 must be in [0, 1), got 1.5"},
            {"adam: {beta2: -0.5}", "beta2 must be in [0, 1), got -0.5"},
            {"stereo: {num_disparities: 1000}", "num_disparities must be in [16, 256], got 1000"}}) {
@@ -152,6 +153,18 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
       EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << yaml << ": " << e.what();
     }
   }
+}
+
+TEST(Config, RefinementStepsAreOneAKeyframeUnderFixedPacingNoneUnderAnytimeOrAsGiven) {
+  Config c;
+  EXPECT_EQ(c.mapper.final_iterations, -1);
+  EXPECT_EQ(c.mapper.refinement_steps(1034), 1034u);
+  c = config_from_yaml("mapper: {pacing: anytime}");
+  EXPECT_EQ(c.mapper.refinement_steps(1034), 0u);
+  c = config_from_yaml("mapper: {pacing: anytime, final_iterations: 7}");
+  EXPECT_EQ(c.mapper.refinement_steps(1034), 7u);
+  c = config_from_yaml("mapper: {final_iterations: 0}");
+  EXPECT_EQ(c.mapper.refinement_steps(1034), 0u);
 }
 
 TEST(Config, DepthRefinementKeysLoadAndBadRangesAreRefusedByName) {

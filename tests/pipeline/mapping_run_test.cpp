@@ -61,6 +61,20 @@ TEST(MappingRun, HeldOutQualityRisesAndTheFolderReopens) {
   EXPECT_THROW(Mapper(dir / "map", c, false), Error);  // no silent overwrite
 }
 
+TEST(MappingRun, FixedPacingRefinesOneStepAKeyframeByDefault) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(8);
+  Config c = tiny_config();
+  c.mapper.final_iterations = MapperConfig{}.final_iterations;
+  const auto r = run_mapping(options(dir / "map", c), seq);
+  const uint64_t keyframes = r["keyframes"];
+  ASSERT_EQ(keyframes, 7u);  // 8 frames less 1 held out
+  ASSERT_TRUE(r.contains("refinement")) << r.dump(1);
+  EXPECT_EQ(r["refinement"]["steps"].get<uint64_t>(), keyframes);
+  EXPECT_EQ(r["iterations"].get<uint64_t>(), keyframes * uint64_t(c.mapper.iterations_per_keyframe) + keyframes);
+}
+
 TEST(MappingRun, ResidentGaussiansNeverExceedTheBudget) {
   log::set_level(log::Level::Warn);
   test::TempDir dir;

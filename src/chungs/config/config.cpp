@@ -115,7 +115,9 @@ template <class V>
 void fields(V& v, MapperConfig& c) {
   v("pacing", c.pacing, "fixed (iterations per keyframe, deterministic) | anytime (real-time intake)");
   v("iterations_per_keyframe", c.iterations_per_keyframe, "fixed pacing: optimisation steps per keyframe");
-  v("final_iterations", c.final_iterations, "refinement steps after the last frame, spread over every keyframe");
+  v("final_iterations", c.final_iterations,
+    "refinement steps after the last frame, spread over every keyframe (-1: one a keyframe under fixed pacing, "
+    "none under anytime)");
   v("speed", c.speed, "anytime pacing: frames arrive at the dataset rate times this");
   v("keyframe_every", c.keyframe_every, "every k-th training frame becomes a keyframe (0: off); or when ...");
   v("keyframe_translation", c.keyframe_translation, "... the camera moved this many metres (0: off), or ...");

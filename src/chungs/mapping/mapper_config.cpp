@@ -6,12 +6,18 @@
 
 namespace chungs {
 
+uint64_t MapperConfig::refinement_steps(size_t keyframes) const {
+  if (final_iterations >= 0) return uint64_t(final_iterations);
+  return pacing == "fixed" ? uint64_t(keyframes) : 0;
+}
+
 void MapperConfig::validate() const {
   if (pacing != "fixed" && pacing != "anytime")
     fail("mapper: pacing must be fixed or anytime, got '", pacing, "'");
   if (iterations_per_keyframe < 0)
     fail("mapper: iterations_per_keyframe must be >= 0, got ", iterations_per_keyframe);
-  if (final_iterations < 0) fail("mapper: final_iterations must be >= 0, got ", final_iterations);
+  if (final_iterations < -1)
+    fail("mapper: final_iterations must be >= 0, or -1 for one a keyframe under fixed pacing, got ", final_iterations);
   // An infinite speed would make every frame arrive at once: anytime pacing would train on none.
   if (!(speed >= kMinSpeed) || !std::isfinite(speed))
     fail("mapper: speed must be a finite factor of at least ", kMinSpeed, ", got ", speed);

@@ -1,5 +1,6 @@
 // Mapper::refine: the steps after the last frame, spread over the whole map by refinement_plan.hpp.
 #include <algorithm>
+#include <deque>
 
 #include "chungs/common/error.hpp"
 #include "chungs/mapping/mapper.hpp"
@@ -19,38 +20,53 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
   const uint64_t fit = std::max<uint64_t>(1, uint64_t(0.8 * double(residency_->budget())));
   const std::vector<RefinementGroup> groups = plan_refinement(views, fit, steps);
   const size_t ahead = size_t(std::max(1, config_.mapper.read_ahead_steps));
+  for (const RefinementGroup& g : groups) stats.groups += g.steps > 0;
+  // The steps to come, a pass at a time, so that the read-ahead reaches into the next pass and the next
+  // group: under a budget of about one view (100 k on the 2 km street) groups hold two views, and reads
+  // that stopped at a group's end took the I/O wait of the run from 1.6 % to 2.65 % on the GPU.
+  struct Upcoming {
+    size_t keyframe;
+    std::vector<ChunkId> chunks;  // culled when it first comes within reach of the chunk read-ahead
+    bool culled = false;
+  };
+  std::deque<Upcoming> queue;
+  size_t group = 0;
+  uint64_t left = groups.empty() ? 0 : groups[0].steps;
   std::vector<size_t> pass;
-  std::vector<std::vector<ChunkId>> upcoming;  // the chunks of the pass's views, culled when first needed
-  for (const RefinementGroup& g : groups) {
-    if (g.steps > 0) ++stats.groups;
-    for (uint64_t left = g.steps; left > 0;) {
-      pass = g.keyframes;
+  const size_t reach = 1 + 4 * ahead;  // this step and the images read ahead
+  const auto refill = [&] {
+    while (queue.size() < reach + 1) {
+      while (left == 0 && ++group < groups.size()) left = groups[group].steps;
+      if (left == 0) return;
+      pass = groups[group].keyframes;
       std::shuffle(pass.begin(), pass.end(), rng_);
       const size_t take = size_t(std::min<uint64_t>(left, pass.size()));
-      upcoming.assign(take, {});
-      for (size_t i = 0; i < take; ++i) {
-        residency_->advance_checkpoint();
-        if (!residency_->all_resident()) {
-          // This step's chunks first, then those of the next few: read in the background meanwhile. Each
-          // view is culled once for this, when it first comes within reach.
-          std::vector<ChunkId> wanted;
-          for (size_t j = i; j < std::min(take, i + 1 + ahead); ++j) {
-            if (upcoming[j].empty())
-              upcoming[j] = visible_chunks(keyframes_[pass[j]].camera, keyframes_[pass[j]].pose);
-            wanted.insert(wanted.end(), upcoming[j].begin(), upcoming[j].end());
-          }
-          residency_->prefetch(wanted);
-        }
-        // Images further ahead than chunks (they are small): a shuffled pass reads most keyframes from
-        // disk. Farthest first, since the store serves its latest request first.
-        for (size_t j = std::min(take, i + 1 + 4 * ahead); j-- > i + 1;)
-          keyframe_store_->prefetch(keyframes_[pass[j]].id);
-        step_keyframe(keyframes_[pass[i]].id, /*whole_view=*/true);
-        ++stats.steps;
-        if (after_step) after_step(keyframes_[pass[i]].id);
-      }
+      for (size_t i = 0; i < take; ++i) queue.push_back({pass[i], {}, false});
       left -= take;
     }
+  };
+  for (refill(); !queue.empty(); refill()) {
+    residency_->advance_checkpoint();
+    if (!residency_->all_resident()) {
+      // This step's chunks first, then those of the next few: read in the background meanwhile.
+      std::vector<ChunkId> wanted;
+      for (size_t j = 0; j < std::min(queue.size(), 1 + ahead); ++j) {
+        Upcoming& u = queue[j];
+        if (!u.culled) u.chunks = visible_chunks(keyframes_[u.keyframe].camera, keyframes_[u.keyframe].pose);
+        u.culled = true;
+        wanted.insert(wanted.end(), u.chunks.begin(), u.chunks.end());
+      }
+      residency_->prefetch(wanted);
+    }
+    // Images further ahead than chunks (they are small): a shuffled pass reads most keyframes from
+    // disk. Farthest first, since the store serves its latest request first.
+    for (size_t j = std::min(queue.size(), reach); j-- > 1;)
+      keyframe_store_->prefetch(keyframes_[queue[j].keyframe].id);
+    const uint32_t id = keyframes_[queue.front().keyframe].id;
+    queue.pop_front();
+    step_keyframe(id, /*whole_view=*/true);
+    ++stats.steps;
+    if (after_step) after_step(id);
   }
   return stats;
 }

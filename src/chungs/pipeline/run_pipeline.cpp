@@ -393,9 +393,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
               "that see the same textured scene from places apart), so the map is empty");
   nlohmann::json refinement;  // the steps after the last frame, when there were any
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
-    Progress refine("refining", mc.final_iterations);
+    const uint64_t refine_steps = mc.refinement_steps(mapper.keyframes().size());
+    Progress refine("refining", (long long)refine_steps);
     const auto t0 = std::chrono::steady_clock::now();
-    const Mapper::RefineStats r = mapper.refine(uint64_t(mc.final_iterations), [&](uint32_t) { refine.step(); });
+    const Mapper::RefineStats r = mapper.refine(refine_steps, [&](uint32_t) { refine.step(); });
     refine.finish();
     if (r.steps > 0)
       refinement = {{"steps", r.steps}, {"groups", r.groups}, {"seconds", ms_since(t0) / 1000}};
