@@ -22,16 +22,22 @@ bool reads_as_written(std::string_view text) {
   return ec == std::errc() && end == text.data() + text.size();
 }
 
+std::string not_decimal(const std::string& name, const std::string& text) {
+  return cat(name, " must be a whole number written in decimal, got ", text);
+}
+
+template <class T>
+std::string out_of_range(const std::string& name, const std::string& text) {
+  return cat(name, " must be a whole number from ", std::numeric_limits<T>::min(), " to ",
+             std::numeric_limits<T>::max(), ", got ", text);
+}
+
 std::string refusal(const CLI::Option& option, const std::string& text, bool is_unsigned) {
   // Not decimal (0x10, 1e3): the notation is at fault whatever the flag's width.
-  if (!written_in_decimal(text))
-    return cat(option.get_name(), " must be a whole number written in decimal, got ", text);
+  if (!written_in_decimal(text)) return not_decimal(option.get_name(), text);
   // Decimal text CLI11 kept but that does not read back: beyond 64 bits (32-bit flags refuse it earlier).
-  if (is_unsigned)
-    return cat(option.get_name(), " must be a whole number from 0 to ", std::numeric_limits<uint64_t>::max(),
-               " written in decimal, got ", text);
-  return cat(option.get_name(), " must be a whole number from ", std::numeric_limits<int64_t>::min(), " to ",
-             std::numeric_limits<int64_t>::max(), ", got ", text);
+  return is_unsigned ? out_of_range<uint64_t>(option.get_name(), text)
+                     : out_of_range<int64_t>(option.get_name(), text);
 }
 
 // The type CLI11 reads the flag as (INT, UINT, FLOAT, ...), before any ":" that names its validators.
@@ -81,14 +87,10 @@ std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& 
   if (!option) return {};
   const std::string type = read_as(*option);
   if (type == "INT" || type == "UINT") {
-    if (!written_in_decimal(text)) return cat(name, " must be a whole number written in decimal, got ", text);
+    if (!written_in_decimal(text)) return not_decimal(name, text);
     // CLI11 keeps whatever strtoll / strtoull make of decimal text for a 64-bit flag (misread_whole_number
     // checks those): decimal text it refused was refused by a 32-bit flag.
-    if (type == "UINT")
-      return cat(name, " must be a whole number from 0 to ", std::numeric_limits<uint32_t>::max(), ", got ",
-                 text);
-    return cat(name, " must be a whole number from ", std::numeric_limits<int32_t>::min(), " to ",
-               std::numeric_limits<int32_t>::max(), ", got ", text);
+    return type == "UINT" ? out_of_range<uint32_t>(name, text) : out_of_range<int32_t>(name, text);
   }
   if (type == "FLOAT") return cat(name, " must be a number, got ", text);
   return {};

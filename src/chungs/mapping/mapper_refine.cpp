@@ -24,12 +24,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
   // The steps to come, a pass at a time, so that the read-ahead reaches into the next pass and the next
   // group: under a budget of about one view (100 k on the 2 km street) groups hold two views, and reads
   // that stopped at a group's end took the I/O wait of the run from 1.6 % to 2.65 % on the GPU.
-  struct Upcoming {
-    size_t keyframe;
-    std::vector<ChunkId> chunks;  // culled when it first comes within reach of the chunk read-ahead
-    bool culled = false;
-  };
-  std::deque<Upcoming> queue;
+  std::deque<size_t> queue;  // keyframe indices
   size_t group = 0;
   uint64_t left = groups.empty() ? 0 : groups[0].steps;
   std::vector<size_t> pass;
@@ -41,7 +36,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
       pass = groups[group].keyframes;
       std::shuffle(pass.begin(), pass.end(), rng_);
       const size_t take = size_t(std::min<uint64_t>(left, pass.size()));
-      for (size_t i = 0; i < take; ++i) queue.push_back({pass[i], {}, false});
+      for (size_t i = 0; i < take; ++i) queue.push_back(pass[i]);
       left -= take;
     }
   };
@@ -50,19 +45,18 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
     if (!residency_->all_resident()) {
       // This step's chunks first, then those of the next few: read in the background meanwhile.
       std::vector<ChunkId> wanted;
+      // The views were culled for the plan; the nearest chunks that fit the budget are what a step loads.
       for (size_t j = 0; j < std::min(queue.size(), 1 + ahead); ++j) {
-        Upcoming& u = queue[j];
-        if (!u.culled) u.chunks = visible_chunks(keyframes_[u.keyframe].camera, keyframes_[u.keyframe].pose);
-        u.culled = true;
-        wanted.insert(wanted.end(), u.chunks.begin(), u.chunks.end());
+        const BudgetGroups fits = split_by_budget(views[queue[j]], residency_->budget());
+        if (!fits.groups.empty()) wanted.insert(wanted.end(), fits.groups[0].begin(), fits.groups[0].end());
       }
       residency_->prefetch(wanted);
     }
     // Images further ahead than chunks (they are small): a shuffled pass reads most keyframes from
     // disk. Farthest first, since the store serves its latest request first.
     for (size_t j = std::min(queue.size(), reach); j-- > 1;)
-      keyframe_store_->prefetch(keyframes_[queue[j].keyframe].id);
-    const uint32_t id = keyframes_[queue.front().keyframe].id;
+      keyframe_store_->prefetch(keyframes_[queue[j]].id);
+    const uint32_t id = keyframes_[queue.front()].id;
     queue.pop_front();
     step_keyframe(id, /*whole_view=*/true);
     ++stats.steps;
