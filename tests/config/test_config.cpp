@@ -143,6 +143,8 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
            {"mapper: {speed: .inf}", "mapper: speed must be"},
            {"mapper: {speed: 0.001}", "mapper: speed must be a finite factor of at least 0.01, got 0.001"},
            {"mapper: {final_iterations: -2}", "mapper: final_iterations must be >= 0, or -1 for one a keyframe"},
+           {"mapper: {refinement_rounds: 0}", "mapper: refinement_rounds must be in [1, 1000], got 0"},
+           {"mapper: {refinement_rounds: 1001}", "mapper: refinement_rounds must be in [1, 1000], got 1001"},
            {"adam: {beta1: 1.5}", "beta1 must be in [0, 1), got 1.5"},
            {"adam: {beta2: -0.5}", "beta2 must be in [0, 1), got -0.5"},
            {"stereo: {num_disparities: 1000}", "num_disparities must be in [16, 256], got 1000"}}) {
@@ -165,6 +167,8 @@ TEST(Config, RefinementStepsAreOneAKeyframeUnderFixedPacingNoneUnderAnytimeOrAsG
   EXPECT_EQ(c.mapper.refinement_steps(1034), 7u);
   c = config_from_yaml("mapper: {final_iterations: 0}");
   EXPECT_EQ(c.mapper.refinement_steps(1034), 0u);
+  EXPECT_EQ(Config().mapper.refinement_rounds, 1);
+  EXPECT_EQ(config_from_yaml("mapper: {refinement_rounds: 16}").mapper.refinement_rounds, 16);
 }
 
 TEST(Config, DepthRefinementKeysLoadAndBadRangesAreRefusedByName) {

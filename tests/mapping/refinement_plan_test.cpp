@@ -147,7 +147,42 @@ TEST(RefinementPlan, AMapThatFitsIsOneGroupAndHugeCountsDoNotOverflow) {
   EXPECT_TRUE(plan_refinement({}, 10, 10).empty());
 }
 
-TEST(MapperRefine, EveryKeyframeIsTrainedInGroupsUnderTheBudgetInARandomOrder) {
+TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {
+  std::mt19937_64 rng(5);
+  for (int trial = 0; trial < 50; ++trial) {
+    std::vector<RefinementGroup> groups(std::uniform_int_distribution<size_t>(1, 30)(rng));
+    for (RefinementGroup& g : groups) g.steps = std::uniform_int_distribution<uint64_t>(0, 200)(rng);
+    const size_t rounds = std::uniform_int_distribution<size_t>(1, 12)(rng);
+    const std::vector<RefinementVisit> visits = refinement_visits(groups, rounds);
+    std::vector<uint64_t> got(groups.size(), 0);
+    std::vector<size_t> seen(groups.size(), 0);
+    size_t round = 0, last = 0;
+    for (size_t i = 0; i < visits.size(); ++i) {
+      const RefinementVisit& v = visits[i];
+      ASSERT_LT(v.group, groups.size());
+      EXPECT_GT(v.steps, 0u) << "trial " << trial << ", visit " << i;
+      if (i > 0 && v.group <= last) ++round;  // the groups in turn: a new round starts at a lower group
+      last = v.group;
+      const double exact = double(groups[v.group].steps) / double(rounds);
+      EXPECT_LE(std::abs(double(v.steps) - exact), 1.0) << "trial " << trial << ", visit " << i;
+      got[v.group] += v.steps;
+      ++seen[v.group];
+    }
+    EXPECT_LE(round + 1, rounds) << "trial " << trial;
+    for (size_t g = 0; g < groups.size(); ++g) {
+      EXPECT_EQ(got[g], groups[g].steps) << "trial " << trial << ", group " << g;
+      EXPECT_EQ(seen[g], std::min<uint64_t>(rounds, groups[g].steps)) << "trial " << trial << ", group " << g;
+    }
+  }
+  const std::vector<RefinementGroup> huge{{{0}, (uint64_t(1) << 63) + 7}, {{1}, 3}};
+  uint64_t total = 0;
+  for (const RefinementVisit& v : refinement_visits(huge, 5)) total += v.steps;
+  EXPECT_EQ(total, (uint64_t(1) << 63) + 10);
+  EXPECT_THROW(refinement_visits(huge, 0), Error);
+  EXPECT_TRUE(refinement_visits({}, 3).empty());
+}
+
+TEST(MapperRefine, EveryKeyframeIsTrainedInGroupsUnderTheBudgetInRoundsInARandomOrder) {
   log::set_level(log::Level::Error);
   test::TempDir dir;
   Config c = test::tiny_mapping_config();
@@ -165,6 +200,7 @@ TEST(MapperRefine, EveryKeyframeIsTrainedInGroupsUnderTheBudgetInARandomOrder) {
   }
   ASSERT_GT(map_size, 2000u);
   c.residency.budget_gaussians = map_size * 3 / 4;  // under the map; groups of several views
+  c.mapper.refinement_rounds = 3;
   Mapper m(dir / "map", c, false);
   for (size_t i = 0; i < 30; ++i) {
     const Frame f = seq.frame(i);
@@ -188,20 +224,51 @@ TEST(MapperRefine, EveryKeyframeIsTrainedInGroupsUnderTheBudgetInARandomOrder) {
     EXPECT_GE(n, 1) << "keyframe " << k;
     EXPECT_LE(n, 4) << "keyframe " << k;
   }
-  // Groups are places along the wall: a step never goes back further than a group is wide.
+  // Groups are places along the wall, visited in rounds: a step goes back further than a group is wide
+  // only where a round starts again at the first group.
   const uint32_t width = 20;
   uint32_t highest = 0;
+  size_t restarts = 0;
   for (size_t i = 0; i < order.size(); ++i) {
-    EXPECT_LT(highest, order[i] + width)
-        << "step " << i << " went back to keyframe " << order[i] << " after " << highest;
+    if (order[i] + width <= highest) {
+      ++restarts;
+      highest = order[i];
+    }
     highest = std::max(highest, order[i]);
   }
+  EXPECT_GE(restarts, 1u) << "a later round trains the first group again: " << ::testing::PrintToString(order);
+  EXPECT_LE(restarts + 1, size_t(c.mapper.refinement_rounds)) << ::testing::PrintToString(order);
   // Not the order of the drive: a shuffled group's steps go back and forth.
   size_t backwards = 0;
   for (size_t i = 1; i < order.size(); ++i) backwards += order[i] < order[i - 1];
   EXPECT_GT(backwards, steps / 5) << ::testing::PrintToString(order) << " groups " << r.groups;
   EXPECT_GT(m.io_stats().pool_loads, loads_before) << "the early groups' chunks were evicted and came back";
   EXPECT_EQ(m.refine(0).steps, 0u);
+}
+
+TEST(MapperRefine, StepsScoreEveryPixelWithoutTheWindowsBestViewMasks) {
+  // Along a wall under a budget, the window's steps leave out chunks that views gone from it showed on
+  // more blocks; the refinement trains every view of a place, so none of its steps does.
+  log::set_level(log::Level::Error);
+  test::TempDir dir;
+  Config c = test::tiny_mapping_config();
+  c.mapper.device = "cpu";
+  c.store.chunk_size = 0.25;
+  c.residency.budget_gaussians = 4000;
+  const test::WallSequence seq(40, 64, 48, 0.3);
+  Mapper m(dir / "map", c, false);
+  for (size_t i = 0; i < 40; ++i) {
+    const Frame f = seq.frame(i);
+    m.add_keyframe(i, f.timestamp, f.left, f.depth, f.camera, *f.gt_pose);
+    for (int s = 0; s < 5; ++s) m.step();
+  }
+  const uint64_t masked = m.window_stats().best_view_steps;
+  ASSERT_GT(m.window_stats().narrowed, 0u) << "the budget narrows training to a window";
+  ASSERT_GT(masked, 0u) << "the window's steps left out chunks shown better by views gone from it";
+  EXPECT_EQ(m.refine(60).steps, 60u);
+  EXPECT_EQ(m.window_stats().best_view_steps, masked);
+  for (int s = 0; s < 20; ++s) m.step();  // the window's steps mask again afterwards
+  EXPECT_GT(m.window_stats().best_view_steps, masked);
 }
 
 TEST(MapperRefine, NeedsAKeyframe) {

@@ -118,6 +118,9 @@ void fields(V& v, MapperConfig& c) {
   v("final_iterations", c.final_iterations,
     "refinement steps after the last frame, spread over every keyframe (-1: one a keyframe under fixed pacing, "
     "none under anytime)");
+  v("refinement_rounds", c.refinement_rounds,
+    "rounds over the refinement's groups of keyframes: more mix the places' views better, and load each "
+    "group's chunks once a round");
   v("speed", c.speed, "anytime pacing: frames arrive at the dataset rate times this");
   v("keyframe_every", c.keyframe_every, "every k-th training frame becomes a keyframe (0: off); or when ...");
   v("keyframe_translation", c.keyframe_translation, "... the camera moved this many metres (0: off), or ...");

@@ -85,9 +85,10 @@ class Mapper {
   const SampleRefineTotals& refine_totals() const { return refine_totals_; }
   StepStats step();  // one optimisation step; throws when there is no keyframe yet
   // The refinement after the last frame: `steps` steps spread over every keyframe, each on its whole
-  // view, in groups of keyframes whose views fit 0.8 of the budget, in a random order within a group
-  // (mapping/refinement_plan.hpp). `after_step` runs after each, given its keyframe. Throws when there is no
-  // keyframe and steps > 0.
+  // view and every pixel of it (no best-view masks: every view of a place is trained, as without a
+  // budget), in groups of keyframes whose views fit 0.8 of the budget, visited in mapper.refinement_rounds
+  // rounds, in a random order within a group (mapping/refinement_plan.hpp). `after_step` runs after each,
+  // given its keyframe. Throws when there is no keyframe and steps > 0.
   struct RefineStats {
     uint64_t steps = 0, groups = 0;
   };
@@ -208,6 +209,7 @@ class Mapper {
   // rates of a step on a view from that camera.
   double rate_steps_per_keyframe() const;
   AdamConfig step_rates(const Camera& camera) const;
+  bool refining_ = false;  // inside refine(): steps score every pixel of their view
   void resample(const KeyframeRecord& kf);
   SampleStats sample_view(uint32_t id, const Image8& color, const ImageF& depth, const Camera& camera,
                           const SE3& pose, uint64_t cap, const std::vector<Eigen::Vector3d>* seeds = nullptr,

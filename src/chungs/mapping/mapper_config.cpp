@@ -18,6 +18,8 @@ void MapperConfig::validate() const {
     fail("mapper: iterations_per_keyframe must be >= 0, got ", iterations_per_keyframe);
   if (final_iterations < -1)
     fail("mapper: final_iterations must be >= 0, or -1 for one a keyframe under fixed pacing, got ", final_iterations);
+  if (refinement_rounds < 1 || refinement_rounds > 1000)
+    fail("mapper: refinement_rounds must be in [1, 1000], got ", refinement_rounds);
   // An infinite speed would make every frame arrive at once: anytime pacing would train on none.
   if (!(speed >= kMinSpeed) || !std::isfinite(speed))
     fail("mapper: speed must be a finite factor of at least ", kMinSpeed, ", got ", speed);

@@ -18,6 +18,11 @@ struct MapperConfig {
   // -1: one a keyframe under fixed pacing (+0.5-0.7 dB at every budget on the 2 km street for ~3-5 % of
   // the run, bench/README.md), none under anytime pacing, whose time is the intake's.
   int final_iterations = -1;
+  // Rounds over the refinement's groups (refinement_visits): each visit a group's next share of its
+  // steps, loading the group's chunks once a round. More rounds bring the order nearer to the whole map
+  // at random, which on the GPU scored as if the map were resident (+0.3-0.4 dB under 300 k) but loaded
+  // 25x the chunks; on the CPU stand-in 4 / 16 rounds gained 0.01 / 0.10 dB (bench/README.md, issue 19).
+  int refinement_rounds = 1;
   double speed = 1.0;               // anytime: frames arrive at the dataset rate times this (>= kMinSpeed)
   // A training frame becomes a keyframe when any rule that is on (> 0) fires; the first always does.
   // By default the view must have changed: moved by a share of the scene's depth (parallax) or

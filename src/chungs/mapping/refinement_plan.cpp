@@ -84,4 +84,17 @@ std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<Chunk
   return groups;
 }
 
+std::vector<RefinementVisit> refinement_visits(const std::vector<RefinementGroup>& groups, size_t rounds) {
+  if (rounds == 0) fail("refinement plan: the number of rounds over the groups is 0");
+  std::vector<RefinementVisit> visits;
+  for (size_t r = 0; r < rounds; ++r)
+    for (size_t g = 0; g < groups.size(); ++g) {
+      // 128-bit: steps * rounds may pass 64 bits for absurd settings, the visits' sum must not drift.
+      const auto at = [&](size_t k) { return uint64_t((unsigned __int128)groups[g].steps * k / rounds); };
+      const uint64_t steps = at(r + 1) - at(r);
+      if (steps > 0) visits.push_back({g, steps});
+    }
+  return visits;
+}
+
 }  // namespace chungs

@@ -11,7 +11,10 @@
 // The order within a group matters: one step on every keyframe of a 2 km street in the order of the
 // drive lowered the held-out PSNR by 1.2 dB on the GPU, the same steps shuffled raised it by 0.4 dB:
 // consecutive neighbouring views push the Gaussians they share the same way, step after step, and
-// Adam's momentum adds it up.
+// Adam's momentum adds it up. The same holds between groups, more weakly: a chunk that several groups
+// see (far chunks are seen from many places) ends fitted to the last of them. Refined one group after
+// the other under 300 k, a map scored 0.4 dB under the same steps at random over the whole map on the
+// GPU, and rounds over the groups (refinement_visits) trade chunk loads for that order.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -35,5 +38,15 @@ struct RefinementGroup {
 // floor(steps * n_g / K). Throws Error when `fit` is 0.
 std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<ChunkCount>>& views, uint64_t fit,
                                              uint64_t steps);
+
+// The order the groups are trained in: `rounds` times over the groups in turn, each visit a group's
+// next 1/rounds of its steps (group g's visit r gets floor(s_g (r + 1) / rounds) - floor(s_g r / rounds);
+// visits of no step are left out). Each round loads every group's chunks again. Throws Error when
+// rounds is 0.
+struct RefinementVisit {
+  size_t group = 0;
+  uint64_t steps = 0;
+};
+std::vector<RefinementVisit> refinement_visits(const std::vector<RefinementGroup>& groups, size_t rounds);
 
 }  // namespace chungs
