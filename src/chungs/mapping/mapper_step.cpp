@@ -137,8 +137,10 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view, bool revisit
   std::vector<ChunkId> left_out;
   std::vector<ChunkId> chunks = visible_chunks(kf.camera, kf.pose, &left_out);
   step_times_.cull_ms += ms_since(t0);
+  // Checked here, not only in chunks_shown_better: without masks the view's coverage need not be built.
   const bool masks = config_.selector.best_view_share > 0 && selector_.restricted() && !refining_;
-  const std::vector<ChunkId> shown_better = masks ? chunks_shown_better(kf.id, coverage_of(kf)) : std::vector<ChunkId>();
+  const std::vector<ChunkId> shown_better =
+      masks ? chunks_shown_better(kf.id, coverage_of(kf)) : std::vector<ChunkId>();
   const auto trained = [&](ChunkId c) { return !std::binary_search(shown_better.begin(), shown_better.end(), c); };
   // Outside the window: the resident part of the view, scored only where it explains the image.
   std::optional<Image8> pixel_mask;
