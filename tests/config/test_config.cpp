@@ -87,6 +87,8 @@ TEST(Config, StoreAndResidencyValuesOutOfRangeAreRefusedNamingTheKey) {
            {"store: {chunk_size: 1e-9}", "chunk_size"},  // chunk ids end 1 mm from the origin
            {"store: {sh_degree: 4}", "sh_degree"},
            {"residency: {flush_threads: -5}", "flush_threads"},
+           {"residency: {write_behind_threads: 0}", "write_behind_threads"},
+           {"residency: {write_behind_threads: 257}", "write_behind_threads"},
            {"residency: {checkpoint_threads: 0}", "checkpoint_threads"},
            {"residency: {budget_gaussians: 0}", "budget_gaussians"},
            {"residency: {eviction_hysteresis: 1}", "eviction_hysteresis"}}) {
@@ -145,6 +147,7 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
            {"mapper: {final_iterations: -2}", "mapper: final_iterations must be >= 0, or -1 for one a keyframe"},
            {"mapper: {refinement_rounds: 0}", "mapper: refinement_rounds must be in [1, 1000], got 0"},
            {"mapper: {refinement_rounds: 1001}", "mapper: refinement_rounds must be in [1, 1000], got 1001"},
+           {"mapper: {refinement_min_visit_steps: 0}", "mapper: refinement_min_visit_steps must be in [1, 1000000], got 0"},
            {"adam: {beta1: 1.5}", "beta1 must be in [0, 1), got 1.5"},
            {"adam: {beta2: -0.5}", "beta2 must be in [0, 1), got -0.5"},
            {"stereo: {num_disparities: 1000}", "num_disparities must be in [16, 256], got 1000"}}) {
@@ -167,7 +170,7 @@ TEST(Config, RefinementStepsAreOneAKeyframeUnderFixedPacingNoneUnderAnytimeOrAsG
   EXPECT_EQ(c.mapper.refinement_steps(1034), 7u);
   c = config_from_yaml("mapper: {final_iterations: 0}");
   EXPECT_EQ(c.mapper.refinement_steps(1034), 0u);
-  EXPECT_EQ(Config().mapper.refinement_rounds, 1);
+  EXPECT_EQ(Config().mapper.refinement_rounds, 16);
   EXPECT_EQ(config_from_yaml("mapper: {refinement_rounds: 16}").mapper.refinement_rounds, 16);
 }
 

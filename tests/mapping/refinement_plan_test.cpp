@@ -149,11 +149,12 @@ TEST(RefinementPlan, AMapThatFitsIsOneGroupAndHugeCountsDoNotOverflow) {
 
 TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {
   std::mt19937_64 rng(5);
-  for (int trial = 0; trial < 50; ++trial) {
+  for (int trial = 0; trial < 200; ++trial) {
     std::vector<RefinementGroup> groups(std::uniform_int_distribution<size_t>(1, 30)(rng));
     for (RefinementGroup& g : groups) g.steps = std::uniform_int_distribution<uint64_t>(0, 200)(rng);
     const size_t rounds = std::uniform_int_distribution<size_t>(1, 12)(rng);
-    const std::vector<RefinementVisit> visits = refinement_visits(groups, rounds);
+    const uint64_t min_visit = trial % 2 ? 1 : std::uniform_int_distribution<uint64_t>(1, 40)(rng);
+    const std::vector<RefinementVisit> visits = refinement_visits(groups, rounds, min_visit);
     std::vector<uint64_t> got(groups.size(), 0);
     std::vector<size_t> seen(groups.size(), 0);
     size_t round = 0, last = 0;
@@ -163,23 +164,60 @@ TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {
       EXPECT_GT(v.steps, 0u) << "trial " << trial << ", visit " << i;
       if (i > 0 && v.group <= last) ++round;  // the groups in turn: a new round starts at a lower group
       last = v.group;
-      const double exact = double(groups[v.group].steps) / double(rounds);
-      EXPECT_LE(std::abs(double(v.steps) - exact), 1.0) << "trial " << trial << ", visit " << i;
+      // The group's visits: as many as its steps allow at min_visit each (one at least), at most rounds.
+      const uint64_t s = groups[v.group].steps;
+      const double want = double(std::clamp<uint64_t>(s / min_visit, 1, rounds));
+      EXPECT_LE(std::abs(double(v.steps) - double(s) / want), 1.0) << "trial " << trial << ", visit " << i;
+      if (s >= min_visit) EXPECT_GE(v.steps + 1, min_visit) << "trial " << trial << ", visit " << i;
       got[v.group] += v.steps;
       ++seen[v.group];
     }
     EXPECT_LE(round + 1, rounds) << "trial " << trial;
     for (size_t g = 0; g < groups.size(); ++g) {
-      EXPECT_EQ(got[g], groups[g].steps) << "trial " << trial << ", group " << g;
-      EXPECT_EQ(seen[g], std::min<uint64_t>(rounds, groups[g].steps)) << "trial " << trial << ", group " << g;
+      const uint64_t s = groups[g].steps;
+      EXPECT_EQ(got[g], s) << "trial " << trial << ", group " << g;
+      EXPECT_EQ(seen[g], std::min<uint64_t>(std::clamp<uint64_t>(s / min_visit, 1, rounds), s))
+          << "trial " << trial << ", group " << g;
+    }
+    // Spread over the rounds, not bunched in the first ones: before group a's j-th visit (from 0) come
+    // about (j + 1) v_b / v_a of group b's, whatever their counts of visits v.
+    std::vector<size_t> done(groups.size(), 0);
+    for (const RefinementVisit& v : visits) {
+      const size_t a = v.group, j = done[a]++;
+      for (size_t b = 0; b < groups.size(); ++b) {
+        if (b == a || seen[b] == 0) continue;
+        const double expect = double(j + 1) * double(seen[b]) / double(seen[a]);
+        EXPECT_LE(std::abs(double(done[b]) - expect), 2.0) << "trial " << trial << ", groups " << a << ", " << b;
+      }
     }
   }
   const std::vector<RefinementGroup> huge{{{0}, (uint64_t(1) << 63) + 7}, {{1}, 3}};
   uint64_t total = 0;
-  for (const RefinementVisit& v : refinement_visits(huge, 5)) total += v.steps;
+  for (const RefinementVisit& v : refinement_visits(huge, 5, 1)) total += v.steps;
   EXPECT_EQ(total, (uint64_t(1) << 63) + 10);
-  EXPECT_THROW(refinement_visits(huge, 0), Error);
-  EXPECT_TRUE(refinement_visits({}, 3).empty());
+  EXPECT_THROW(refinement_visits(huge, 0, 1), Error);
+  EXPECT_THROW(refinement_visits(huge, 3, 0), Error);
+  EXPECT_TRUE(refinement_visits({}, 3, 1).empty());
+}
+
+// Under a budget of about one view the groups hold two views and get two steps each: sixteen rounds
+// would load a whole group for each step; a visit of at least four steps keeps each group to one.
+TEST(RefinementPlan, GroupsWithFewStepsAreVisitedOnceNotOnceARound) {
+  std::vector<RefinementGroup> groups(500);
+  for (RefinementGroup& g : groups) g.steps = 2;
+  groups[7].steps = 64;  // a place with many views: 16 visits of 4
+  const std::vector<RefinementVisit> visits = refinement_visits(groups, 16, 4);
+  EXPECT_EQ(visits.size(), 499u + 16u);
+  size_t of7 = 0;
+  for (const RefinementVisit& v : visits) {
+    if (v.group == 7) {
+      ++of7;
+      EXPECT_EQ(v.steps, 4u);
+    } else {
+      EXPECT_EQ(v.steps, 2u);
+    }
+  }
+  EXPECT_EQ(of7, 16u);
 }
 
 TEST(MapperRefine, EveryKeyframeIsTrainedInGroupsUnderTheBudgetInRoundsInARandomOrder) {

@@ -47,6 +47,7 @@ void fields(V& v, ResidencyConfig& c) {
     "host read-ahead, Gaussians; 0: 1/32 of the budget, at least 65536 or the budget");
   v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: 1/8 of the budget");
   v("flush_threads", c.flush_threads, "threads writing modified chunks at a checkpoint the caller waits for");
+  v("write_behind_threads", c.write_behind_threads, "threads writing evicted modified chunks behind the optimiser");
   v("checkpoint_threads", c.checkpoint_threads, "threads writing a checkpoint behind the optimiser");
   v("pool_headroom", c.pool_headroom, "pool slots beyond the budget (fraction), used only by loop corrections");
 }
@@ -121,6 +122,8 @@ void fields(V& v, MapperConfig& c) {
   v("refinement_rounds", c.refinement_rounds,
     "rounds over the refinement's groups of keyframes: more mix the places' views better, and load each "
     "group's chunks once a round");
+  v("refinement_min_visit_steps", c.refinement_min_visit_steps,
+    "a group is visited at most once per this many of its refinement steps");
   v("speed", c.speed, "anytime pacing: frames arrive at the dataset rate times this");
   v("keyframe_every", c.keyframe_every, "every k-th training frame becomes a keyframe (0: off); or when ...");
   v("keyframe_translation", c.keyframe_translation, "... the camera moved this many metres (0: off), or ...");

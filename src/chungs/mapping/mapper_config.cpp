@@ -20,6 +20,8 @@ void MapperConfig::validate() const {
     fail("mapper: final_iterations must be >= 0, or -1 for one a keyframe under fixed pacing, got ", final_iterations);
   if (refinement_rounds < 1 || refinement_rounds > 1000)
     fail("mapper: refinement_rounds must be in [1, 1000], got ", refinement_rounds);
+  if (refinement_min_visit_steps < 1 || refinement_min_visit_steps > 1'000'000)
+    fail("mapper: refinement_min_visit_steps must be in [1, 1000000], got ", refinement_min_visit_steps);
   // An infinite speed would make every frame arrive at once: anytime pacing would train on none.
   if (!(speed >= kMinSpeed) || !std::isfinite(speed))
     fail("mapper: speed must be a finite factor of at least ", kMinSpeed, ", got ", speed);

@@ -19,10 +19,13 @@ struct MapperConfig {
   // the run, bench/README.md), none under anytime pacing, whose time is the intake's.
   int final_iterations = -1;
   // Rounds over the refinement's groups (refinement_visits): each visit a group's next share of its
-  // steps, loading the group's chunks once a round. More rounds bring the order nearer to the whole map
-  // at random, which on the GPU scored as if the map were resident (+0.3-0.4 dB under 300 k) but loaded
-  // 25x the chunks; on the CPU stand-in 4 / 16 rounds gained 0.01 / 0.10 dB (bench/README.md, issue 19).
-  int refinement_rounds = 1;
+  // steps, loading the group's chunks again. More rounds bring the order nearer to the whole map at
+  // random, which scored as if the map were resident. GPU, 2 km street under 300 k: 1 / 4 / 16 / 1000
+  // rounds 27.17 / 27.21 / 27.43 / 27.41 dB against 27.68 without a budget, I/O wait 1.27 / 1.29 / 1.65 /
+  // 3.11 % (bench/README.md, issue 19). A group is visited at most once per refinement_min_visit_steps
+  // of its steps, so that a visit's loads stay a share of a view per step.
+  int refinement_rounds = 16;
+  int refinement_min_visit_steps = 4;
   double speed = 1.0;               // anytime: frames arrive at the dataset rate times this (>= kMinSpeed)
   // A training frame becomes a keyframe when any rule that is on (> 0) fires; the first always does.
   // By default the view must have changed: moved by a share of the scene's depth (parallax) or

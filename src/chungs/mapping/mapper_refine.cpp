@@ -34,7 +34,8 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
   // that stopped at a group's end took the I/O wait of the run from 1.6 % to 2.65 % on the GPU.
   std::deque<size_t> queue;  // keyframe indices
   const std::vector<RefinementVisit> visits =
-      refinement_visits(groups, size_t(config_.mapper.refinement_rounds));
+      refinement_visits(groups, size_t(config_.mapper.refinement_rounds),
+                        uint64_t(config_.mapper.refinement_min_visit_steps));
   std::vector<std::vector<size_t>> passes(groups.size());
   std::vector<size_t> cursor(groups.size(), 0);
   size_t visit = 0;

@@ -1,5 +1,6 @@
 #include "chungs/mapping/refinement_plan.hpp"
 
+#include <algorithm>
 #include <functional>
 #include <queue>
 #include <unordered_map>
@@ -84,14 +85,22 @@ std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<Chunk
   return groups;
 }
 
-std::vector<RefinementVisit> refinement_visits(const std::vector<RefinementGroup>& groups, size_t rounds) {
+std::vector<RefinementVisit> refinement_visits(const std::vector<RefinementGroup>& groups, size_t rounds,
+                                              uint64_t min_visit_steps) {
   if (rounds == 0) fail("refinement plan: the number of rounds over the groups is 0");
+  if (min_visit_steps == 0) fail("refinement plan: the fewest steps of a visit is 0");
+  // 128-bit products: steps may be near 2^63 and rounds large; the visits' sum must not drift.
+  const auto share = [](uint64_t total, uint64_t k, uint64_t parts) {
+    return uint64_t((unsigned __int128)total * k / parts);
+  };
   std::vector<RefinementVisit> visits;
   for (size_t r = 0; r < rounds; ++r)
     for (size_t g = 0; g < groups.size(); ++g) {
-      // 128-bit: steps * rounds may pass 64 bits for absurd settings, the visits' sum must not drift.
-      const auto at = [&](size_t k) { return uint64_t((unsigned __int128)groups[g].steps * k / rounds); };
-      const uint64_t steps = at(r + 1) - at(r);
+      const uint64_t s = groups[g].steps;
+      const uint64_t visits_g = std::clamp<uint64_t>(s / min_visit_steps, 1, rounds);
+      const uint64_t j = share(visits_g, r, rounds);
+      if (share(visits_g, r + 1, rounds) == j) continue;  // not visited in this round
+      const uint64_t steps = share(s, j + 1, visits_g) - share(s, j, visits_g);
       if (steps > 0) visits.push_back({g, steps});
     }
   return visits;

@@ -39,14 +39,18 @@ struct RefinementGroup {
 std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<ChunkCount>>& views, uint64_t fit,
                                              uint64_t steps);
 
-// The order the groups are trained in: `rounds` times over the groups in turn, each visit a group's
-// next 1/rounds of its steps (group g's visit r gets floor(s_g (r + 1) / rounds) - floor(s_g r / rounds);
-// visits of no step are left out). Each round loads every group's chunks again. Throws Error when
-// rounds is 0.
+// The order the groups are trained in: `rounds` rounds over the groups in turn. Group g is visited
+// r_g = min(rounds, max(1, s_g / min_visit_steps)) times, spread evenly over the rounds (in round r when
+// floor((r + 1) r_g / rounds) > floor(r r_g / rounds)); its visit j gets floor(s_g (j + 1) / r_g) -
+// floor(s_g j / r_g) of its steps. Each visit loads the group's chunks again: a visit of a few steps
+// keeps that a share of a view per step, where a group of two views under a budget of one (100 k on the
+// 2 km street) visited for one step at a time would load a whole group per step. Visits of no step are
+// left out. Throws Error when rounds or min_visit_steps is 0.
 struct RefinementVisit {
   size_t group = 0;
   uint64_t steps = 0;
 };
-std::vector<RefinementVisit> refinement_visits(const std::vector<RefinementGroup>& groups, size_t rounds);
+std::vector<RefinementVisit> refinement_visits(const std::vector<RefinementGroup>& groups, size_t rounds,
+                                              uint64_t min_visit_steps);
 
 }  // namespace chungs

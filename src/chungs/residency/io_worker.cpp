@@ -8,10 +8,13 @@
 namespace chungs {
 
 IoWorker::IoWorker(ChunkStore& store, HostBlockPool& blocks, bool background, size_t prefetch_max,
-                   size_t write_behind_max)
+                   size_t write_behind_max, int writers)
     : store_(store), blocks_(blocks), counters_(store.counters()), background_(background), prefetch_max_(prefetch_max),
       write_behind_max_(write_behind_max) {
-  if (background_) thread_ = std::thread([this] { run(); });
+  if (writers < 1) fail("chunk I/O: at least one writer thread is needed, got ", writers);
+  if (!background_) return;
+  threads_.emplace_back([this] { run(); });
+  for (int i = 1; i < writers; ++i) threads_.emplace_back([this] { run_writer(); });
 }
 
 IoWorker::~IoWorker() {
@@ -26,7 +29,7 @@ IoWorker::~IoWorker() {
     stop_ = true;
   }
   work_cv_.notify_all();
-  thread_.join();
+  for (std::thread& t : threads_) t.join();
 }
 
 void IoWorker::rethrow_locked() {
@@ -72,7 +75,7 @@ void IoWorker::write_behind(ChunkId id, Block data) {
     std::erase(staged_order_, id);
   }
   lock.unlock();
-  work_cv_.notify_one();
+  work_cv_.notify_all();
 }
 
 void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks) {
@@ -86,7 +89,7 @@ void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks)
       if (!staged_.count(c.first) && !pending_.count(c.first) && reading_ != c.first) prefetch_queue_.push_back(c);
     }
   }
-  work_cv_.notify_one();
+  work_cv_.notify_all();  // all: the writer threads would take a notice meant for the reader
 }
 
 IoWorker::Block IoWorker::take(ChunkId id, Source* source) {
@@ -141,9 +144,9 @@ void IoWorker::drain() {
       log::warn("chunk I/O: a write behind failed (", e.what(), "); trying it again");
     }
     error_ = nullptr;
-    work_cv_.notify_one();
+    work_cv_.notify_all();
   }
-  done_cv_.wait(lock, [&] { return (write_queue_.empty() && !writing_) || error_; });
+  done_cv_.wait(lock, [&] { return (write_queue_.empty() && writing_.empty()) || error_; });
   rethrow_locked();
 }
 
@@ -157,14 +160,20 @@ size_t IoWorker::staged_gaussians() const {
   return staged_gaussians_;
 }
 
+std::deque<ChunkId>::iterator IoWorker::next_writable() {
+  return std::find_if(write_queue_.begin(), write_queue_.end(), [&](ChunkId id) { return !writing_.count(id); });
+}
+
 bool IoWorker::write_one(std::unique_lock<std::mutex>& lock) {
-  if (write_queue_.empty() || error_) return false;
-  const ChunkId id = write_queue_.front();
-  write_queue_.pop_front();
+  if (error_) return false;
+  const auto next = next_writable();
+  if (next == write_queue_.end()) return false;
+  const ChunkId id = *next;
+  write_queue_.erase(next);
   Pending& p = pending_.at(id);
   p.queued = false;
   Block data = p.data;
-  writing_ = true;
+  writing_.insert(id);
   lock.unlock();
   std::exception_ptr err;
   try {
@@ -173,7 +182,7 @@ bool IoWorker::write_one(std::unique_lock<std::mutex>& lock) {
     err = std::current_exception();
   }
   lock.lock();
-  writing_ = false;
+  writing_.erase(id);
   if (err) {
     // Keep the block: loads still get it, and the caller learns of the failure on its next call.
     error_ = err;
@@ -184,6 +193,7 @@ bool IoWorker::write_one(std::unique_lock<std::mutex>& lock) {
     pending_.erase(it);  // only now may loads go to disk: the file holds this content
   }
   done_cv_.notify_all();
+  work_cv_.notify_all();  // a chunk queued again meanwhile can be written now
   return true;
 }
 
@@ -256,8 +266,17 @@ void IoWorker::run() {
     if (write_one(lock)) continue;
     if (stop_) return;
     work_cv_.wait(lock, [&] {
-      return stop_ || (!write_queue_.empty() && !error_) || !prefetch_queue_.empty();
+      return stop_ || (next_writable() != write_queue_.end() && !error_) || !prefetch_queue_.empty();
     });
+  }
+}
+
+void IoWorker::run_writer() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    if (write_one(lock)) continue;
+    if (stop_) return;
+    work_cv_.wait(lock, [&] { return stop_ || (next_writable() != write_queue_.end() && !error_); });
   }
 }
 

@@ -36,6 +36,8 @@ void ResidencyConfig::validate() const {
   if (prefetch_max_gaussians > kMaxGaussians || write_behind_max_gaussians > kMaxGaussians)
     fail("residency: prefetch_max_gaussians and write_behind_max_gaussians must be at most ", kMaxGaussians);
   if (flush_threads < 1 || flush_threads > 256) fail("residency: flush_threads must be in [1, 256], got ", flush_threads);
+  if (write_behind_threads < 1 || write_behind_threads > 256)
+    fail("residency: write_behind_threads must be in [1, 256], got ", write_behind_threads);
   if (checkpoint_threads < 1 || checkpoint_threads > 256)
     fail("residency: checkpoint_threads must be in [1, 256], got ", checkpoint_threads);
   if (!(pool_headroom >= 0 && pool_headroom <= 4)) fail("residency: pool_headroom must be in [0, 4], got ", pool_headroom);
@@ -62,7 +64,7 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
   gather_scratch_.reserve(checkpoint_memory_limit() / 4);
   io_ = std::make_unique<IoWorker>(store_, host_blocks_, config_.async_io, prefetch_max(config_),
-                                   write_behind_max(config_));
+                                   write_behind_max(config_), config_.write_behind_threads);
 }
 
 Residency::~Residency() {
