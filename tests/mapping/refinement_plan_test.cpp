@@ -168,7 +168,9 @@ TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {
       const uint64_t s = groups[v.group].steps;
       const double want = double(std::clamp<uint64_t>(s / min_visit, 1, rounds));
       EXPECT_LE(std::abs(double(v.steps) - double(s) / want), 1.0) << "trial " << trial << ", visit " << i;
-      if (s >= min_visit) EXPECT_GE(v.steps + 1, min_visit) << "trial " << trial << ", visit " << i;
+      if (s >= min_visit) {
+        EXPECT_GE(v.steps + 1, min_visit) << "trial " << trial << ", visit " << i;
+      }
       got[v.group] += v.steps;
       ++seen[v.group];
     }

@@ -10,6 +10,13 @@
 #include "chungs/common/error.hpp"
 
 namespace chungs {
+namespace {
+
+// floor(total * k / parts), in 128 bits: steps may be near 2^63 and k large, and the shares' sum must
+// not drift.
+uint64_t share(uint64_t total, uint64_t k, uint64_t parts) { return uint64_t((unsigned __int128)total * k / parts); }
+
+}  // namespace
 
 std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<ChunkCount>>& views, uint64_t fit,
                                              uint64_t steps) {
@@ -75,11 +82,9 @@ std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<Chunk
     heap = {};
     groups.push_back(std::move(group));
   }
-  // 128-bit products: steps may be near 2^63 and K large.
-  const auto share_until = [&](size_t k) { return uint64_t((unsigned __int128)steps * k / total); };
   size_t before = 0;
   for (RefinementGroup& g : groups) {
-    g.steps = share_until(before + g.keyframes.size()) - share_until(before);
+    g.steps = share(steps, before + g.keyframes.size(), total) - share(steps, before, total);
     before += g.keyframes.size();
   }
   return groups;
@@ -89,10 +94,6 @@ std::vector<RefinementVisit> refinement_visits(const std::vector<RefinementGroup
                                               uint64_t min_visit_steps) {
   if (rounds == 0) fail("refinement plan: the number of rounds over the groups is 0");
   if (min_visit_steps == 0) fail("refinement plan: the fewest steps of a visit is 0");
-  // 128-bit products: steps may be near 2^63 and rounds large; the visits' sum must not drift.
-  const auto share = [](uint64_t total, uint64_t k, uint64_t parts) {
-    return uint64_t((unsigned __int128)total * k / parts);
-  };
   std::vector<RefinementVisit> visits;
   for (size_t r = 0; r < rounds; ++r)
     for (size_t g = 0; g < groups.size(); ++g) {
