@@ -1,7 +1,8 @@
 // Chunk I/O: save and load time of one chunk of 10 k Gaussians with Adam state (the paper
 // reports 2.0 ms save / 2.8 ms load on NVMe), raw and zstd, with and without flushes, from the
 // page cache and from the disk; and a streaming run of Residency that measures how often the
-// optimiser still waits on the disk with and without the background prefetch.
+// optimiser still waits on the disk with and without the background prefetch, and the refinement's
+// visits to groups of chunks under a budget with one or four writer threads.
 //
 //   bench_store_io --benchmark_out=store_io.json
 // Files go to $CHUNGS_BENCH_DIR (default: the system temp folder), removed afterwards.
@@ -265,6 +266,75 @@ void BM_ResidencyStream(benchmark::State& st) {
   st.counters["barrier_ms"] = stats.barrier_ms;
 }
 
+
+// The refinement's I/O pattern (Mapper::refine) under a budget: 8 groups of 240 chunks of 250
+// Gaussians in a row, each group 0.8 of the budget (75 k); a step pins a view of 100 consecutive
+// chunks of its group, reads the next 4 steps' chunks ahead, "optimises" for 4 ms (a quarter of the
+// GPU's step on a view 4x this size), and marks them modified; each group gets 40 steps, in `rounds`
+// visits of 40 / rounds steps (mapper.refinement_rounds). `writers`: residency.write_behind_threads.
+// Counters: the optimiser's wait in all and as a share of the time, loads it waited for, saves and
+// evictions written behind.
+void BM_RefinementVisits(benchmark::State& st) {
+  const int writers = int(st.range(0)), rounds = int(st.range(1));
+  constexpr int kGroups = 8, kGroupChunks = 240, kView = 100, kStepsPerGroup = 40, kReadAhead = 4;
+  constexpr size_t kPer = 250, kBudget = 75'000;
+  const fs::path dir = bench_dir() / "refinement_visits";
+  log::set_level(log::Level::Warn);
+  // The steps: (first chunk of the view) in visit order, views drawn at random within their group.
+  std::mt19937 rng(7);
+  std::vector<int> steps;
+  for (int r = 0; r < rounds; ++r)
+    for (int g = 0; g < kGroups; ++g) {
+      const int n = kStepsPerGroup * (r + 1) / rounds - kStepsPerGroup * r / rounds;
+      for (int i = 0; i < n; ++i)
+        steps.push_back(g * kGroupChunks + std::uniform_int_distribution<int>(0, kGroupChunks - kView)(rng));
+    }
+  const auto view = [&](size_t i, std::vector<ChunkId>& out) {
+    for (int x = steps[i]; x < steps[i] + kView; ++x) out.push_back(chunk_id({x, 0, 0}));
+  };
+  IoStats stats;
+  double wall_ms = 0;
+  for (auto _ : st) {
+    st.PauseTiming();
+    fs::remove_all(dir);
+    {
+      ChunkStore store(dir);
+      for (int x = 0; x < kGroups * kGroupChunks; ++x) store.save(chunk_id({x, 0, 0}), make_block(kPer, true, uint64_t(x)));
+    }
+    ChunkStore store(dir);
+    store.counters().reset();
+    CpuGaussianPool pool(kBudget);
+    ResidencyConfig rc;
+    rc.budget_gaussians = kBudget;
+    rc.write_behind_threads = writers;
+    Residency res(store, pool, rc);
+    st.ResumeTiming();
+    const auto t0 = std::chrono::steady_clock::now();
+    for (size_t i = 0; i < steps.size(); ++i) {
+      std::vector<ChunkId> ids, next;
+      view(i, ids);
+      for (size_t j = i + 1; j < std::min(steps.size(), i + 1 + kReadAhead); ++j) view(j, next);
+      res.prefetch(next);
+      if (!res.pin(ids).ok) st.SkipWithError("pinned set over budget");
+      std::vector<uint32_t> slots;
+      res.append_slots(ids, slots);
+      for (uint32_t s : slots) pool.params().opacity[s] += 1e-3f;
+      std::this_thread::sleep_for(std::chrono::milliseconds(4));
+      res.mark_dirty(ids);
+      res.unpin(ids);
+    }
+    wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    stats = res.stats();
+  }
+  st.counters["steps"] = double(steps.size());
+  st.counters["wall_ms_per_step"] = wall_ms / double(steps.size());
+  st.counters["wait_ms"] = stats.wait_ms;
+  st.counters["wait_pct"] = 100.0 * stats.wait_ms / wall_ms;
+  st.counters["sync_loads"] = double(stats.sync_loads);
+  st.counters["pool_loads"] = double(stats.pool_loads);
+  st.counters["saves"] = double(stats.saves);
+  st.counters["dirty_evictions"] = double(stats.evictions_dirty);
+}
 }  // namespace
 
 BENCHMARK(BM_ChunkSave)
@@ -289,6 +359,11 @@ BENCHMARK(BM_Flush)
 BENCHMARK(BM_ResidencyStream)
     ->ArgNames({"async", "prefetch"})
     ->Args({0, 0})->Args({1, 0})->Args({1, 1})
+    ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+
+BENCHMARK(BM_RefinementVisits)
+    ->ArgNames({"writers", "rounds"})
+    ->Args({1, 1})->Args({4, 1})->Args({1, 8})->Args({4, 8})->Args({1, 16})->Args({4, 16})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 BENCHMARK_MAIN();

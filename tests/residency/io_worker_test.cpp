@@ -147,8 +147,9 @@ TEST(IoWorker, SeveralWritersUnderBackPressureKeepEveryChunksLastContent) {
         copy_gaussians(block_arrays(last[size_t(x)]), 0, count, b->arrays());
         io.write_behind(cid(x), std::move(b));
         const int y = (x * 5 + r) % kChunks;  // some chunk handed over earlier, or never yet
-        if (r > 0 || y <= x)
+        if (r > 0 || y <= x) {
           EXPECT_TRUE(test::same_bits(as_block(*io.take(cid(y))), last[size_t(y)])) << "round " << r << " chunk " << y;
+        }
       }
     io.drain();
     EXPECT_EQ(io.queued_write_gaussians(), 0u);
