@@ -271,11 +271,11 @@ void BM_ResidencyStream(benchmark::State& st) {
 // Gaussians in a row, each group 0.8 of the budget (75 k); a step pins a view of 100 consecutive
 // chunks of its group, reads the next 4 steps' chunks ahead, "optimises" for 4 ms (a quarter of the
 // GPU's step on a view 4x this size), and marks them modified; each group gets 40 steps, in `rounds`
-// visits of 40 / rounds steps (mapper.refinement_rounds). `writers`: residency.write_behind_threads.
+// visits of 40 / rounds steps (mapper.refinement_rounds). `threads`: residency.io_threads.
 // Counters: the optimiser's wait in all and as a share of the time, loads it waited for, saves and
 // evictions written behind.
 void BM_RefinementVisits(benchmark::State& st) {
-  const int writers = int(st.range(0)), rounds = int(st.range(1));
+  const int threads = int(st.range(0)), rounds = int(st.range(1));
   constexpr int kGroups = 8, kGroupChunks = 240, kView = 100, kStepsPerGroup = 40, kReadAhead = 4;
   constexpr size_t kPer = 250, kBudget = 75'000;
   const fs::path dir = bench_dir() / "refinement_visits";
@@ -306,14 +306,14 @@ void BM_RefinementVisits(benchmark::State& st) {
     CpuGaussianPool pool(kBudget);
     ResidencyConfig rc;
     rc.budget_gaussians = kBudget;
-    rc.write_behind_threads = writers;
+    rc.io_threads = threads;
     Residency res(store, pool, rc);
     st.ResumeTiming();
     const auto t0 = std::chrono::steady_clock::now();
     for (size_t i = 0; i < steps.size(); ++i) {
       std::vector<ChunkId> ids, next;
       view(i, ids);
-      for (size_t j = i + 1; j < std::min(steps.size(), i + 1 + kReadAhead); ++j) view(j, next);
+      for (size_t j = i; j < std::min(steps.size(), i + 1 + kReadAhead); ++j) view(j, next);  // as Mapper::refine
       res.prefetch(next);
       if (!res.pin(ids).ok) st.SkipWithError("pinned set over budget");
       std::vector<uint32_t> slots;
@@ -334,6 +334,9 @@ void BM_RefinementVisits(benchmark::State& st) {
   st.counters["pool_loads"] = double(stats.pool_loads);
   st.counters["saves"] = double(stats.saves);
   st.counters["dirty_evictions"] = double(stats.evictions_dirty);
+  st.counters["write_wait_ms"] = stats.write_wait_ms;
+  st.counters["load_ms_avg"] = stats.mean_load_ms();
+  st.counters["save_ms_avg"] = stats.mean_save_ms();
 }
 }  // namespace
 
@@ -362,7 +365,7 @@ BENCHMARK(BM_ResidencyStream)
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 BENCHMARK(BM_RefinementVisits)
-    ->ArgNames({"writers", "rounds"})
+    ->ArgNames({"threads", "rounds"})
     ->Args({1, 1})->Args({4, 1})->Args({1, 8})->Args({4, 8})->Args({1, 16})->Args({4, 16})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 

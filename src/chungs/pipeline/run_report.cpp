@@ -131,6 +131,7 @@ nlohmann::json chunk_io_report(const IoStats& io, double map_seconds) {
           // background thread's time (io_time_share) overlaps with training and is not a cost by itself.
           {"wait_time_share", map_seconds > 0 ? io.optimiser_wait_ms() / 1000.0 / map_seconds : 0},
           {"wait_ms", io.wait_ms},
+          {"write_wait_ms", io.write_wait_ms},
           {"checkpoints", io.checkpoints},
           {"checkpoint_ms", io.checkpoint_ms},
           {"checkpoints_behind", io.checkpoints_behind},

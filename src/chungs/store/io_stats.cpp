@@ -11,6 +11,7 @@ IoStats IoCounters::snapshot() const {
   s.load_ms = double(load_ns) * 1e-6, s.save_ms = double(save_ns) * 1e-6, s.wait_ms = double(wait_ns) * 1e-6;
   s.pool_loads = pool_loads, s.prefetch_hits = prefetch_hits, s.write_behind_hits = write_behind_hits;
   s.sync_loads = sync_loads, s.waits = waits;
+  s.write_waits = write_waits, s.write_wait_ms = double(write_wait_ns) * 1e-6;
   s.evictions_clean = evictions_clean, s.evictions_dirty = evictions_dirty;
   s.barriers = barriers, s.synced_files = synced_files, s.barrier_ms = double(barrier_ns) * 1e-6;
   s.checkpoints = checkpoints, s.checkpoint_ms = double(checkpoint_ns) * 1e-6;
@@ -23,7 +24,7 @@ void IoCounters::reset() {
        {&loads,       &saves,           &removes,         &bytes_read,    &bytes_written,     &load_ns,
         &save_ns,     &wait_ns,         &pool_loads,      &prefetch_hits, &write_behind_hits, &sync_loads,
         &waits,       &evictions_clean, &evictions_dirty, &barriers,      &synced_files,      &barrier_ns,
-        &checkpoints, &checkpoint_ns,   &checkpoints_behind, &checkpoint_behind_ns})
+        &checkpoints, &checkpoint_ns,   &checkpoints_behind, &checkpoint_behind_ns, &write_waits, &write_wait_ns})
     c->store(0);
 }
 
@@ -33,14 +34,15 @@ std::string IoStats::summary() const {
       buf, sizeof buf,
       "chunk I/O: %llu loads (%.1f MB, %.2f ms avg), %llu saves (%.1f MB, %.2f ms avg), %llu removes; "
       "pool loads %llu: %llu prefetched, %llu from write-behind, %llu waited on disk (%.1f %%); "
-      "%llu waits, %.1f ms; evictions %llu clean, %llu dirty; %llu checkpoints, %.1f ms (%llu written "
+      "%llu waits, %.1f ms (%llu for a full write queue, %.1f ms); evictions %llu clean, %llu dirty; %llu checkpoints, %.1f ms (%llu written "
       "behind, %.1f ms from start to commit), "
       "%llu barriers flushing %llu files, %.1f ms",
       (unsigned long long)loads, double(bytes_read) / 1e6, mean_load_ms(), (unsigned long long)saves,
       double(bytes_written) / 1e6, mean_save_ms(), (unsigned long long)removes,
       (unsigned long long)pool_loads, (unsigned long long)prefetch_hits,
       (unsigned long long)write_behind_hits, (unsigned long long)sync_loads, 100.0 * wait_fraction(),
-      (unsigned long long)waits, wait_ms, (unsigned long long)evictions_clean,
+      (unsigned long long)waits, wait_ms, (unsigned long long)write_waits, write_wait_ms,
+      (unsigned long long)evictions_clean,
       (unsigned long long)evictions_dirty, (unsigned long long)checkpoints, checkpoint_ms,
       (unsigned long long)checkpoints_behind, checkpoint_behind_ms,
       (unsigned long long)barriers, (unsigned long long)synced_files, barrier_ms);

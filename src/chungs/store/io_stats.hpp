@@ -20,6 +20,9 @@ struct IoStats {
   uint64_t sync_loads = 0;         // ... read on the caller's thread (a wait)
   uint64_t waits = 0;              // sync loads + waits for an in-flight read or a full queue
   double wait_ms = 0;
+  // Of those, waits for a full write-behind queue (evictions faster than the disk takes them).
+  uint64_t write_waits = 0;
+  double write_wait_ms = 0;
   uint64_t evictions_clean = 0, evictions_dirty = 0;
   // Durability: saves are not flushed one by one; each commit() flushes the files written since
   // the previous one, then the folder, then writes the manifest (one barrier per checkpoint).
@@ -47,7 +50,7 @@ struct IoStats {
 class IoCounters {
  public:
   std::atomic<uint64_t> loads{0}, saves{0}, removes{0}, bytes_read{0}, bytes_written{0};
-  std::atomic<uint64_t> load_ns{0}, save_ns{0}, wait_ns{0};
+  std::atomic<uint64_t> load_ns{0}, save_ns{0}, wait_ns{0}, write_waits{0}, write_wait_ns{0};
   std::atomic<uint64_t> pool_loads{0}, prefetch_hits{0}, write_behind_hits{0}, sync_loads{0}, waits{0};
   std::atomic<uint64_t> evictions_clean{0}, evictions_dirty{0};
   std::atomic<uint64_t> barriers{0}, synced_files{0}, barrier_ns{0}, checkpoints{0}, checkpoint_ns{0};
