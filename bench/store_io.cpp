@@ -269,13 +269,13 @@ void BM_ResidencyStream(benchmark::State& st) {
 
 // The refinement's I/O pattern (Mapper::refine) under a budget: 8 groups of 240 chunks of 250
 // Gaussians in a row, each group 0.8 of the budget (75 k); a step pins a view of 100 consecutive
-// chunks of its group, reads the next 4 steps' chunks ahead, "optimises" for 4 ms (a quarter of the
-// GPU's step on a view 4x this size), and marks them modified; each group gets 40 steps, in `rounds`
-// visits of 40 / rounds steps (mapper.refinement_rounds). `threads`: residency.io_threads.
-// Counters: the optimiser's wait in all and as a share of the time, loads it waited for, saves and
-// evictions written behind.
+// chunks of its group, reads its own and the next 4 steps' chunks ahead (as Mapper::refine does),
+// "optimises" for 4 ms (a quarter of the GPU's step on a view 4x this size), and marks them modified;
+// each group gets 40 steps, in `rounds` visits of 40 / rounds steps (mapper.refinement_rounds).
+// `writers`: residency.write_behind_threads. Counters: the optimiser's wait in all, as a share of the
+// time and for a full write queue, loads it waited for, saves and evictions written behind.
 void BM_RefinementVisits(benchmark::State& st) {
-  const int threads = int(st.range(0)), rounds = int(st.range(1));
+  const int writers = int(st.range(0)), rounds = int(st.range(1));
   constexpr int kGroups = 8, kGroupChunks = 240, kView = 100, kStepsPerGroup = 40, kReadAhead = 4;
   constexpr size_t kPer = 250, kBudget = 75'000;
   const fs::path dir = bench_dir() / "refinement_visits";
@@ -306,7 +306,7 @@ void BM_RefinementVisits(benchmark::State& st) {
     CpuGaussianPool pool(kBudget);
     ResidencyConfig rc;
     rc.budget_gaussians = kBudget;
-    rc.io_threads = threads;
+    rc.write_behind_threads = writers;
     Residency res(store, pool, rc);
     st.ResumeTiming();
     const auto t0 = std::chrono::steady_clock::now();
@@ -365,7 +365,7 @@ BENCHMARK(BM_ResidencyStream)
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 BENCHMARK(BM_RefinementVisits)
-    ->ArgNames({"threads", "rounds"})
+    ->ArgNames({"writers", "rounds"})
     ->Args({1, 1})->Args({4, 1})->Args({1, 8})->Args({4, 8})->Args({1, 16})->Args({4, 16})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 

@@ -437,28 +437,6 @@ TEST(Residency, AFailedReadAheadIsReportedAndTheChunkIsReadAgainWhenNeeded) {
   r.unpin1(ahead);
 }
 
-// The chunks of a pin that nothing read ahead are read on the I/O threads; when those reads fail,
-// the pin reads again itself and reports the error, and a later pin (the disk back) loads them as stored.
-TEST(Residency, AFailedReadForAPinIsReportedAndThePinWorksOnceTheDiskIsBack) {
-  Rig r({100, 100, 100}, 1000, true);
-  const std::vector<ChunkId> ids{cid(0), cid(1), cid(2)};
-  std::vector<GaussianBlock> stored;
-  for (ChunkId id : ids) stored.push_back(r.store->load(id));
-  const auto chunks = r.dir / "chunks";
-  std::filesystem::rename(chunks, r.dir / "chunks.away");
-  std::ofstream(chunks) << "not a folder";
-  testing::internal::CaptureStderr();
-  EXPECT_THROW(r.res->pin(ids), Error);
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the threads' reads fail meanwhile
-  testing::internal::GetCapturedStderr();
-  std::filesystem::remove(chunks);
-  std::filesystem::rename(r.dir / "chunks.away", chunks);
-  const PinResult p = r.res->pin(ids);
-  ASSERT_TRUE(p.ok) << p.message;
-  for (size_t i = 0; i < ids.size(); ++i) EXPECT_TRUE(test::same_bits(r.gathered(ids[i]), stored[i])) << i;
-  r.res->unpin(ids);
-}
-
 TEST(Residency, FailedBackgroundWriteKeepsTheDataReportsTheErrorAndRetries) {
   Rig r({100, 100}, 1000, true);
   r.pin1(cid(0));

@@ -8,12 +8,13 @@
 namespace chungs {
 
 IoWorker::IoWorker(ChunkStore& store, HostBlockPool& blocks, bool background, size_t prefetch_max,
-                   size_t write_behind_max, int threads)
+                   size_t write_behind_max, int writers)
     : store_(store), blocks_(blocks), counters_(store.counters()), background_(background), prefetch_max_(prefetch_max),
       write_behind_max_(write_behind_max) {
-  if (threads < 1) fail("chunk I/O: at least one thread is needed, got ", threads);
+  if (writers < 1) fail("chunk I/O: at least one writer thread is needed, got ", writers);
   if (!background_) return;
-  for (int i = 0; i < threads; ++i) threads_.emplace_back([this] { run(); });
+  threads_.emplace_back([this] { run(); });
+  for (int i = 1; i < writers; ++i) threads_.emplace_back([this] { run_writer(); });
 }
 
 IoWorker::~IoWorker() {
@@ -86,25 +87,10 @@ void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks)
     wanted_.clear();
     for (const auto& c : chunks) {
       wanted_.insert(c.first);
-      if (!staged_.count(c.first) && !pending_.count(c.first) && !reading_.count(c.first) && !demanded_.count(c.first))
-        prefetch_queue_.push_back(c);
+      if (!staged_.count(c.first) && !pending_.count(c.first) && reading_ != c.first) prefetch_queue_.push_back(c);
     }
   }
   work_cv_.notify_all();  // all: the writer threads would take a notice meant for the reader
-}
-
-void IoWorker::demand(std::span<const ChunkId> ids) {
-  if (!background_ || ids.empty()) return;
-  {
-    std::lock_guard lock(mutex_);
-    for (ChunkId id : ids) {
-      if (pending_.count(id) || staged_.count(id) || reading_.count(id) || demanded_.count(id)) continue;
-      demanded_.emplace(id, Demanded{});
-      demand_queue_.push_back(id);
-    }
-    std::erase_if(prefetch_queue_, [&](const auto& c) { return demanded_.count(c.first) > 0; });
-  }
-  work_cv_.notify_all();
 }
 
 IoWorker::Block IoWorker::take(ChunkId id, Source* source) {
@@ -116,35 +102,21 @@ IoWorker::Block IoWorker::take(ChunkId id, Source* source) {
       src = Source::WriteBehind;
       return it->second.data;
     }
-    if (auto d = demanded_.find(id); d != demanded_.end()) {
-      if (d->second.started && !d->second.done) {
-        ScopedTimer t(counters_.wait_ns);
-        counters_.waits++;
-        done_cv_.wait(lock, [&] { return demanded_.at(id).done; });
-      }
-      Block b = std::move(demanded_.at(id).data);  // null when not started: read below, here
-      demanded_.erase(id);  // a queued job for it is skipped
-      if (b) {
-        src = Source::Disk;
-        return b;
-      }
+    std::erase_if(prefetch_queue_, [&](const auto& c) { return c.first == id; });
+    if (reading_ == id) {
+      ScopedTimer t(counters_.wait_ns);
+      counters_.waits++;
+      done_cv_.wait(lock, [&] { return reading_ != id; });
+      src = Source::InFlight;
     } else {
-      std::erase_if(prefetch_queue_, [&](const auto& c) { return c.first == id; });
-      if (reading_.count(id)) {
-        ScopedTimer t(counters_.wait_ns);
-        counters_.waits++;
-        done_cv_.wait(lock, [&] { return !reading_.count(id); });
-        src = Source::InFlight;
-      } else {
-        src = Source::Prefetched;
-      }
-      if (auto it = staged_.find(id); it != staged_.end()) {
-        Block b = std::move(it->second);
-        staged_gaussians_ -= b->size();
-        staged_.erase(it);
-        std::erase(staged_order_, id);
-        return b;
-      }
+      src = Source::Prefetched;
+    }
+    if (auto it = staged_.find(id); it != staged_.end()) {
+      Block b = std::move(it->second);
+      staged_gaussians_ -= b->size();
+      staged_.erase(it);
+      std::erase(staged_order_, id);
+      return b;
     }
   }
   // Not in memory: read on the caller's thread.
@@ -226,51 +198,17 @@ bool IoWorker::write_one(std::unique_lock<std::mutex>& lock) {
   return true;
 }
 
-IoWorker::Block IoWorker::read_into(ChunkId id, std::shared_ptr<HostBlock> block, const char* what) {
-  try {
-    if (!store_.contains(id)) return nullptr;
-    store_.load_into(id, [&](uint64_t, int) { return block->arrays(); });  // the read checks the count
-  } catch (const std::exception& e) {
-    // The caller's own read of this chunk reads it again and fails where it can act, or succeeds
-    // (a transient error): said aloud either way, since a disk that failed once is worth knowing.
-    log::warn("chunk I/O: ", what, " ", chunk_name(id), " failed (", e.what(), "); it is read again when needed");
-    return nullptr;
-  }
-  return block;
-}
-
-bool IoWorker::read_demanded_one(std::unique_lock<std::mutex>& lock) {
-  while (!demand_queue_.empty()) {
-    const ChunkId id = demand_queue_.front();
-    demand_queue_.pop_front();
-    const auto d = demanded_.find(id);
-    if (d == demanded_.end() || d->second.started) continue;  // taken (read by the caller) meanwhile
-    d->second.started = true;
-    lock.unlock();
-    // The count the store lists: the chunk is not resident, so nothing changes it meanwhile. From the
-    // heap when the pool is full: the caller needs it now, and it is one chunk of a pinned view.
-    Block data = read_into(id, blocks_.make(store_.count(id), store_.sh_degree()), "reading for the caller");
-    lock.lock();
-    Demanded& done = demanded_.at(id);  // the caller waits for it rather than erase it
-    done.data = std::move(data);
-    done.done = true;
-    done_cv_.notify_all();
-    return true;
-  }
-  return false;
-}
-
 bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
   while (!prefetch_queue_.empty()) {
     const auto [id, count] = prefetch_queue_.front();
     prefetch_queue_.pop_front();
-    if (staged_.count(id) || pending_.count(id) || reading_.count(id) || demanded_.count(id)) continue;
+    if (staged_.count(id) || pending_.count(id)) continue;
     // Make room by dropping the oldest reads the latest prediction no longer names; give up on
     // chunks that can never fit. Reads it still names are for nearer steps than this one (the list
     // is in the order of use): when only those are left, reading further ahead waits for the next
-    // prediction, which comes once a step has taken some of them. Reads in flight count as staged.
+    // prediction, which comes once a step has taken some of them.
     if (count > prefetch_max_) continue;
-    while (staged_gaussians_ + reading_gaussians_ + count > prefetch_max_) {
+    while (staged_gaussians_ + count > prefetch_max_) {
       const auto stale = std::find_if(staged_order_.begin(), staged_order_.end(),
                                       [&](ChunkId c) { return !wanted_.count(c); });
       if (stale == staged_order_.end()) {
@@ -291,13 +229,21 @@ bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
       prefetch_queue_.clear();
       return false;
     }
-    reading_.emplace(id, count);
-    reading_gaussians_ += count;
+    reading_ = id;
     lock.unlock();
-    Block data = read_into(id, std::move(block), "reading ahead");
+    Block data;
+    try {
+      if (store_.contains(id)) {
+        store_.load_into(id, [&](uint64_t, int) { return block->arrays(); });  // the read checks the count
+        data = std::move(block);
+      }
+    } catch (const std::exception& e) {
+      // The caller's own read of this chunk reads it again and fails where it can act, or succeeds
+      // (a transient error): said aloud either way, since a disk that failed once is worth knowing.
+      log::warn("chunk I/O: reading ahead ", chunk_name(id), " failed (", e.what(), "); it is read again when needed");
+    }
     lock.lock();
-    reading_.erase(id);
-    reading_gaussians_ -= count;
+    reading_.reset();
     if (data) {
       staged_gaussians_ += data->size();
       staged_[id] = std::move(data);
@@ -313,18 +259,25 @@ bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
 void IoWorker::run() {
   std::unique_lock lock(mutex_);
   for (;;) {
-    // Reads the caller waits on now first; then writes if the queue is half full (the caller waits
-    // on them once it is full), reads ahead, and the other writes.
-    if (read_demanded_one(lock)) continue;
+    // Reads first unless the write queue is half full: the caller waits on missing reads now,
+    // but on writes only once the queue is full.
     const bool writes_urgent = pending_gaussians_ * 2 > write_behind_max_;
     if (writes_urgent && write_one(lock)) continue;
     if (prefetch_one(lock)) continue;
     if (write_one(lock)) continue;
     if (stop_) return;
     work_cv_.wait(lock, [&] {
-      return stop_ || (next_writable() != write_queue_.end() && !error_) || !prefetch_queue_.empty() ||
-             !demand_queue_.empty();
+      return stop_ || (next_writable() != write_queue_.end() && !error_) || !prefetch_queue_.empty();
     });
+  }
+}
+
+void IoWorker::run_writer() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    if (write_one(lock)) continue;
+    if (stop_) return;
+    work_cv_.wait(lock, [&] { return stop_ || (next_writable() != write_queue_.end() && !error_); });
   }
 }
 

@@ -2,19 +2,13 @@
 //
 // Write-behind: an evicted modified chunk is handed over as an immutable block that the worker
 // owns until it is on disk; its pool slots can be reused at once. Until the write has finished,
-// any load of that chunk is served from the queued block, never from the stale file. Two writes of
-// one chunk never overlap, so the newest content is the one kept.
+// any load of that chunk is served from the queued block, never from the stale file. Writes run on
+// `writers` threads (one of them also reads ahead): a refinement that mixes places evicts a dirty
+// chunk for nearly every load, and one thread writing them (~0.5 ms each on the GPU machine) held
+// the optimiser up. Two writes of one chunk never overlap, so the newest content is the one kept.
 // Prefetch: chunks predicted to be needed next are read into host memory ahead of time.
-// Demand: chunks the caller is about to take, which nothing read ahead, are read by every thread at
-// once while the caller takes them one after the other.
 // take() hands a chunk's current content to the caller from the first place that has it:
 // the write-behind queue, the prefetched blocks, a read in flight (waits for it), or the disk.
-//
-// All `threads` threads read and write, in this order: reads the caller waits on, writes once the
-// queue is half full, reads ahead, other writes. A refinement that mixes places loads and evicts
-// whole views at each switch: one thread writing (~0.5 ms a chunk on the GPU machine) held the
-// optimiser up, and with writes spread over four threads but reads on one and the caller, the first
-// steps of each visit still waited on the disk (bench/README.md, issue 19).
 //
 // Every block in flight lives in `blocks` (host_block_pool.hpp); a read ahead for which it has no
 // room waits for the next prediction.
@@ -27,7 +21,7 @@
 #include <exception>
 #include <memory>
 #include <mutex>
-#include <span>
+#include <optional>
 #include <thread>
 #include <unordered_map>
 #include <unordered_set>
@@ -44,7 +38,7 @@ class IoWorker {
   enum class Source { WriteBehind, Prefetched, InFlight, Disk, Absent };
 
   IoWorker(ChunkStore& store, HostBlockPool& blocks, bool background, size_t prefetch_max_gaussians,
-           size_t write_behind_max_gaussians, int threads = 1);
+           size_t write_behind_max_gaussians, int writers = 1);
   ~IoWorker();  // finishes queued writes (errors are logged), then stops the threads
   IoWorker(const IoWorker&) = delete;
   IoWorker& operator=(const IoWorker&) = delete;
@@ -55,10 +49,6 @@ class IoWorker {
   // Replaces the prediction list: chunks (with their Gaussian counts) to read ahead, first needed
   // first. Reads it names are kept when the read-ahead limit is reached; the others are dropped.
   void prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks);
-  // Chunks the caller takes next, in this order: those that no queue holds and no read has started
-  // are read on every thread, ahead of everything else. Each must be taken (take()) before it is
-  // demanded again. Their take() reports Source::Disk: the caller waited for them, or could have.
-  void demand(std::span<const ChunkId> ids);
   // The chunk's current content; an absent chunk gives an empty block. Never stale (see above).
   Block take(ChunkId id, Source* source = nullptr);
   // Waits until every queued write is on disk, first retrying a write that failed earlier;
@@ -74,19 +64,13 @@ class IoWorker {
     Block data;
     bool queued = false;  // a job for it is in write_queue_
   };
-  struct Demanded {
-    bool started = false, done = false;
-    Block data;  // null when done: absent, or the read failed (take() reads it again and reports)
-  };
-  void run();
+  void run();          // the first thread: reads ahead, and writes
+  void run_writer();   // the others: write only
   // The first queued chunk that no thread is writing now (a chunk queued again while its earlier
   // content is being written waits for that write); end() when there is none.
   std::deque<ChunkId>::iterator next_writable();
   bool write_one(std::unique_lock<std::mutex>& lock);
   bool prefetch_one(std::unique_lock<std::mutex>& lock);
-  bool read_demanded_one(std::unique_lock<std::mutex>& lock);
-  // Null when absent, or when the read failed (logged with `what`).
-  Block read_into(ChunkId id, std::shared_ptr<HostBlock> block, const char* what);
   void write_now(ChunkId id, const Block& data);
   void rethrow_locked();
 
@@ -107,10 +91,7 @@ class IoWorker {
   std::deque<ChunkId> staged_order_;              // oldest first, for dropping when over the limit
   std::unordered_set<ChunkId> wanted_;            // named by the latest prefetch() (kept staged)
   size_t staged_gaussians_ = 0;
-  std::unordered_map<ChunkId, uint64_t> reading_;   // reads ahead in flight, with their counts
-  size_t reading_gaussians_ = 0;
-  std::unordered_map<ChunkId, Demanded> demanded_;  // demanded, not yet taken
-  std::deque<ChunkId> demand_queue_;                // in the order demanded; started ones skipped
+  std::optional<ChunkId> reading_;                // prefetch read in flight
   std::exception_ptr error_;
   bool stop_ = false;
   std::vector<std::thread> threads_;

@@ -36,7 +36,8 @@ void ResidencyConfig::validate() const {
   if (prefetch_max_gaussians > kMaxGaussians || write_behind_max_gaussians > kMaxGaussians)
     fail("residency: prefetch_max_gaussians and write_behind_max_gaussians must be at most ", kMaxGaussians);
   if (flush_threads < 1 || flush_threads > 256) fail("residency: flush_threads must be in [1, 256], got ", flush_threads);
-  if (io_threads < 1 || io_threads > 256) fail("residency: io_threads must be in [1, 256], got ", io_threads);
+  if (write_behind_threads < 1 || write_behind_threads > 256)
+    fail("residency: write_behind_threads must be in [1, 256], got ", write_behind_threads);
   if (checkpoint_threads < 1 || checkpoint_threads > 256)
     fail("residency: checkpoint_threads must be in [1, 256], got ", checkpoint_threads);
   if (!(pool_headroom >= 0 && pool_headroom <= 4)) fail("residency: pool_headroom must be in [0, 4], got ", pool_headroom);
@@ -63,7 +64,7 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
   gather_scratch_.reserve(checkpoint_memory_limit() / 4);
   io_ = std::make_unique<IoWorker>(store_, host_blocks_, config_.async_io, prefetch_max(config_),
-                                   write_behind_max(config_), config_.io_threads);
+                                   write_behind_max(config_), config_.write_behind_threads);
 }
 
 Residency::~Residency() {
@@ -177,11 +178,6 @@ PinResult Residency::pin(std::span<const ChunkId> ids, bool recent) {
   copy_out_many(want);  // a pinned chunk may change
   if (!make_room(missing, want, &r.evicted))
     fail("residency: internal error: no room for ", missing, " Gaussians although the pinned set fits");
-  // What nothing read ahead is read on all I/O threads while the loop below takes it chunk by chunk.
-  std::vector<ChunkId> to_load;
-  for (ChunkId id : want)
-    if (!is_resident(id) && count(id) > 0) to_load.push_back(id);
-  io_->demand(to_load);
   for (ChunkId id : want) {
     if (!is_resident(id)) {
       load(id);

@@ -42,10 +42,9 @@ struct ResidencyConfig {
   size_t prefetch_max_gaussians = 0;      // read ahead into host memory at most this many
   size_t write_behind_max_gaussians = 0;  // queued for writing before eviction waits
   int flush_threads = 8;  // threads writing the modified resident chunks at flush() (async_io only)
-  // Threads reading chunks (ahead, and those a pin needs now) and writing evicted modified ones
-  // behind the caller (async_io only). One kept a refinement that mixes places waiting on its queue
-  // (a dirty eviction for nearly every load), and on the reads of each place's first steps.
-  int io_threads = 4;
+  // Threads writing evicted modified chunks behind the caller (async_io only). One kept a refinement
+  // that mixes places waiting on its queue (a dirty eviction for nearly every load).
+  int write_behind_threads = 4;
   int checkpoint_threads = 4;  // threads writing a checkpoint behind the caller (begin_checkpoint)
   // Pool slots beyond the budget (a fraction of it), used only while a loop correction raises the
   // budget so that all affected chunks are moved in one batch.
