@@ -44,8 +44,8 @@ void fields(V& v, ResidencyConfig& c) {
   v("eviction_hysteresis", c.eviction_hysteresis, "fraction of the budget evicted beyond the shortfall");
   v("async_io", c.async_io, "background prefetch and write-behind");
   v("prefetch_max_gaussians", c.prefetch_max_gaussians,
-    "host read-ahead, Gaussians; 0: 1/32 of the budget, at least 65536 or the budget");
-  v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: 1/8 of the budget");
+    "host read-ahead, Gaussians; 0: 1/32 of the budget, at least 160000 or the budget");
+  v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: 1/8 of the budget, at least 160000 or half the budget");
   v("flush_threads", c.flush_threads, "threads writing modified chunks at a checkpoint the caller waits for");
   v("write_behind_threads", c.write_behind_threads, "threads writing evicted modified chunks behind the optimiser");
   v("checkpoint_threads", c.checkpoint_threads, "threads writing a checkpoint behind the optimiser");

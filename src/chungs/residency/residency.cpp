@@ -11,18 +11,21 @@ namespace chungs {
 
 namespace {
 
-size_t or_automatic(size_t set, size_t budget, size_t divisor) {
-  return set ? set : std::max<size_t>(budget / divisor, 10'000);
-}
-// At least one small view's chunks: with 1/32 of a 100 k budget (10 k) the reads for the next steps
-// pushed each other out before use, and 85 % of a 2 km drive's chunk loads waited on the disk.
+// Both queues hold at least one large view of a street (100-136 k Gaussians at 620x188 on the 2 km street):
+// the refinement's visit to a place evicts and reads about that much at its first step. With 65,536 read
+// ahead and 1/8 of a 300 k budget queued, the 300 k cell alone on an H200 waited 6.1-9.2 % of its run on
+// chunk I/O; with 160 k and 150 k, 4.0 % twice (bench/README.md, issue 19). With 1/32 of a 100 k budget
+// (10 k) read ahead, the reads for the next steps pushed each other out before use, and 85 % of a 2 km
+// drive's chunk loads waited on the disk.
+constexpr size_t kViewFloor = 160'000;
 size_t prefetch_max(const ResidencyConfig& c) {
-  constexpr size_t kViewFloor = 65'536;
   if (c.prefetch_max_gaussians) return c.prefetch_max_gaussians;
   return std::max(c.budget_gaussians / 32, std::min(c.budget_gaussians, kViewFloor));
 }
+// Half the budget at most below 1/8 of it: the queue's memory stays in proportion to the budget.
 size_t write_behind_max(const ResidencyConfig& c) {
-  return or_automatic(c.write_behind_max_gaussians, c.budget_gaussians, 8);
+  if (c.write_behind_max_gaussians) return c.write_behind_max_gaussians;
+  return std::max({c.budget_gaussians / 8, std::min(c.budget_gaussians / 2, kViewFloor), size_t(10'000)});
 }
 
 }  // namespace

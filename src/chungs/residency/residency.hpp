@@ -36,9 +36,11 @@ struct ResidencyConfig {
   // Host memory for chunks in flight, in Gaussians (~0.7 kB each with Adam state), so that host
   // memory stays in proportion to the budget, not the map. 0: automatic. Read-ahead only needs the
   // chunks of the next few steps, and it fills only once the drive comes back to evicted chunks: a
-  // larger one raises the resident set minutes after the budget is reached. It is 1/32 of the
-  // budget, but at least 65 536 (or the budget, if smaller), so that the next steps' views fit.
-  // Write-behind (1/8, at least 10 000) must take one eviction's burst (the hysteresis, 1/20).
+  // larger one raises the resident set minutes after the budget is reached (unless the pool is made
+  // resident at the start, see in_flight_blocks). It is 1/32 of the budget, but at least 160 000 (or
+  // the budget, if smaller), so that a large view fits. Write-behind (1/8 of the budget, but at least
+  // 160 000 or half the budget, and at least 10 000) must take one eviction's burst (the hysteresis,
+  // 1/20) and a refinement visit's switch to another place (about a view).
   size_t prefetch_max_gaussians = 0;      // read ahead into host memory at most this many
   size_t write_behind_max_gaussians = 0;  // queued for writing before eviction waits
   int flush_threads = 8;  // threads writing the modified resident chunks at flush() (async_io only)
