@@ -22,7 +22,7 @@ struct MapperConfig {
   // steps, loading the group's chunks again. More rounds bring the order nearer to the whole map at
   // random, which scored as if the map were resident. GPU, 2 km street under 300 k: 1 / 4 / 16 / 1000
   // rounds 27.17 / 27.21 / 27.43 / 27.41 dB against 27.68 without a budget, I/O wait 1.27 / 1.29 / 1.65 /
-  // 3.11 % side by side; 16 rounds alone 6-9 %, bound by the disk's write bandwidth (bench/README.md, issue 19). A group is visited at most once per refinement_min_visit_steps
+  // 3.11 % side by side; 16 rounds alone 4.5 %, bound by the disk's write bandwidth (bench/README.md, issue 19). A group is visited at most once per refinement_min_visit_steps
   // of its steps, so that a visit's loads stay a share of a view per step.
   int refinement_rounds = 16;
   int refinement_min_visit_steps = 4;
