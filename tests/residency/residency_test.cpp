@@ -467,3 +467,21 @@ TEST(Residency, FailedBackgroundWriteKeepsTheDataReportsTheErrorAndRetries) {
   r.res->flush();
   EXPECT_TRUE(test::same_bits(r.store->load(cid(0)), modified));
 }
+
+// The automatic sizes of the queues for chunks in flight: at least one large view (160 k) read ahead
+// and queued for writing, within the budget (half of it for writes), and 1/32 and 1/8 of a large one.
+TEST(ResidencyConfig, ChunksInFlightHoldALargeViewWithinTheBudget) {
+  const auto in_flight = [](size_t budget, size_t prefetch = 0, size_t write_behind = 0) {
+    ResidencyConfig c;
+    c.budget_gaussians = budget;
+    c.prefetch_max_gaussians = prefetch;
+    c.write_behind_max_gaussians = write_behind;
+    return in_flight_max_gaussians(c) - checkpoint_memory_limit(budget);
+  };
+  EXPECT_EQ(in_flight(300'000), 160'000u + 150'000u);
+  EXPECT_EQ(in_flight(1'500'000), 160'000u + 187'500u);
+  EXPECT_EQ(in_flight(8'000'000), 250'000u + 1'000'000u);
+  EXPECT_EQ(in_flight(100'000), 100'000u + 50'000u);
+  EXPECT_EQ(in_flight(12'000), 12'000u + 10'000u);
+  EXPECT_EQ(in_flight(300'000, 7'000, 9'000), 7'000u + 9'000u);  // set ones are kept
+}
