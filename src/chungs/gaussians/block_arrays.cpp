@@ -60,6 +60,15 @@ BlockArrays laid_out_arrays(void* base, size_t count, int sh_degree) {
   return out;
 }
 
+BlockArrays offset_arrays(const BlockArrays& a, size_t first) {
+  if (first > a.count) fail("offset_arrays: Gaussian ", first, " of ", a.count);
+  BlockArrays out = a;
+  out.count = a.count - first;
+  for (int i = 0; i < kBlockArrays; ++i)
+    out.data[size_t(i)] = static_cast<std::byte*>(a.data[size_t(i)]) + first * 4 * size_t(kBlockArrayWidths[size_t(i)]);
+  return out;
+}
+
 void copy_gaussians(const ConstBlockArrays& from, size_t first, size_t n, const BlockArrays& to) {
   if (first + n > from.count || n > to.count)
     fail("copy_gaussians: Gaussians [", first, ", ", first + n, ") of ", from.count, " into ", to.count);

@@ -52,6 +52,9 @@ ConstBlockArrays block_arrays(const GaussianBlock& block);
 size_t laid_out_bytes(size_t count);
 BlockArrays laid_out_arrays(void* base, size_t count, int sh_degree);
 
+// The view of Gaussians [first, count) of `a`.
+BlockArrays offset_arrays(const BlockArrays& a, size_t first);
+
 // Copies Gaussians [first, first + n) of `from` to Gaussians [0, n) of `to` (to.count >= n).
 void copy_gaussians(const ConstBlockArrays& from, size_t first, size_t n, const BlockArrays& to);
 

@@ -158,6 +158,7 @@ class Mapper {
     double pick_ms = 0, cull_ms = 0, pin_ms = 0, bookkeeping_ms = 0;
     double slots_ms = 0;  // of chunks_ms: the slot list written
     double prune_ms = 0;  // of bookkeeping_ms: pruned Gaussians leaving their chunks
+    StepTimes operator-(const StepTimes& b) const;  // the steps between two snapshots (b before)
   };
   const StepTimes& step_times() const { return step_times_; }
   // The backend's per-phase timings (optim_backend.hpp), for benchmarks: on costs a device wait a step.

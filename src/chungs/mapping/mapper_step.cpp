@@ -126,6 +126,15 @@ const ViewCoverage& Mapper::coverage_of(const KeyframeRecord& kf) {
 }
 
 
+Mapper::StepTimes Mapper::StepTimes::operator-(const StepTimes& b) const {
+  StepTimes d = *this;
+  d.steps -= b.steps, d.keyframe_loads -= b.keyframe_loads;
+  d.total_ms -= b.total_ms, d.chunks_ms -= b.chunks_ms, d.keyframe_load_ms -= b.keyframe_load_ms;
+  d.backend_ms -= b.backend_ms, d.pick_ms -= b.pick_ms, d.cull_ms -= b.cull_ms, d.pin_ms -= b.pin_ms;
+  d.bookkeeping_ms -= b.bookkeeping_ms, d.slots_ms -= b.slots_ms, d.prune_ms -= b.prune_ms;
+  return d;
+}
+
 StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view, bool revisit) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();

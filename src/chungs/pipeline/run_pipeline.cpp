@@ -396,10 +396,19 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     const uint64_t refine_steps = mc.refinement_steps(mapper.keyframes().size());
     Progress refine("refining", (long long)refine_steps);
     const auto t0 = std::chrono::steady_clock::now();
+    const Mapper::StepTimes steps_before = mapper.step_times();
+    const IoStats io_before = mapper.io_stats();
     const Mapper::RefineStats r = mapper.refine(refine_steps, [&](uint32_t) { refine.step(); });
     refine.finish();
-    if (r.steps > 0)
-      refinement = {{"steps", r.steps}, {"groups", r.groups}, {"seconds", ms_since(t0) / 1000}};
+    if (r.steps > 0) {
+      const IoStats io = mapper.io_stats() - io_before;
+      refinement = refinement_report(r, ms_since(t0) / 1000, mapper.step_times() - steps_before, io);
+      if (io.pool_loads > 0)
+        log::info("refinement: ", r.steps, " steps over ", r.groups, " groups in ", refinement["seconds"].get<double>(),
+                  " s; ", io.pool_loads, " chunk loads (", io.sync_loads, " waited for, ", io.wait_ms,
+                  " ms), ", io.evictions_dirty, " written back; pool copies ", io.evict_copy_ms, " ms out, ",
+                  io.upload_ms, " ms in");
+    }
   }
   record(done ? done - 1 : 0);
   double final_checkpoint_ms = 0;

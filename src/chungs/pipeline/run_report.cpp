@@ -145,7 +145,31 @@ nlohmann::json chunk_io_report(const IoStats& io, double map_seconds) {
           {"waited_loads", io.sync_loads},
           {"evictions_clean", io.evictions_clean},
           {"evictions_dirty", io.evictions_dirty},
+          // The optimiser thread's copies out of the pool (evictions) and into it (loads).
+          {"evict_copy_ms", io.evict_copy_ms},
+          {"upload_ms", io.upload_ms},
           {"summary", io.summary()}};
+}
+
+nlohmann::json refinement_report(const Mapper::RefineStats& r, double seconds, const Mapper::StepTimes& steps,
+                                 const IoStats& io) {
+  nlohmann::json j = {{"steps", r.steps},
+                      {"groups", r.groups},
+                      {"seconds", seconds},
+                      // The whole map streams through the budget here, so this is where chunk I/O
+                      // weighs most: the loads, how many the optimiser waited for, and its own copies.
+                      {"chunk_io",
+                       {{"pool_loads", io.pool_loads},
+                        {"waited_loads", io.sync_loads},
+                        {"wait_ms", io.wait_ms},
+                        {"write_wait_ms", io.write_wait_ms},
+                        {"evictions_dirty", io.evictions_dirty},
+                        {"bytes_read", io.bytes_read},
+                        {"bytes_written", io.bytes_written},
+                        {"evict_copy_ms", io.evict_copy_ms},
+                        {"upload_ms", io.upload_ms}}}};
+  if (steps.steps) j["step_ms"] = step_report(steps);
+  return j;
 }
 
 nlohmann::json keyframe_io_report(const IoStats& kio) {

@@ -179,8 +179,13 @@ class Residency {
   };
   // Evicts unpinned chunks outside `keep` until `extra` more Gaussians fit; false if impossible.
   bool make_room(uint64_t extra, std::span<const ChunkId> keep, size_t* evicted);
-  void load(ChunkId id);
-  void evict_entry(ChunkId id);
+  // Makes the chunks resident (none of them is), reading those not read ahead.
+  void load_many(std::span<const ChunkId> ids);
+  std::shared_ptr<const HostBlock> take_block(ChunkId id);  // its content, read ahead or now; counted
+  // Evicts unpinned resident chunks; the modified ones are copied out a portion at a time and
+  // written behind.
+  void evict_entries(std::span<const ChunkId> ids);
+  void evict_one(ChunkId id, std::shared_ptr<const HostBlock> block);  // block: its copy if modified
   void touch(Resident& r, ChunkId id);
   Resident& resident_entry(ChunkId id, const char* what);
   void check_budget_invariant() const;
@@ -215,6 +220,7 @@ class Residency {
   size_t resident_gaussians_ = 0, pinned_gaussians_ = 0, peak_resident_ = 0;
   HostBlockPool host_blocks_;   // before io_ and checkpoint_, which hold blocks of it
   GaussianBlock gather_scratch_;  // one portion of gather_chunks; kept, so its memory is reused
+  GaussianBlock load_scratch_;    // one portion of load_many, the same way
   std::unique_ptr<IoWorker> io_;
   std::unique_ptr<CheckpointWriter> checkpoint_;  // in flight (begin_checkpoint)
   std::unordered_set<ChunkId> checkpoint_todo_;   // modified at its moment, not yet copied out

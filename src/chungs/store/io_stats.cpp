@@ -13,6 +13,7 @@ IoStats IoCounters::snapshot() const {
   s.sync_loads = sync_loads, s.waits = waits;
   s.write_waits = write_waits, s.write_wait_ms = double(write_wait_ns) * 1e-6;
   s.evictions_clean = evictions_clean, s.evictions_dirty = evictions_dirty;
+  s.evict_copy_ms = double(evict_copy_ns) * 1e-6, s.upload_ms = double(upload_ns) * 1e-6;
   s.barriers = barriers, s.synced_files = synced_files, s.barrier_ms = double(barrier_ns) * 1e-6;
   s.checkpoints = checkpoints, s.checkpoint_ms = double(checkpoint_ns) * 1e-6;
   s.checkpoints_behind = checkpoints_behind, s.checkpoint_behind_ms = double(checkpoint_behind_ns) * 1e-6;
@@ -24,8 +25,24 @@ void IoCounters::reset() {
        {&loads,       &saves,           &removes,         &bytes_read,    &bytes_written,     &load_ns,
         &save_ns,     &wait_ns,         &pool_loads,      &prefetch_hits, &write_behind_hits, &sync_loads,
         &waits,       &evictions_clean, &evictions_dirty, &barriers,      &synced_files,      &barrier_ns,
-        &checkpoints, &checkpoint_ns,   &checkpoints_behind, &checkpoint_behind_ns, &write_waits, &write_wait_ns})
+        &checkpoints, &checkpoint_ns,   &checkpoints_behind, &checkpoint_behind_ns, &write_waits, &write_wait_ns,
+        &evict_copy_ns, &upload_ns})
     c->store(0);
+}
+
+IoStats operator-(const IoStats& a, const IoStats& b) {
+  IoStats d;
+  const auto diff = [&](auto IoStats::*field) { d.*field = a.*field - b.*field; };
+  for (auto f : {&IoStats::loads, &IoStats::saves, &IoStats::removes, &IoStats::bytes_read, &IoStats::bytes_written,
+                 &IoStats::pool_loads, &IoStats::prefetch_hits, &IoStats::write_behind_hits, &IoStats::sync_loads,
+                 &IoStats::waits, &IoStats::write_waits, &IoStats::evictions_clean, &IoStats::evictions_dirty,
+                 &IoStats::barriers, &IoStats::synced_files, &IoStats::checkpoints, &IoStats::checkpoints_behind})
+    diff(f);
+  for (auto f : {&IoStats::load_ms, &IoStats::save_ms, &IoStats::wait_ms, &IoStats::write_wait_ms,
+                 &IoStats::evict_copy_ms, &IoStats::upload_ms, &IoStats::barrier_ms, &IoStats::checkpoint_ms,
+                 &IoStats::checkpoint_behind_ms})
+    diff(f);
+  return d;
 }
 
 std::string IoStats::summary() const {
@@ -36,7 +53,7 @@ std::string IoStats::summary() const {
       "pool loads %llu: %llu prefetched, %llu from write-behind, %llu waited on disk (%.1f %%); "
       "%llu waits, %.1f ms (%llu for a full write queue, %.1f ms); evictions %llu clean, %llu dirty; %llu checkpoints, %.1f ms (%llu written "
       "behind, %.1f ms from start to commit), "
-      "%llu barriers flushing %llu files, %.1f ms",
+      "%llu barriers flushing %llu files, %.1f ms; pool copies %.1f ms out, %.1f ms in",
       (unsigned long long)loads, double(bytes_read) / 1e6, mean_load_ms(), (unsigned long long)saves,
       double(bytes_written) / 1e6, mean_save_ms(), (unsigned long long)removes,
       (unsigned long long)pool_loads, (unsigned long long)prefetch_hits,
@@ -45,7 +62,7 @@ std::string IoStats::summary() const {
       (unsigned long long)evictions_clean,
       (unsigned long long)evictions_dirty, (unsigned long long)checkpoints, checkpoint_ms,
       (unsigned long long)checkpoints_behind, checkpoint_behind_ms,
-      (unsigned long long)barriers, (unsigned long long)synced_files, barrier_ms);
+      (unsigned long long)barriers, (unsigned long long)synced_files, barrier_ms, evict_copy_ms, upload_ms);
   return buf;
 }
 

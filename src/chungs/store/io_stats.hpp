@@ -24,6 +24,10 @@ struct IoStats {
   uint64_t write_waits = 0;
   double write_wait_ms = 0;
   uint64_t evictions_clean = 0, evictions_dirty = 0;
+  // The optimiser thread's own copies between the pool and host memory: evicted modified chunks
+  // gathered out of it (not the checkpoint's copies, which count in checkpoint_ms), and chunks
+  // scattered into it once read. Not waits for the disk, but the same thread's time.
+  double evict_copy_ms = 0, upload_ms = 0;
   // Durability: saves are not flushed one by one; each commit() flushes the files written since
   // the previous one, then the folder, then writes the manifest (one barrier per checkpoint).
   uint64_t barriers = 0, synced_files = 0;
@@ -47,12 +51,15 @@ struct IoStats {
   std::string summary() const;  // one line for logs
 };
 
+// What happened between two snapshots of the same counters (b taken before a).
+IoStats operator-(const IoStats& a, const IoStats& b);
+
 class IoCounters {
  public:
   std::atomic<uint64_t> loads{0}, saves{0}, removes{0}, bytes_read{0}, bytes_written{0};
   std::atomic<uint64_t> load_ns{0}, save_ns{0}, wait_ns{0}, write_waits{0}, write_wait_ns{0};
   std::atomic<uint64_t> pool_loads{0}, prefetch_hits{0}, write_behind_hits{0}, sync_loads{0}, waits{0};
-  std::atomic<uint64_t> evictions_clean{0}, evictions_dirty{0};
+  std::atomic<uint64_t> evictions_clean{0}, evictions_dirty{0}, evict_copy_ns{0}, upload_ns{0};
   std::atomic<uint64_t> barriers{0}, synced_files{0}, barrier_ns{0}, checkpoints{0}, checkpoint_ns{0};
   std::atomic<uint64_t> checkpoints_behind{0}, checkpoint_behind_ns{0};
 
