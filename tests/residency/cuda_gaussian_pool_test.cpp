@@ -138,6 +138,48 @@ TEST(CudaGaussianPool, MovesBatchesLargerThanItsStagingInPieces) {
   expect_same(a, b);
 }
 
+// Several blocks against one slot list (how residency moves a portion of chunks): block boundaries
+// inside and across the staging pieces, an empty block among them, slots shuffled.
+TEST(CudaGaussianPool, MovesSeveralBlocksInOneTransferAsTheCpuPoolDoesOneByOne) {
+  CHUNGS_REQUIRE_GPU();
+  std::mt19937 rng(8);
+  const size_t piece = cuda::detail::pool_device_piece();
+  const std::vector<size_t> sizes = {7, piece - 3, 0, 11, piece + 5, 1};
+  size_t n = 0;
+  for (size_t k : sizes) n += k;
+  cuda::CudaGaussianPool gpu(n, 3);
+  CpuGaussianPool cpu(n, 3);
+  auto slots = gpu.allocate(n);
+  ASSERT_EQ(slots, cpu.allocate(n));
+  std::shuffle(slots.begin(), slots.end(), rng);
+  std::vector<GaussianBlock> blocks;
+  std::vector<ConstBlockArrays> in;
+  for (size_t k : sizes) blocks.push_back(random_block(k, rng));
+  for (const GaussianBlock& b : blocks) in.push_back(block_arrays(b));
+  gpu.scatter(in, slots);
+  size_t first = 0;
+  for (const GaussianBlock& b : blocks) {
+    cpu.scatter(b, std::span(slots).subspan(first, b.size()));
+    first += b.size();
+  }
+  std::shuffle(slots.begin(), slots.end(), rng);
+  std::vector<GaussianBlock> outs(sizes.size());
+  std::vector<BlockArrays> out;
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    outs[i].sh_degree = 3;
+    outs[i].resize(sizes[i]);
+    out.push_back(block_arrays(outs[i]));
+  }
+  gpu.gather(slots, out);
+  first = 0;
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    GaussianBlock b;
+    cpu.gather(std::span(slots).subspan(first, sizes[i]), b);
+    first += sizes[i];
+    expect_same(outs[i], b);
+  }
+}
+
 // The arrays grow on demand (issue 21): a growth copies every slot into bigger arrays behind the
 // scatters still in flight on the pool's stream, and device_arrays() then names the new arrays.
 TEST(CudaGaussianPool, GrowsKeepingEverySlotAndScattersInFlight) {

@@ -32,6 +32,20 @@ class CountingPool final : public GaussianPool {
     ++gathers;
     move(block_arrays(storage_), out, slots, false);
   }
+  void scatter_blocks_impl(std::span<const ConstBlockArrays> blocks, std::span<const uint32_t> slots) override {
+    ++scatters;
+    for (const ConstBlockArrays& b : blocks) {
+      move(block_arrays(storage_), b, slots.first(b.count), true);
+      slots = slots.subspan(b.count);
+    }
+  }
+  void gather_blocks_impl(std::span<const uint32_t> slots, std::span<const BlockArrays> outs) const override {
+    ++gathers;
+    for (const BlockArrays& b : outs) {
+      move(block_arrays(storage_), b, slots.first(b.count), false);
+      slots = slots.subspan(b.count);
+    }
+  }
 
  private:
   static void move(const ConstBlockArrays& pool, const ConstBlockArrays& block, std::span<const uint32_t> slots,

@@ -87,6 +87,42 @@ void GaussianPool::gather(std::span<const uint32_t> slots, const BlockArrays& ou
 }
 
 namespace {
+size_t total_count(auto blocks) {
+  size_t n = 0;
+  for (const auto& b : blocks) n += b.count;
+  return n;
+}
+}  // namespace
+
+void GaussianPool::scatter(std::span<const ConstBlockArrays> blocks, std::span<const uint32_t> slots) {
+  if (total_count(blocks) != slots.size())
+    fail("Gaussian pool: scatter of ", total_count(blocks), " Gaussians into ", slots.size(), " slots");
+  check_allocated(slots, "scatter");
+  scatter_blocks_impl(blocks, slots);
+}
+
+void GaussianPool::gather(std::span<const uint32_t> slots, std::span<const BlockArrays> outs) const {
+  if (total_count(outs) != slots.size())
+    fail("Gaussian pool: gather of ", slots.size(), " slots into room for ", total_count(outs), " Gaussians");
+  check_allocated(slots, "gather");
+  gather_blocks_impl(slots, outs);
+}
+
+void GaussianPool::scatter_blocks_impl(std::span<const ConstBlockArrays> blocks, std::span<const uint32_t> slots) {
+  for (const ConstBlockArrays& b : blocks) {
+    scatter_impl(b, slots.first(b.count));
+    slots = slots.subspan(b.count);
+  }
+}
+
+void GaussianPool::gather_blocks_impl(std::span<const uint32_t> slots, std::span<const BlockArrays> outs) const {
+  for (const BlockArrays& b : outs) {
+    gather_impl(slots.first(b.count), b);
+    slots = slots.subspan(b.count);
+  }
+}
+
+namespace {
 // Scatter: Gaussian i of the block to slot slots[i] of the pool; gather: the other way round. W
 // 4-byte values per Gaussian, known at compile time so that each copy is a few moves.
 template <bool Scatter, int W>

@@ -50,6 +50,10 @@ class GaussianPool {
   void gather(std::span<const uint32_t> slots, GaussianBlock& out) const;
   // The same into arrays held elsewhere, with room for exactly slots.size() Gaussians.
   void gather(std::span<const uint32_t> slots, const BlockArrays& out) const;
+  // Several blocks laid end to end against one list of slots, in one transfer where the pool's
+  // memory is far (a GPU: one round trip for all, not one per block, and no host copy in between).
+  void scatter(std::span<const ConstBlockArrays> blocks, std::span<const uint32_t> slots);
+  void gather(std::span<const uint32_t> slots, std::span<const BlockArrays> outs) const;
 
  protected:
   // Makes the arrays hold `slots` (> allocated()), keeping slots [0, allocated()) as they are;
@@ -57,6 +61,9 @@ class GaussianPool {
   virtual void grow_impl(size_t slots) = 0;
   virtual void scatter_impl(const ConstBlockArrays& block, std::span<const uint32_t> slots) = 0;
   virtual void gather_impl(std::span<const uint32_t> slots, const BlockArrays& out) const = 0;
+  // Block by block unless a pool moves them at once.
+  virtual void scatter_blocks_impl(std::span<const ConstBlockArrays> blocks, std::span<const uint32_t> slots);
+  virtual void gather_blocks_impl(std::span<const uint32_t> slots, std::span<const BlockArrays> outs) const;
 
  private:
   void check_allocated(std::span<const uint32_t> slots, const char* what) const;

@@ -66,7 +66,6 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
   if (pool_.used() != 0) fail("residency: the Gaussian pool must start empty (", pool_.used(), " slots in use)");
   config_.validate();
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
-  gather_scratch_.reserve(checkpoint_memory_limit() / 4);
   io_ = std::make_unique<IoWorker>(store_, host_blocks_, config_.async_io, prefetch_max(config_),
                                    write_behind_max(config_), config_.write_behind_threads);
 }
@@ -265,20 +264,10 @@ void Residency::load_many(std::span<const ChunkId> ids) {
         const std::vector<uint32_t> s = pool_.allocate(blocks.back()->size());
         slots.insert(slots.end(), s.begin(), s.end());
       }
+      std::vector<ConstBlockArrays> arrays;
+      for (const IoWorker::Block& b : blocks) arrays.push_back(b->arrays());
       ScopedTimer t(store_.counters().upload_ns);
-      if (blocks.size() == 1) {
-        pool_.scatter(blocks[0]->arrays(), slots);
-      } else {
-        load_scratch_.sh_degree = pool_.sh_degree();
-        load_scratch_.resize(slots.size());
-        const BlockArrays all = block_arrays(load_scratch_);
-        size_t first = 0;
-        for (const IoWorker::Block& b : blocks) {
-          copy_gaussians(b->arrays(), 0, b->size(), offset_arrays(all, first));
-          first += b->size();
-        }
-        pool_.scatter(block_arrays(std::as_const(load_scratch_)), slots);
-      }
+      pool_.scatter(arrays, slots);
     } catch (...) {
       pool_.release(slots);
       throw;

@@ -198,7 +198,7 @@ class Residency {
   std::vector<std::shared_ptr<const HostBlock>> copy_out_many(std::span<const ChunkId> ids);
   // The contents of the resident chunks `ids`, in their order, in blocks of the in-flight pool:
   // one gather of the pool per portion of about a quarter of the checkpoint's memory (on a GPU one
-  // round trip each, not one per chunk), through gather_scratch_.
+  // round trip each, not one per chunk), straight into the blocks.
   std::vector<std::shared_ptr<const HostBlock>> gather_chunks(std::span<const ChunkId> ids);
   // Chunks still to copy out, about `gaussians` of them (at least one chunk while any is left).
   std::vector<ChunkId> next_portion(size_t gaussians) const;
@@ -219,8 +219,6 @@ class Residency {
   void queue_reads_ahead();
   size_t resident_gaussians_ = 0, pinned_gaussians_ = 0, peak_resident_ = 0;
   HostBlockPool host_blocks_;   // before io_ and checkpoint_, which hold blocks of it
-  GaussianBlock gather_scratch_;  // one portion of gather_chunks; kept, so its memory is reused
-  GaussianBlock load_scratch_;    // one portion of load_many, the same way
   std::unique_ptr<IoWorker> io_;
   std::unique_ptr<CheckpointWriter> checkpoint_;  // in flight (begin_checkpoint)
   std::unordered_set<ChunkId> checkpoint_todo_;   // modified at its moment, not yet copied out

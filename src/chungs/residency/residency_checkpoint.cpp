@@ -21,30 +21,18 @@ std::vector<std::shared_ptr<const HostBlock>> Residency::gather_chunks(std::span
   out.reserve(ids.size());
   const size_t portion_limit = std::max<size_t>(checkpoint_memory_limit() / 4, 1);
   std::vector<uint32_t> slots;
+  std::vector<BlockArrays> arrays;
   for (size_t k = 0; k < ids.size();) {
-    size_t end = k;
     slots.clear();
-    for (; end < ids.size(); ++end) {
-      const auto& s = resident_.at(ids[end]).slots;
-      if (end > k && slots.size() + s.size() > portion_limit) break;
+    arrays.clear();
+    for (; k < ids.size() && (arrays.empty() || slots.size() < portion_limit); ++k) {
+      const auto& s = resident_.at(ids[k]).slots;
+      std::shared_ptr<HostBlock> block = host_blocks_.make(s.size(), pool_.sh_degree());
       slots.insert(slots.end(), s.begin(), s.end());
-    }
-    if (end == k + 1) {  // one chunk: straight into its block
-      std::shared_ptr<HostBlock> block = host_blocks_.make(slots.size(), pool_.sh_degree());
-      pool_.gather(slots, block->arrays());
-      out.push_back(std::move(block));
-      k = end;
-      continue;
-    }
-    pool_.gather(slots, gather_scratch_);
-    const ConstBlockArrays all = block_arrays(std::as_const(gather_scratch_));
-    for (size_t first = 0; k < end; ++k) {
-      const size_t n = resident_.at(ids[k]).slots.size();
-      std::shared_ptr<HostBlock> block = host_blocks_.make(n, pool_.sh_degree());
-      copy_gaussians(all, first, n, block->arrays());
-      first += n;
+      arrays.push_back(block->arrays());
       out.push_back(std::move(block));
     }
+    pool_.gather(slots, arrays);
   }
   return out;
 }

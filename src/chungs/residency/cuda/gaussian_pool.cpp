@@ -1,6 +1,8 @@
 #ifdef CHUNGS_WITH_CUDA
 #include "chungs/residency/cuda/gaussian_pool.hpp"
 
+#include <vector>
+
 #include "chungs/residency/cuda/pool_device.hpp"
 
 namespace chungs::cuda {
@@ -41,12 +43,32 @@ CudaGaussianPool::~CudaGaussianPool() { detail::pool_device_destroy(dev_); }
 void CudaGaussianPool::wait_uploads() { detail::pool_device_wait_uploads(dev_); }
 void CudaGaussianPool::synchronize() { detail::pool_device_synchronize(dev_); }
 
+namespace {
+template <class Arrays>
+std::vector<detail::HostArrays> host_arrays(std::span<const Arrays> blocks) {
+  std::vector<detail::HostArrays> out;
+  out.reserve(blocks.size());
+  for (const Arrays& b : blocks) out.push_back({reinterpret_cast<const void* const*>(b.data.data()), b.count});
+  return out;
+}
+}  // namespace
+
 void CudaGaussianPool::scatter_impl(const ConstBlockArrays& block, std::span<const uint32_t> slots) {
-  detail::pool_device_scatter(dev_, block.data.data(), slots.data(), slots.size());
+  scatter_blocks_impl(std::span(&block, 1), slots);
 }
 
 void CudaGaussianPool::gather_impl(std::span<const uint32_t> slots, const BlockArrays& out) const {
-  detail::pool_device_gather(dev_, out.data.data(), slots.data(), slots.size());
+  gather_blocks_impl(slots, std::span(&out, 1));
+}
+
+void CudaGaussianPool::scatter_blocks_impl(std::span<const ConstBlockArrays> blocks, std::span<const uint32_t> slots) {
+  const std::vector<detail::HostArrays> h = host_arrays(blocks);
+  detail::pool_device_scatter(dev_, h.data(), h.size(), slots.data(), slots.size());
+}
+
+void CudaGaussianPool::gather_blocks_impl(std::span<const uint32_t> slots, std::span<const BlockArrays> outs) const {
+  const std::vector<detail::HostArrays> h = host_arrays(outs);
+  detail::pool_device_gather(dev_, h.data(), h.size(), slots.data(), slots.size());
 }
 
 }  // namespace chungs::cuda

@@ -46,6 +46,8 @@ class CudaGaussianPool final : public GaussianPool {
   void grow_impl(size_t slots) override;
   void scatter_impl(const ConstBlockArrays& block, std::span<const uint32_t> slots) override;
   void gather_impl(std::span<const uint32_t> slots, const BlockArrays& out) const override;
+  void scatter_blocks_impl(std::span<const ConstBlockArrays> blocks, std::span<const uint32_t> slots) override;
+  void gather_blocks_impl(std::span<const uint32_t> slots, std::span<const BlockArrays> outs) const override;
 
  private:
   void refresh_arrays(size_t slots);

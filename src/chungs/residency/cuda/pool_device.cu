@@ -188,16 +188,37 @@ void* pool_device_array(PoolDevice* d, int array) { return d->arrays.at(size_t(a
 
 size_t pool_device_piece() { return kPieceGaussians; }
 
-void pool_device_scatter(PoolDevice* d, const void* const* host_arrays, const uint32_t* slots, size_t n) {
+namespace {
+// Array a (w elements a Gaussian) of Gaussians [first, first + m) of the blocks laid end to end,
+// to the staging buffer or back from it.
+void pack(const HostArrays* blocks, size_t block_count, int a, size_t w, size_t first, size_t m, uint32_t* staging,
+          bool to_staging) {
+  size_t base = 0;  // the first Gaussian of block b
+  for (size_t b = 0; b < block_count && m > 0; base += blocks[b].count, ++b) {
+    const size_t end = base + blocks[b].count;
+    if (end <= first) continue;
+    const size_t take = std::min(m, end - first);
+    auto* host = static_cast<uint32_t*>(const_cast<void*>(blocks[b].data[a])) + (first - base) * w;
+    if (to_staging)
+      std::memcpy(staging, host, take * w * 4);
+    else
+      std::memcpy(host, staging, take * w * 4);
+    staging += take * w;
+    first += take;
+    m -= take;
+  }
+}
+}  // namespace
+
+void pool_device_scatter(PoolDevice* d, const HostArrays* blocks, size_t block_count, const uint32_t* slots,
+                         size_t n) {
   for (size_t first = 0; first < n; first += kPieceGaussians) {
     const size_t m = std::min(kPieceGaussians, n - first);
     size_t total = 0;
     const Layout L = d->layout(m, total);
     Staging& s = d->take();
-    for (int a = 0; a < d->count; ++a) {
-      const size_t w = size_t(d->widths[a]);
-      std::memcpy(s.host + L.offset[a], static_cast<const uint32_t*>(host_arrays[a]) + first * w, m * w * 4);
-    }
+    for (int a = 0; a < d->count; ++a)
+      pack(blocks, block_count, a, size_t(d->widths[a]), first, m, s.host + L.offset[a], true);
     std::memcpy(s.host + total, slots + first, m * 4);
     check(cudaMemcpyAsync(s.device, s.host, (total + m) * 4, cudaMemcpyHostToDevice, d->stream), "upload");
     d->after_compute();  // slots being overwritten may still be read by queued renders
@@ -207,7 +228,8 @@ void pool_device_scatter(PoolDevice* d, const void* const* host_arrays, const ui
   }
 }
 
-void pool_device_gather(PoolDevice* d, void* const* host_arrays, const uint32_t* slots, size_t n) {
+void pool_device_gather(PoolDevice* d, const HostArrays* blocks, size_t block_count, const uint32_t* slots,
+                        size_t n) {
   for (size_t first = 0; first < n; first += kPieceGaussians) {
     const size_t m = std::min(kPieceGaussians, n - first);
     size_t total = 0;
@@ -220,10 +242,8 @@ void pool_device_gather(PoolDevice* d, void* const* host_arrays, const uint32_t*
     check(cudaMemcpyAsync(s.host, s.device, total * 4, cudaMemcpyDeviceToHost, d->stream), "download");
     check(cudaEventRecord(s.done, d->stream), "event record");
     check(cudaEventSynchronize(s.done), "download wait");
-    for (int a = 0; a < d->count; ++a) {
-      const size_t w = size_t(d->widths[a]);
-      std::memcpy(static_cast<uint32_t*>(host_arrays[a]) + first * w, s.host + L.offset[a], m * w * 4);
-    }
+    for (int a = 0; a < d->count; ++a)
+      pack(blocks, block_count, a, size_t(d->widths[a]), first, m, s.host + L.offset[a], false);
   }
 }
 
