@@ -148,6 +148,11 @@ nlohmann::json chunk_io_report(const IoStats& io, double map_seconds) {
           // The optimiser thread's copies out of the pool (evictions) and into it (loads).
           {"evict_copy_ms", io.evict_copy_ms},
           {"upload_ms", io.upload_ms},
+          {"evicting_ms", io.evicting_ms},
+          {"loading_ms", io.loading_ms},
+          {"read_ahead_full", io.read_ahead_full},
+          {"read_ahead_no_room", io.read_ahead_no_room},
+          {"reader_writes", io.reader_writes},
           {"summary", io.summary()}};
 }
 
@@ -167,7 +172,12 @@ nlohmann::json refinement_report(const Mapper::RefineStats& r, double seconds, c
                         {"bytes_read", io.bytes_read},
                         {"bytes_written", io.bytes_written},
                         {"evict_copy_ms", io.evict_copy_ms},
-                        {"upload_ms", io.upload_ms}}}};
+                        {"upload_ms", io.upload_ms},
+                        {"evicting_ms", io.evicting_ms},
+                        {"loading_ms", io.loading_ms},
+                        {"read_ahead_full", io.read_ahead_full},
+                        {"read_ahead_no_room", io.read_ahead_no_room},
+                        {"reader_writes", io.reader_writes}}}};
   if (steps.steps) j["step_ms"] = step_report(steps);
   return j;
 }

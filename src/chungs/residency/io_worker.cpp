@@ -212,6 +212,7 @@ bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
       const auto stale = std::find_if(staged_order_.begin(), staged_order_.end(),
                                       [&](ChunkId c) { return !wanted_.count(c); });
       if (stale == staged_order_.end()) {
+        counters_.read_ahead_full++;
         prefetch_queue_.clear();
         return false;
       }
@@ -226,6 +227,7 @@ bool IoWorker::prefetch_one(std::unique_lock<std::mutex>& lock) {
     // reading further waits for the next prediction; the heap is not the place for a guess.
     std::shared_ptr<HostBlock> block = blocks_.make_in_pool(count, store_.sh_degree());
     if (!block) {
+      counters_.read_ahead_no_room++;
       prefetch_queue_.clear();
       return false;
     }
@@ -262,7 +264,10 @@ void IoWorker::run() {
     // Reads first unless the write queue is half full: the caller waits on missing reads now,
     // but on writes only once the queue is full.
     const bool writes_urgent = pending_gaussians_ * 2 > write_behind_max_;
-    if (writes_urgent && write_one(lock)) continue;
+    if (writes_urgent && write_one(lock)) {
+      counters_.reader_writes++;
+      continue;
+    }
     if (prefetch_one(lock)) continue;
     if (write_one(lock)) continue;
     if (stop_) return;

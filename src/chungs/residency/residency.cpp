@@ -252,6 +252,7 @@ bool Residency::make_room(uint64_t extra, std::span<const ChunkId> keep, size_t*
 }
 
 void Residency::load_many(std::span<const ChunkId> ids) {
+  ScopedTimer all(store_.counters().loading_ns);
   // Scattered into the pool a portion at a time, one transfer each (on a GPU one upload per portion
   // instead of one per chunk; a refinement step under 300 k loads ~60).
   const size_t portion = std::max<size_t>(checkpoint_memory_limit() / 4, 1);
@@ -310,6 +311,7 @@ std::shared_ptr<const HostBlock> Residency::take_block(ChunkId id) {
 }
 
 void Residency::evict_entries(std::span<const ChunkId> ids) {
+  ScopedTimer all(store_.counters().evicting_ns);
   // Modified chunks leave the pool a portion at a time, one gather each: on a GPU one round trip per
   // portion instead of one per chunk (a refinement step under 300 k evicts ~70). Portions, not all at
   // once, so that the copies made wait for the write queue's room as they did one by one.

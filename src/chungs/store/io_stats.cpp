@@ -14,6 +14,8 @@ IoStats IoCounters::snapshot() const {
   s.write_waits = write_waits, s.write_wait_ms = double(write_wait_ns) * 1e-6;
   s.evictions_clean = evictions_clean, s.evictions_dirty = evictions_dirty;
   s.evict_copy_ms = double(evict_copy_ns) * 1e-6, s.upload_ms = double(upload_ns) * 1e-6;
+  s.evicting_ms = double(evicting_ns) * 1e-6, s.loading_ms = double(loading_ns) * 1e-6;
+  s.read_ahead_full = read_ahead_full, s.read_ahead_no_room = read_ahead_no_room, s.reader_writes = reader_writes;
   s.barriers = barriers, s.synced_files = synced_files, s.barrier_ms = double(barrier_ns) * 1e-6;
   s.checkpoints = checkpoints, s.checkpoint_ms = double(checkpoint_ns) * 1e-6;
   s.checkpoints_behind = checkpoints_behind, s.checkpoint_behind_ms = double(checkpoint_behind_ns) * 1e-6;
@@ -26,7 +28,8 @@ void IoCounters::reset() {
         &save_ns,     &wait_ns,         &pool_loads,      &prefetch_hits, &write_behind_hits, &sync_loads,
         &waits,       &evictions_clean, &evictions_dirty, &barriers,      &synced_files,      &barrier_ns,
         &checkpoints, &checkpoint_ns,   &checkpoints_behind, &checkpoint_behind_ns, &write_waits, &write_wait_ns,
-        &evict_copy_ns, &upload_ns})
+        &evict_copy_ns, &upload_ns, &evicting_ns, &loading_ns,
+        &read_ahead_full, &read_ahead_no_room, &reader_writes})
     c->store(0);
 }
 
@@ -36,11 +39,12 @@ IoStats operator-(const IoStats& a, const IoStats& b) {
   for (auto f : {&IoStats::loads, &IoStats::saves, &IoStats::removes, &IoStats::bytes_read, &IoStats::bytes_written,
                  &IoStats::pool_loads, &IoStats::prefetch_hits, &IoStats::write_behind_hits, &IoStats::sync_loads,
                  &IoStats::waits, &IoStats::write_waits, &IoStats::evictions_clean, &IoStats::evictions_dirty,
-                 &IoStats::barriers, &IoStats::synced_files, &IoStats::checkpoints, &IoStats::checkpoints_behind})
+                 &IoStats::barriers, &IoStats::synced_files, &IoStats::checkpoints, &IoStats::checkpoints_behind,
+                 &IoStats::read_ahead_full, &IoStats::read_ahead_no_room, &IoStats::reader_writes})
     diff(f);
   for (auto f : {&IoStats::load_ms, &IoStats::save_ms, &IoStats::wait_ms, &IoStats::write_wait_ms,
                  &IoStats::evict_copy_ms, &IoStats::upload_ms, &IoStats::barrier_ms, &IoStats::checkpoint_ms,
-                 &IoStats::checkpoint_behind_ms})
+                 &IoStats::checkpoint_behind_ms, &IoStats::evicting_ms, &IoStats::loading_ms})
     diff(f);
   return d;
 }
