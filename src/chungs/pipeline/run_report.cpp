@@ -150,6 +150,7 @@ nlohmann::json chunk_io_report(const IoStats& io, double map_seconds) {
           {"upload_ms", io.upload_ms},
           {"evicting_ms", io.evicting_ms},
           {"loading_ms", io.loading_ms},
+          {"take_ms", io.take_ms},
           {"read_ahead_full", io.read_ahead_full},
           {"read_ahead_no_room", io.read_ahead_no_room},
           {"reader_writes", io.reader_writes},
@@ -175,6 +176,8 @@ nlohmann::json refinement_report(const Mapper::RefineStats& r, double seconds, c
                         {"upload_ms", io.upload_ms},
                         {"evicting_ms", io.evicting_ms},
                         {"loading_ms", io.loading_ms},
+                        {"take_ms", io.take_ms},
+          {"take_ms", io.take_ms},
                         {"read_ahead_full", io.read_ahead_full},
                         {"read_ahead_no_room", io.read_ahead_no_room},
                         {"reader_writes", io.reader_writes}}}};

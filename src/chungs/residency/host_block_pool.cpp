@@ -7,6 +7,8 @@
 #include <map>
 #include <mutex>
 #include <new>
+#include <set>
+#include <utility>
 
 #include "chungs/common/log.hpp"
 
@@ -30,6 +32,9 @@ struct HostRegion {
   size_t size = 0;
   mutable std::mutex mutex;
   std::map<size_t, size_t> free;  // offset -> bytes, no two adjacent
+  // The same ranges by (bytes, offset): the best fit is one lookup. A scan of `free` under this
+  // lock, once per block, grew with the ranges that the queues' churn leaves.
+  std::set<std::pair<size_t, size_t>> by_size;
   size_t used = 0, peak = 0;
   uint64_t heap_blocks = 0;
   bool resident = false;
@@ -37,22 +42,26 @@ struct HostRegion {
   ~HostRegion() {
     if (base) ::munmap(base, size);
   }
-
+  void add_free(size_t offset, size_t bytes) {
+    free.emplace(offset, bytes);
+    by_size.emplace(bytes, offset);
+  }
+  void erase_free(std::map<size_t, size_t>::iterator it) {
+    by_size.erase({it->second, it->first});
+    free.erase(it);
+  }
   // Best fit: the smallest free range that holds `bytes`, lowest first among equals.
   bool take(size_t bytes, size_t& offset) {
-    auto best = free.end();
-    for (auto it = free.begin(); it != free.end(); ++it)
-      if (it->second >= bytes && (best == free.end() || it->second < best->second)) best = it;
-    if (best == free.end()) return false;
-    offset = best->first;
-    const size_t left = best->second - bytes;
-    free.erase(best);
-    if (left) free.emplace(offset + bytes, left);
+    const auto best = by_size.lower_bound({bytes, 0});
+    if (best == by_size.end()) return false;
+    offset = best->second;
+    const size_t left = best->first - bytes;
+    erase_free(free.find(offset));
+    if (left) add_free(offset + bytes, left);
     used += bytes;
     peak = std::max(peak, used);
     return true;
   }
-
   void give_back(size_t offset, size_t bytes) {
     used -= bytes;
     auto next = free.lower_bound(offset);
@@ -61,17 +70,16 @@ struct HostRegion {
       if (prev->first + prev->second == offset) {
         offset = prev->first;
         bytes += prev->second;
-        free.erase(prev);
+        erase_free(prev);
       }
     }
     if (next != free.end() && offset + bytes == next->first) {
       bytes += next->second;
-      free.erase(next);
+      erase_free(next);
     }
-    free.emplace(offset, bytes);
+    add_free(offset, bytes);
   }
 };
-
 }  // namespace detail
 
 HostBlock::~HostBlock() {
@@ -93,7 +101,7 @@ HostBlockPool::HostBlockPool(size_t bytes) : region_(std::make_shared<detail::Ho
   }
   region_->base = static_cast<std::byte*>(p);
   region_->size = size;
-  region_->free.emplace(0, size);
+  region_->add_free(0, size);
 }
 
 void HostBlockPool::make_resident() {

@@ -293,6 +293,7 @@ std::shared_ptr<const HostBlock> Residency::take_block(ChunkId id) {
   IoWorker::Block block;
   IoWorker::Source src = IoWorker::Source::Absent;
   if (n > 0) {
+    ScopedTimer t(store_.counters().take_ns);
     block = io_->take(id, &src);
   } else {
     block = std::make_shared<const HostBlock>();
