@@ -1,6 +1,7 @@
 #include "chungs/residency/io_worker.hpp"
 
 #include <algorithm>
+#include <unordered_set>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
@@ -94,42 +95,63 @@ void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks)
 }
 
 IoWorker::Block IoWorker::take(ChunkId id, Source* source) {
-  Source dummy;
-  Source& src = source ? *source : dummy;
+  std::vector<Source> sources;
+  std::vector<Block> blocks = take_many(std::span(&id, 1), sources);
+  if (source) *source = sources[0];
+  return std::move(blocks[0]);
+}
+
+std::vector<IoWorker::Block> IoWorker::take_many(std::span<const ChunkId> ids, std::vector<Source>& sources) {
+  std::vector<Block> out(ids.size());
+  sources.assign(ids.size(), Source::Absent);
+  std::vector<size_t> unread;  // not in memory: read on the caller's thread
   if (background_) {
     std::unique_lock lock(mutex_);
-    if (auto it = pending_.find(id); it != pending_.end()) {
-      src = Source::WriteBehind;
-      return it->second.data;
+    const std::unordered_set<ChunkId> wanted(ids.begin(), ids.end());
+    std::erase_if(prefetch_queue_, [&](const auto& c) { return wanted.count(c.first) > 0; });
+    bool took_staged = false;
+    for (size_t i = 0; i < ids.size(); ++i) {
+      const ChunkId id = ids[i];
+      if (auto it = pending_.find(id); it != pending_.end()) {
+        sources[i] = Source::WriteBehind;
+        out[i] = it->second.data;
+        continue;
+      }
+      if (reading_ == id) {
+        ScopedTimer t(counters_.wait_ns);
+        counters_.waits++;
+        done_cv_.wait(lock, [&] { return reading_ != id; });
+        sources[i] = Source::InFlight;
+      } else {
+        sources[i] = Source::Prefetched;
+      }
+      if (auto it = staged_.find(id); it != staged_.end()) {
+        out[i] = std::move(it->second);
+        staged_gaussians_ -= out[i]->size();
+        staged_.erase(it);
+        took_staged = true;
+        continue;
+      }
+      unread.push_back(i);
     }
-    std::erase_if(prefetch_queue_, [&](const auto& c) { return c.first == id; });
-    if (reading_ == id) {
-      ScopedTimer t(counters_.wait_ns);
-      counters_.waits++;
-      done_cv_.wait(lock, [&] { return reading_ != id; });
-      src = Source::InFlight;
-    } else {
-      src = Source::Prefetched;
-    }
-    if (auto it = staged_.find(id); it != staged_.end()) {
-      Block b = std::move(it->second);
-      staged_gaussians_ -= b->size();
-      staged_.erase(it);
-      std::erase(staged_order_, id);
-      return b;
-    }
+    if (took_staged) std::erase_if(staged_order_, [&](ChunkId c) { return wanted.count(c) && !staged_.count(c); });
+  } else {
+    for (size_t i = 0; i < ids.size(); ++i) unread.push_back(i);
   }
-  // Not in memory: read on the caller's thread.
-  if (!store_.contains(id)) {
-    src = Source::Absent;
-    return std::make_shared<const HostBlock>();
+  for (size_t i : unread) {
+    if (!store_.contains(ids[i])) {
+      sources[i] = Source::Absent;
+      out[i] = std::make_shared<const HostBlock>();
+      continue;
+    }
+    sources[i] = Source::Disk;
+    ScopedTimer t(counters_.wait_ns);
+    counters_.waits++;
+    std::shared_ptr<HostBlock> block = blocks_.make(store_.count(ids[i]), store_.sh_degree());
+    store_.load_into(ids[i], [&](uint64_t, int) { return block->arrays(); });  // the read checks the count
+    out[i] = std::move(block);
   }
-  src = Source::Disk;
-  ScopedTimer t(counters_.wait_ns);
-  counters_.waits++;
-  std::shared_ptr<HostBlock> block = blocks_.make(store_.count(id), store_.sh_degree());
-  store_.load_into(id, [&](uint64_t, int) { return block->arrays(); });  // the read checks the count
-  return block;
+  return out;
 }
 
 void IoWorker::drain() {

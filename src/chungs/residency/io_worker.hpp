@@ -22,6 +22,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <thread>
 #include <unordered_map>
 #include <unordered_set>
@@ -51,6 +52,9 @@ class IoWorker {
   void prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks);
   // The chunk's current content; an absent chunk gives an empty block. Never stale (see above).
   Block take(ChunkId id, Source* source = nullptr);
+  // take() of several chunks under one acquisition of the lock (the I/O threads hold it often:
+  // a refinement step under a small budget takes ~60 chunks); their contents and sources in order.
+  std::vector<Block> take_many(std::span<const ChunkId> ids, std::vector<Source>& sources);
   // Waits until every queued write is on disk, first retrying a write that failed earlier;
   // throws if a write fails. A failed write keeps its block queued and served to loads, and
   // write_behind() refuses new blocks (throws) until a drain() has succeeded.

@@ -181,7 +181,8 @@ class Residency {
   bool make_room(uint64_t extra, std::span<const ChunkId> keep, size_t* evicted);
   // Makes the chunks resident (none of them is), reading those not read ahead.
   void load_many(std::span<const ChunkId> ids);
-  std::shared_ptr<const HostBlock> take_block(ChunkId id);  // its content, read ahead or now; counted
+  // Their contents, read ahead or now, checked against the map's counts; counted.
+  std::vector<std::shared_ptr<const HostBlock>> take_blocks(std::span<const ChunkId> ids);
   // Evicts unpinned resident chunks; the modified ones are copied out a portion at a time and
   // written behind.
   void evict_entries(std::span<const ChunkId> ids);
