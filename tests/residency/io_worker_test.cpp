@@ -183,3 +183,34 @@ TEST(IoWorker, AWaitForAFullWriteQueueIsCountedApart) {
   EXPECT_LE(s.write_wait_ms, s.wait_ms);
   EXPECT_NE(s.summary().find("1 for a full write queue"), std::string::npos) << s.summary();
 }
+
+// Several chunks under one lock: each comes from where take() would get it (a queued write, the
+// read-ahead, or the disk on the caller's thread), exactly as stored, in the order asked.
+TEST(IoWorker, TakingSeveralAtOnceGivesEachFromWhereItIs) {
+  test::TempDir dir;
+  ChunkStore store(dir.path(), exact());
+  for (int x = 0; x < 3; ++x) store.save(cid(x), test::random_block(40 + size_t(x), uint64_t(x) + 1));
+  HostBlockPool blocks(16 * HostBlockPool::block_bytes(64));
+  IoWorker io(store, blocks, true, 1000, 1000);
+  io.prefetch({{cid(1), 41}});
+  wait_for([&] { return io.staged_gaussians() == 41; });
+  ASSERT_EQ(io.staged_gaussians(), 41u);
+  // A newer content of chunk 2 queued for writing: it is what must come back, not the file.
+  const GaussianBlock newer = test::random_block(42, 99);
+  std::shared_ptr<HostBlock> queued = blocks.make(42, newer.sh_degree);
+  copy_gaussians(block_arrays(newer), 0, 42, queued->arrays());
+  io.write_behind(cid(2), queued);
+  const std::vector<ChunkId> ids = {cid(2), cid(0), cid(1)};
+  std::vector<IoWorker::Source> sources;
+  const std::vector<IoWorker::Block> got = io.take_many(ids, sources);
+  ASSERT_EQ(got.size(), 3u);
+  // The queued write may have finished meanwhile: then the file holds the newer content.
+  EXPECT_TRUE(sources[0] == IoWorker::Source::WriteBehind || sources[0] == IoWorker::Source::Disk);
+  EXPECT_EQ(sources[1], IoWorker::Source::Disk);
+  EXPECT_EQ(sources[2], IoWorker::Source::Prefetched);
+  EXPECT_TRUE(test::same_bits(as_block(*got[0]), newer));
+  EXPECT_TRUE(test::same_bits(as_block(*got[1]), store.load(cid(0))));
+  EXPECT_TRUE(test::same_bits(as_block(*got[2]), store.load(cid(1))));
+  EXPECT_EQ(io.staged_gaussians(), 0u);
+  io.drain();
+}
