@@ -151,6 +151,7 @@ nlohmann::json chunk_io_report(const IoStats& io, double map_seconds) {
           {"evicting_ms", io.evicting_ms},
           {"loading_ms", io.loading_ms},
           {"take_ms", io.take_ms},
+          {"take_lock_ms", io.take_lock_ms},
           {"read_ahead_full", io.read_ahead_full},
           {"read_ahead_no_room", io.read_ahead_no_room},
           {"reader_writes", io.reader_writes},
@@ -177,7 +178,10 @@ nlohmann::json refinement_report(const Mapper::RefineStats& r, double seconds, c
                         {"evicting_ms", io.evicting_ms},
                         {"loading_ms", io.loading_ms},
                         {"take_ms", io.take_ms},
+                        {"take_lock_ms", io.take_lock_ms},
+          {"take_lock_ms", io.take_lock_ms},
           {"take_ms", io.take_ms},
+          {"take_lock_ms", io.take_lock_ms},
                         {"read_ahead_full", io.read_ahead_full},
                         {"read_ahead_no_room", io.read_ahead_no_room},
                         {"reader_writes", io.reader_writes}}}};

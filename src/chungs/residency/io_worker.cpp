@@ -106,7 +106,11 @@ std::vector<IoWorker::Block> IoWorker::take_many(std::span<const ChunkId> ids, s
   sources.assign(ids.size(), Source::Absent);
   std::vector<size_t> unread;  // not in memory: read on the caller's thread
   if (background_) {
-    std::unique_lock lock(mutex_);
+    std::unique_lock lock(mutex_, std::defer_lock);
+    {
+      ScopedTimer t(counters_.take_lock_ns);
+      lock.lock();
+    }
     const std::unordered_set<ChunkId> wanted(ids.begin(), ids.end());
     std::erase_if(prefetch_queue_, [&](const auto& c) { return wanted.count(c.first) > 0; });
     bool took_staged = false;

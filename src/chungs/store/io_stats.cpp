@@ -15,7 +15,7 @@ IoStats IoCounters::snapshot() const {
   s.evictions_clean = evictions_clean, s.evictions_dirty = evictions_dirty;
   s.evict_copy_ms = double(evict_copy_ns) * 1e-6, s.upload_ms = double(upload_ns) * 1e-6;
   s.evicting_ms = double(evicting_ns) * 1e-6, s.loading_ms = double(loading_ns) * 1e-6;
-  s.take_ms = double(take_ns) * 1e-6;
+  s.take_ms = double(take_ns) * 1e-6, s.take_lock_ms = double(take_lock_ns) * 1e-6;
   s.read_ahead_full = read_ahead_full, s.read_ahead_no_room = read_ahead_no_room, s.reader_writes = reader_writes;
   s.barriers = barriers, s.synced_files = synced_files, s.barrier_ms = double(barrier_ns) * 1e-6;
   s.checkpoints = checkpoints, s.checkpoint_ms = double(checkpoint_ns) * 1e-6;
@@ -29,7 +29,7 @@ void IoCounters::reset() {
         &save_ns,     &wait_ns,         &pool_loads,      &prefetch_hits, &write_behind_hits, &sync_loads,
         &waits,       &evictions_clean, &evictions_dirty, &barriers,      &synced_files,      &barrier_ns,
         &checkpoints, &checkpoint_ns,   &checkpoints_behind, &checkpoint_behind_ns, &write_waits, &write_wait_ns,
-        &evict_copy_ns, &upload_ns, &evicting_ns, &loading_ns, &take_ns,
+        &evict_copy_ns, &upload_ns, &evicting_ns, &loading_ns, &take_ns, &take_lock_ns,
         &read_ahead_full, &read_ahead_no_room, &reader_writes})
     c->store(0);
 }
@@ -45,7 +45,7 @@ IoStats operator-(const IoStats& a, const IoStats& b) {
     diff(f);
   for (auto f : {&IoStats::load_ms, &IoStats::save_ms, &IoStats::wait_ms, &IoStats::write_wait_ms,
                  &IoStats::evict_copy_ms, &IoStats::upload_ms, &IoStats::barrier_ms, &IoStats::checkpoint_ms,
-                 &IoStats::checkpoint_behind_ms, &IoStats::evicting_ms, &IoStats::loading_ms, &IoStats::take_ms})
+                 &IoStats::checkpoint_behind_ms, &IoStats::evicting_ms, &IoStats::loading_ms, &IoStats::take_ms, &IoStats::take_lock_ms})
     diff(f);
   return d;
 }

@@ -32,6 +32,7 @@ struct IoStats {
   // resident (waits, copies, bookkeeping), the copies and waits above included.
   double evicting_ms = 0, loading_ms = 0;
   double take_ms = 0;  // of loading_ms: taking the chunks' contents from the I/O threads (waits included)
+  double take_lock_ms = 0;  // of take_ms: waiting for the I/O threads' lock
   // Why reading ahead paused until the next prediction: every chunk read ahead is still wanted and
   // they fill the read-ahead, or the host memory for chunks in flight was taken (by queued writes).
   uint64_t read_ahead_full = 0, read_ahead_no_room = 0;
@@ -68,7 +69,7 @@ class IoCounters {
   std::atomic<uint64_t> load_ns{0}, save_ns{0}, wait_ns{0}, write_waits{0}, write_wait_ns{0};
   std::atomic<uint64_t> pool_loads{0}, prefetch_hits{0}, write_behind_hits{0}, sync_loads{0}, waits{0};
   std::atomic<uint64_t> evictions_clean{0}, evictions_dirty{0}, evict_copy_ns{0}, upload_ns{0};
-  std::atomic<uint64_t> evicting_ns{0}, loading_ns{0}, take_ns{0}, read_ahead_full{0}, read_ahead_no_room{0}, reader_writes{0};
+  std::atomic<uint64_t> evicting_ns{0}, loading_ns{0}, take_ns{0}, take_lock_ns{0}, read_ahead_full{0}, read_ahead_no_room{0}, reader_writes{0};
   std::atomic<uint64_t> barriers{0}, synced_files{0}, barrier_ns{0}, checkpoints{0}, checkpoint_ns{0};
   std::atomic<uint64_t> checkpoints_behind{0}, checkpoint_behind_ns{0};
 
