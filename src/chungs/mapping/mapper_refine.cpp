@@ -58,13 +58,12 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
   for (refill(); !queue.empty(); refill()) {
     residency_->advance_checkpoint();
     if (!residency_->all_resident()) {
-      // This step's chunks first, then those of every step queued: read in the background meanwhile.
-      // The queue reaches a few visits ahead; hinting only the next 1 + read_ahead_steps views left a
-      // visit's first steps waiting for most of its group (a quarter of the refinement's loads under
-      // 300 k on the GPU), where the reads, on one thread, had time to spare.
+      // This step's chunks first, then those of the next few: read in the background meanwhile.
+      // (Naming every queued step's chunks, a few visits ahead, left as many loads waiting on the GPU:
+      // bench/README.md, issue 19, 2026-12-04 afternoon.)
       std::vector<ChunkId> wanted;
       // The views were culled for the plan; the nearest chunks that fit the budget are what a step loads.
-      for (size_t j = 0; j < queue.size(); ++j) {
+      for (size_t j = 0; j < std::min(queue.size(), 1 + ahead); ++j) {
         const BudgetGroups fits = split_by_budget(views[queue[j]], residency_->budget());
         if (!fits.groups.empty()) wanted.insert(wanted.end(), fits.groups[0].begin(), fits.groups[0].end());
       }
