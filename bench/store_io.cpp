@@ -273,7 +273,8 @@ void BM_ResidencyStream(benchmark::State& st) {
 // "optimises" for 4 ms (a quarter of the GPU's step on a view 4x this size), and marks them modified;
 // each group gets 40 steps, in `rounds` visits of 40 / rounds steps (mapper.refinement_rounds).
 // `writers`: residency.write_behind_threads. Counters: the optimiser's wait in all, as a share of the
-// time and for a full write queue, loads it waited for, saves and evictions written behind.
+// time and for a full write queue, loads it waited for, saves and evictions written behind, and its own time
+// making chunks resident (`loading_ms`, of which `take_ms` taking them from the I/O threads) and evicting.
 void BM_RefinementVisits(benchmark::State& st) {
   const int writers = int(st.range(0)), rounds = int(st.range(1));
   constexpr int kGroups = 8, kGroupChunks = 240, kView = 100, kStepsPerGroup = 40, kReadAhead = 4;
@@ -336,6 +337,10 @@ void BM_RefinementVisits(benchmark::State& st) {
   st.counters["saves"] = double(stats.saves);
   st.counters["dirty_evictions"] = double(stats.evictions_dirty);
   st.counters["write_wait_ms"] = stats.write_wait_ms;
+  // The optimiser thread's own time making chunks resident, and of it taking them from the I/O threads.
+  st.counters["loading_ms"] = stats.loading_ms;
+  st.counters["take_ms"] = stats.take_ms;
+  st.counters["evicting_ms"] = stats.evicting_ms;
   st.counters["load_ms_avg"] = stats.mean_load_ms();
   st.counters["save_ms_avg"] = stats.mean_save_ms();
 }

@@ -75,6 +75,32 @@ TEST(MappingRun, FixedPacingRefinesOneStepAKeyframeByDefault) {
   EXPECT_EQ(r["iterations"].get<uint64_t>(), keyframes * uint64_t(c.mapper.iterations_per_keyframe) + keyframes);
 }
 
+// Under a budget the refinement streams the map through it: the report gives its own chunk I/O
+// (a part of the run's) and where its steps' time went.
+TEST(MappingRun, TheRefinementReportsItsOwnChunkIoUnderABudget) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(24, 64, 48, 0.25);  // 6 m of wall over 1 m chunks
+  Config c = tiny_config();
+  c.store.chunk_size = 0.5;
+  c.residency.budget_gaussians = 1000;
+  c.mapper.final_iterations = 40;
+  const auto r = run_mapping(options(dir / "map", c), seq);
+  ASSERT_TRUE(r.contains("refinement")) << r.dump(1);
+  const auto& io = r["refinement"]["chunk_io"];
+  const uint64_t loads = io["pool_loads"], all_loads = r["chunk_io"]["pool_loads"];
+  EXPECT_GT(loads, 0u);
+  EXPECT_LT(loads, all_loads);  // the drive loaded chunks too
+  EXPECT_GT(io["evictions_dirty"].get<uint64_t>(), 0u);
+  EXPECT_LE(io["take_ms"].get<double>(), io["loading_ms"].get<double>());
+  EXPECT_LE(io["upload_ms"].get<double>(), io["loading_ms"].get<double>());
+  EXPECT_LE(io["evict_copy_ms"].get<double>(), io["evicting_ms"].get<double>());
+  EXPECT_LE(io["loading_ms"].get<double>(), r["chunk_io"]["loading_ms"].get<double>());
+  const auto& steps = r["refinement"]["step_ms"];
+  EXPECT_GT(steps["mean"].get<double>(), 0.0);
+  EXPECT_LE(steps["pin"].get<double>(), steps["mean"].get<double>());
+}
+
 TEST(MappingRun, ResidentGaussiansNeverExceedTheBudget) {
   log::set_level(log::Level::Warn);
   test::TempDir dir;

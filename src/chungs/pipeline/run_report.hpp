@@ -23,7 +23,8 @@ nlohmann::json step_report(const Mapper::StepTimes& t);  // per step, ms; t.step
 nlohmann::json memory_report(const Mapper& mapper, const std::vector<TimelineSample>& timeline);
 nlohmann::json chunk_io_report(const IoStats& io, double map_seconds);
 // The refinement after the last frame: its steps and groups, its time, where its steps' time went
-// (steps: the StepTimes of the refinement alone) and its chunk I/O (io: the counters' change over it).
+// (steps: the StepTimes of the refinement alone) and its chunk I/O (io: the counters' change over it,
+// reported as chunk_io_report does with the refinement's seconds).
 nlohmann::json refinement_report(const Mapper::RefineStats& r, double seconds, const Mapper::StepTimes& steps,
                                  const IoStats& io);
 nlohmann::json keyframe_io_report(const IoStats& kio);

@@ -166,6 +166,7 @@ void sync_files(std::span<const fs::path> files) {
 void set_file_event_hook(FileEventHook hook) { event_hook.store(hook); }
 
 void remove_file(const fs::path& file, bool durable) {
+  notify(file, FileEvent::Removing);
   if (::unlink(file.c_str()) != 0) {
     if (errno == ENOENT) return;
     fail(file.string(), ": cannot remove: ", why());

@@ -292,12 +292,16 @@ void ChunkStore::save_arrays(ChunkId id, const ConstBlockArrays& block) {
     return;
   }
   const auto [generation, info] = write_generation(id, block);
-  std::lock_guard lock(mutex_);
-  auto [it, fresh] = manifest_.chunks.try_emplace(id);
-  if (!fresh) retire({id, it->second.generation, false});
-  it->second = {info.count, info.file_bytes, info.payload_checksum, generation};
-  if (config_.durable) unsynced_.insert({id, generation});
-  dirty_ = true;
+  std::optional<Retired> doomed;
+  {
+    std::lock_guard lock(mutex_);
+    auto [it, fresh] = manifest_.chunks.try_emplace(id);
+    if (!fresh) doomed = retire({id, it->second.generation, false});
+    it->second = {info.count, info.file_bytes, info.payload_checksum, generation};
+    if (config_.durable) unsynced_.insert({id, generation});
+    dirty_ = true;
+  }
+  if (doomed) delete_file(*doomed);
 }
 
 std::pair<uint64_t, ChunkFileInfo> ChunkStore::write_generation(ChunkId id, const ConstBlockArrays& block) {
@@ -346,15 +350,20 @@ void ChunkStore::remove(ChunkId id) {
     throw;
   }
   counters_.removes++;
-  std::lock_guard lock(mutex_);
-  writing_.erase(generation);
-  auto it = manifest_.chunks.find(id);
-  if (it != manifest_.chunks.end()) {
-    retire({id, it->second.generation, false});
-    manifest_.chunks.erase(it);
+  std::optional<Retired> doomed[2];
+  {
+    std::lock_guard lock(mutex_);
+    writing_.erase(generation);
+    auto it = manifest_.chunks.find(id);
+    if (it != manifest_.chunks.end()) {
+      doomed[0] = retire({id, it->second.generation, false});
+      manifest_.chunks.erase(it);
+    }
+    doomed[1] = retire({id, generation, true});
+    dirty_ = true;
   }
-  retire({id, generation, true});
-  dirty_ = true;
+  for (const auto& d : doomed)
+    if (d) delete_file(*d);
 }
 
 bool ChunkStore::is_committed(ChunkId id, uint64_t generation) const {
@@ -364,13 +373,13 @@ bool ChunkStore::is_committed(ChunkId id, uint64_t generation) const {
 
 bool ChunkStore::is_held(ChunkId id, uint64_t generation) const { return held_.count({id, generation}) > 0; }
 
-void ChunkStore::retire(const Retired& r) {
+std::optional<ChunkStore::Retired> ChunkStore::retire(const Retired& r) {
   const bool held = !r.tombstone && is_held(r.id, r.generation);
   if (!r.tombstone && !held) unsynced_.erase({r.id, r.generation});
-  if (!r.tombstone && !held && !committing_ && !is_committed(r.id, r.generation))
-    delete_file(r);
-  else
-    retired_.push_back(r);
+  // Named by no manifest, committed or to be: nothing can ask for it once the lock is released.
+  if (!r.tombstone && !held && !committing_ && !is_committed(r.id, r.generation)) return r;
+  retired_.push_back(r);
+  return std::nullopt;
 }
 
 bool ChunkStore::deletable_after(const Retired& r, const Manifest& durable) const {

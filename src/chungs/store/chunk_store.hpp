@@ -177,9 +177,11 @@ class ChunkStore {
   // Writes the chunk's next generation (not yet named anywhere): the generation and the file.
   std::pair<uint64_t, ChunkFileInfo> write_generation(ChunkId id, const ConstBlockArrays& block);
   bool is_current_locked(ChunkId id, uint64_t generation) const;
-  // Takes a file out of use: deleted now when no manifest on disk may name it, else after the
-  // next commit. Needs mutex_.
-  void retire(const Retired& r);
+  // Takes a file out of use. Needs mutex_. When no manifest on disk may name it, it is handed back
+  // for the caller to delete once it has released the lock (an unlink can wait for the file's
+  // writeback, and under the lock every reader of the store waited with it); else it is kept
+  // among the retired until a commit allows its deletion.
+  [[nodiscard]] std::optional<Retired> retire(const Retired& r);
   bool deletable_after(const Retired& r, const Manifest& durable) const;
   void delete_file(const Retired& r) const;
   bool is_held(ChunkId id, uint64_t generation) const;

@@ -78,18 +78,23 @@ void ChunkStore::abandon_snapshot() {
 }
 
 bool ChunkStore::adopt_committed(ChunkId id) {
-  std::lock_guard lock(mutex_);
-  if (snapshot_ || committing_) return false;
-  const auto committed = committed_.find(id);
-  if (committed == committed_.end()) return false;
-  const ManifestEntry entry = committed->second;
-  const auto live = manifest_.chunks.find(id);
-  if (live != manifest_.chunks.end() && live->second.generation == entry.generation) return false;
-  // The committed file waits among the retired for a commit that no longer names it: it is live now.
-  std::erase_if(retired_, [&](const Retired& r) { return !r.tombstone && r.id == id && r.generation == entry.generation; });
-  if (live != manifest_.chunks.end()) retire({id, live->second.generation, false});
-  manifest_.chunks[id] = entry;
-  dirty_ = true;
+  std::optional<Retired> doomed;
+  {
+    std::lock_guard lock(mutex_);
+    if (snapshot_ || committing_) return false;
+    const auto committed = committed_.find(id);
+    if (committed == committed_.end()) return false;
+    const ManifestEntry entry = committed->second;
+    const auto live = manifest_.chunks.find(id);
+    if (live != manifest_.chunks.end() && live->second.generation == entry.generation) return false;
+    // The committed file waits among the retired for a commit that no longer names it: it is live now.
+    std::erase_if(retired_,
+                  [&](const Retired& r) { return !r.tombstone && r.id == id && r.generation == entry.generation; });
+    if (live != manifest_.chunks.end()) doomed = retire({id, live->second.generation, false});
+    manifest_.chunks[id] = entry;
+    dirty_ = true;
+  }
+  if (doomed) delete_file(*doomed);
   return true;
 }
 
