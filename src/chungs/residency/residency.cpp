@@ -1,8 +1,8 @@
 #include "chungs/residency/residency.hpp"
 
 #include <algorithm>
-#include <utility>
 #include <unordered_set>
+#include <utility>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
