@@ -75,15 +75,27 @@ TEST(MappingRun, FixedPacingRefinesOneStepAKeyframeByDefault) {
   EXPECT_EQ(r["iterations"].get<uint64_t>(), keyframes * uint64_t(c.mapper.iterations_per_keyframe) + keyframes);
 }
 
+namespace {
+// 6 m of wall over 1 m chunks under a budget of 1000 Gaussians: the map streams through it.
+const test::WallSequence& long_wall() {
+  static const test::WallSequence seq(24, 64, 48, 0.25);
+  return seq;
+}
+Config under_small_budget() {
+  Config c = tiny_config();
+  c.store.chunk_size = 0.5;
+  c.residency.budget_gaussians = 1000;
+  return c;
+}
+}  // namespace
+
 // Under a budget the refinement streams the map through it: the report gives its own chunk I/O
 // (a part of the run's) and where its steps' time went.
 TEST(MappingRun, TheRefinementReportsItsOwnChunkIoUnderABudget) {
   log::set_level(log::Level::Warn);
   test::TempDir dir;
-  const test::WallSequence seq(24, 64, 48, 0.25);  // 6 m of wall over 1 m chunks
-  Config c = tiny_config();
-  c.store.chunk_size = 0.5;
-  c.residency.budget_gaussians = 1000;
+  const test::WallSequence& seq = long_wall();
+  Config c = under_small_budget();
   c.mapper.final_iterations = 40;
   const auto r = run_mapping(options(dir / "map", c), seq);
   ASSERT_TRUE(r.contains("refinement")) << r.dump(1);
@@ -104,10 +116,8 @@ TEST(MappingRun, TheRefinementReportsItsOwnChunkIoUnderABudget) {
 TEST(MappingRun, ResidentGaussiansNeverExceedTheBudget) {
   log::set_level(log::Level::Warn);
   test::TempDir dir;
-  const test::WallSequence seq(24, 64, 48, 0.25);  // 6 m of wall over 1 m chunks
-  Config c = tiny_config();
-  c.store.chunk_size = 0.5;
-  c.residency.budget_gaussians = 1000;
+  const test::WallSequence& seq = long_wall();
+  Config c = under_small_budget();
   c.residency.eviction_hysteresis = 0.1;
   c.mapper.final_iterations = 0;
   const auto r = run_mapping(options(dir / "map", c), seq);
