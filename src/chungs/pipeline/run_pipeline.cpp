@@ -401,10 +401,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     const Mapper::RefineStats r = mapper.refine(refine_steps, [&](uint32_t) { refine.step(); });
     refine.finish();
     if (r.steps > 0) {
+      const double seconds = ms_since(t0) / 1000;
       const IoStats io = mapper.io_stats() - io_before;
-      refinement = refinement_report(r, ms_since(t0) / 1000, mapper.step_times() - steps_before, io);
+      refinement = refinement_report(r, seconds, mapper.step_times() - steps_before, io);
       if (io.pool_loads > 0)
-        log::info("refinement: ", r.steps, " steps over ", r.groups, " groups in ", refinement["seconds"].get<double>(),
+        log::info("refinement: ", r.steps, " steps over ", r.groups, " groups in ", seconds,
                   " s; ", io.pool_loads, " chunk loads (", io.sync_loads, " waited for, ", io.wait_ms,
                   " ms), ", io.evictions_dirty, " written back; pool copies ", io.evict_copy_ms, " ms out, ",
                   io.upload_ms, " ms in");

@@ -256,20 +256,16 @@ void Residency::load_many(std::span<const ChunkId> ids) {
   // Taken from the I/O threads and scattered into the pool a portion at a time: one acquisition of
   // their lock and one transfer each (on a GPU one upload per portion instead of one per chunk; a
   // refinement step under 300 k loads ~60).
-  const size_t portion = std::max<size_t>(checkpoint_memory_limit() / 4, 1);
+  const size_t portion = transfer_portion();
   for (size_t k = 0; k < ids.size();) {
     size_t end = k, gaussians = 0;
     for (; end < ids.size() && (end == k || gaussians < portion); ++end) gaussians += count(ids[end]);
     const std::span<const ChunkId> part = ids.subspan(k, end - k);
     const std::vector<std::shared_ptr<const HostBlock>> blocks = take_blocks(part);
-    std::vector<uint32_t> slots;
+    std::vector<ConstBlockArrays> arrays;
+    for (const auto& b : blocks) arrays.push_back(b->arrays());
+    const std::vector<uint32_t> slots = pool_.allocate(gaussians);  // the blocks' counts were checked
     try {
-      std::vector<ConstBlockArrays> arrays;
-      for (const auto& b : blocks) {
-        const std::vector<uint32_t> s = pool_.allocate(b->size());
-        slots.insert(slots.end(), s.begin(), s.end());
-        arrays.push_back(b->arrays());
-      }
       ScopedTimer t(store_.counters().upload_ns);
       pool_.scatter(arrays, slots);
     } catch (...) {
@@ -328,7 +324,7 @@ void Residency::evict_entries(std::span<const ChunkId> ids) {
   // Modified chunks leave the pool a portion at a time, one gather each: on a GPU one round trip per
   // portion instead of one per chunk (a refinement step under 300 k evicts ~70). Portions, not all at
   // once, so that the copies made wait for the write queue's room as they did one by one.
-  const size_t portion = std::max<size_t>(checkpoint_memory_limit() / 4, 1);
+  const size_t portion = transfer_portion();
   for (size_t k = 0; k < ids.size();) {
     std::vector<ChunkId> for_checkpoint, others;
     size_t end = k, gathered = 0;
@@ -553,7 +549,7 @@ void Residency::flush() {
       if (e.dirty) dirty.push_back(id);
     // One gather per portion of chunks, not per chunk: from a GPU pool each gather is a round trip,
     // and a chunk of ~200 Gaussians made the final checkpoint of a 4,000-chunk map wait on them.
-    const size_t portion_limit = checkpoint_memory_limit() / 4;
+    const size_t portion_limit = transfer_portion();
     std::vector<std::shared_ptr<const HostBlock>> portion;
     size_t portion_begin = 0, portion_end = 0;
     auto produce = [&](size_t k, GaussianBlock& b) {

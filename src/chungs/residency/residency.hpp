@@ -11,6 +11,7 @@
 // culler works over catalogue() and the store learns of changes when chunks are written.
 // Not thread-safe: one thread (the mapper) drives it; the I/O thread is internal.
 #pragma once
+#include <algorithm>
 #include <chrono>
 #include <functional>
 #include <list>
@@ -204,6 +205,9 @@ class Residency {
   // Chunks still to copy out, about `gaussians` of them (at least one chunk while any is left).
   std::vector<ChunkId> next_portion(size_t gaussians) const;
   size_t checkpoint_memory_limit() const;
+  // Gaussians moved between the pool and host memory in one transfer (a quarter of the checkpoint's
+  // memory): evictions, loads and the checkpoints' copies all go in portions of this size.
+  size_t transfer_portion() const { return std::max<size_t>(checkpoint_memory_limit() / 4, 1); }
   // A committed checkpoint: chunks unchanged since their copy take its files as their live ones.
   void adopt_checkpoint();
 

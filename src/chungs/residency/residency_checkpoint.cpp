@@ -19,7 +19,7 @@ size_t Residency::checkpoint_memory_limit() const { return chungs::checkpoint_me
 std::vector<std::shared_ptr<const HostBlock>> Residency::gather_chunks(std::span<const ChunkId> ids) {
   std::vector<std::shared_ptr<const HostBlock>> out;
   out.reserve(ids.size());
-  const size_t portion_limit = std::max<size_t>(checkpoint_memory_limit() / 4, 1);
+  const size_t portion_limit = transfer_portion();
   std::vector<uint32_t> slots;
   std::vector<BlockArrays> arrays;
   for (size_t k = 0; k < ids.size();) {
@@ -100,7 +100,7 @@ void Residency::advance_checkpoint() {
   if (!checkpoint_todo_.empty()) {
     // A portion per call spreads the gathers over many steps; the bound keeps host memory flat.
     const size_t limit = checkpoint_memory_limit();
-    if (checkpoint_->queued_gaussians() < limit) copy_out_many(next_portion(limit / 4));
+    if (checkpoint_->queued_gaussians() < limit) copy_out_many(next_portion(transfer_portion()));
   }
   if (checkpoint_->finished()) {
     store_.counters().checkpoint_behind_ns += uint64_t(ns_since(checkpoint_started_));
@@ -128,9 +128,8 @@ void Residency::finish_checkpoint() {
   if (!checkpoint_) return;
   {
     ScopedTimer t(store_.counters().checkpoint_ns);
-    const size_t limit = checkpoint_memory_limit();
     try {
-      while (!checkpoint_todo_.empty()) copy_out_many(next_portion(limit / 4));  // each waits below the limit
+      while (!checkpoint_todo_.empty()) copy_out_many(next_portion(transfer_portion()));  // each waits below the limit
       checkpoint_->wait();
     } catch (...) {
       checkpoint_.reset();
