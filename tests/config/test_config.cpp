@@ -87,7 +87,7 @@ TEST(Config, StoreAndResidencyValuesOutOfRangeAreRefusedNamingTheKey) {
            {"store: {chunk_size: 1e-9}", "chunk_size"},  // chunk ids end 1 mm from the origin
            {"store: {sh_degree: 4}", "sh_degree"},
            {"residency: {flush_threads: -5}", "flush_threads"},
-           {"residency: {write_behind_threads: 0}", "write_behind_threads"},
+           {"residency: {write_behind_threads: -1}", "write_behind_threads"},
            {"residency: {write_behind_threads: 257}", "write_behind_threads"},
            {"residency: {checkpoint_threads: 0}", "checkpoint_threads"},
            {"residency: {budget_gaussians: 0}", "budget_gaussians"},

@@ -31,7 +31,9 @@ GaussianBlock version_block(int k, uint32_t v) {
 }
 
 std::map<std::string, FileEvent>* events = nullptr;
-void record(const fs::path& file, FileEvent e) { (*events)[file.lexically_normal().string()] = e; }
+void record(const fs::path& file, FileEvent e) {
+  if (e != FileEvent::Reading) (*events)[file.lexically_normal().string()] = e;  // a read changes nothing on disk
+}
 
 struct Op {
   int chunk;         // -1: commit

@@ -47,7 +47,7 @@ void fields(V& v, ResidencyConfig& c) {
     "host read-ahead, Gaussians; 0: 1/32 of the budget, at least 160000 or the budget");
   v("write_behind_max_gaussians", c.write_behind_max_gaussians, "queued writes, Gaussians; 0: 1/8 of the budget, at least 160000 or half the budget");
   v("flush_threads", c.flush_threads, "threads writing modified chunks at a checkpoint the caller waits for");
-  v("write_behind_threads", c.write_behind_threads, "threads writing evicted modified chunks behind the optimiser");
+  v("write_behind_threads", c.write_behind_threads, "chunk I/O threads behind the optimiser, each reading ahead and writing evicted modified chunks; 0: one per core, 4 to 16");
   v("checkpoint_threads", c.checkpoint_threads, "threads writing a checkpoint behind the optimiser");
   v("pool_headroom", c.pool_headroom, "pool slots beyond the budget (fraction), used only by loop corrections");
 }

@@ -1,6 +1,7 @@
 #include "chungs/residency/residency.hpp"
 
 #include <algorithm>
+#include <thread>
 #include <unordered_set>
 #include <utility>
 
@@ -28,6 +29,13 @@ size_t write_behind_max(const ResidencyConfig& c) {
   if (c.write_behind_max_gaussians) return c.write_behind_max_gaussians;
   return std::max({c.budget_gaussians / 8, std::min(c.budget_gaussians / 2, kViewFloor), size_t(10'000)});
 }
+// One per core, 4 to 16: they mostly wait on the file system. The 300 k cell alone on a 16-core H200
+// host waited 7.9 % of its run on chunk I/O with 4 (a full write queue, once the reads no longer
+// waited), 2.4-5.1 % with 8 and 2.5 % with 16 (bench/README.md, issue 19).
+int io_threads(const ResidencyConfig& c) {
+  if (c.write_behind_threads > 0) return c.write_behind_threads;
+  return std::clamp(int(std::thread::hardware_concurrency()), 4, 16);
+}
 
 }  // namespace
 
@@ -40,8 +48,8 @@ void ResidencyConfig::validate() const {
   if (prefetch_max_gaussians > kMaxGaussians || write_behind_max_gaussians > kMaxGaussians)
     fail("residency: prefetch_max_gaussians and write_behind_max_gaussians must be at most ", kMaxGaussians);
   if (flush_threads < 1 || flush_threads > 256) fail("residency: flush_threads must be in [1, 256], got ", flush_threads);
-  if (write_behind_threads < 1 || write_behind_threads > 256)
-    fail("residency: write_behind_threads must be in [1, 256], got ", write_behind_threads);
+  if (write_behind_threads < 0 || write_behind_threads > 256)
+    fail("residency: write_behind_threads must be in [0, 256] (0: one per core, 4 to 16), got ", write_behind_threads);
   if (checkpoint_threads < 1 || checkpoint_threads > 256)
     fail("residency: checkpoint_threads must be in [1, 256], got ", checkpoint_threads);
   if (!(pool_headroom >= 0 && pool_headroom <= 4)) fail("residency: pool_headroom must be in [0, 4], got ", pool_headroom);
@@ -67,7 +75,7 @@ Residency::Residency(ChunkStore& store, GaussianPool& pool, const ResidencyConfi
   config_.validate();
   for (const auto& [id, n] : store_.counts()) catalogue_[id] = n;
   io_ = std::make_unique<IoWorker>(store_, host_blocks_, config_.async_io, prefetch_max(config_),
-                                   write_behind_max(config_), config_.write_behind_threads);
+                                   write_behind_max(config_), io_threads(config_));
 }
 
 Residency::~Residency() {

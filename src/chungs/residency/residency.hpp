@@ -45,9 +45,10 @@ struct ResidencyConfig {
   size_t prefetch_max_gaussians = 0;      // read ahead into host memory at most this many
   size_t write_behind_max_gaussians = 0;  // queued for writing before eviction waits
   int flush_threads = 8;  // threads writing the modified resident chunks at flush() (async_io only)
-  // Threads writing evicted modified chunks behind the caller (async_io only). One kept a refinement
-  // that mixes places waiting on its queue (a dirty eviction for nearly every load).
-  int write_behind_threads = 4;
+  // Chunk I/O threads behind the caller (async_io only): each reads ahead and writes evicted modified
+  // chunks. One writer kept a refinement that mixes places waiting on its queue (a dirty eviction for
+  // nearly every load), one reader left most of its loads to wait. 0: one per core, 4 to 16.
+  int write_behind_threads = 0;
   int checkpoint_threads = 4;  // threads writing a checkpoint behind the caller (begin_checkpoint)
   // Pool slots beyond the budget (a fraction of it), used only while a loop correction raises the
   // budget so that all affected chunks are moved in one batch.

@@ -63,6 +63,7 @@ FileDescriptor& FileDescriptor::operator=(FileDescriptor&& o) noexcept {
 }
 
 FileDescriptor open_for_reading(const fs::path& file) {
+  notify(file, FileEvent::Reading);
   // Opening a FIFO blocks until a writer comes and a device may never end: a map file that is not a
   // regular file is refused by name. A missing one is left to open(), whose error names it.
   std::error_code ec;

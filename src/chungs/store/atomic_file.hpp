@@ -62,9 +62,10 @@ void remove_file(const std::filesystem::path& file, bool durable);
 void sync_directory(const std::filesystem::path& dir);
 
 // Test hook, told of every file made visible without a flush (Written), of every file flushed
-// (Synced), so a test can model power loss by discarding what was never flushed, and of every file
-// about to be removed (Removing), so a test can hold a removal where it happens.
-enum class FileEvent { Written, Synced, Removing };
+// (Synced), so a test can model power loss by discarding what was never flushed, of every file
+// about to be removed (Removing), so a test can hold a removal where it happens, and of every file
+// opened for reading (Reading), so a test can hold a read.
+enum class FileEvent { Written, Synced, Removing, Reading };
 using FileEventHook = void (*)(const std::filesystem::path& file, FileEvent event);
 void set_file_event_hook(FileEventHook hook);  // nullptr turns it off
 

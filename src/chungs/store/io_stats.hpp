@@ -36,7 +36,7 @@ struct IoStats {
   // Why reading ahead paused until the next prediction: every chunk read ahead is still wanted and
   // they fill the read-ahead, or the host memory for chunks in flight was taken (by queued writes).
   uint64_t read_ahead_full = 0, read_ahead_no_room = 0;
-  uint64_t reader_writes = 0;  // writes the reading thread made because the write queue was half full
+  uint64_t reader_writes = 0;  // writes made before reads ahead because the write queue was half full
   // Durability: saves are not flushed one by one; each commit() flushes the files written since
   // the previous one, then the folder, then writes the manifest (one barrier per checkpoint).
   uint64_t barriers = 0, synced_files = 0;
