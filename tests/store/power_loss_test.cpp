@@ -32,7 +32,8 @@ GaussianBlock version_block(int k, uint32_t v) {
 
 std::map<std::string, FileEvent>* events = nullptr;
 void record(const fs::path& file, FileEvent e) {
-  if (e != FileEvent::Reading) (*events)[file.lexically_normal().string()] = e;  // a read changes nothing on disk
+  // A read changes nothing on disk, and a started writeback makes nothing durable.
+  if (e != FileEvent::Reading && e != FileEvent::WritebackStarted) (*events)[file.lexically_normal().string()] = e;
 }
 
 struct Op {

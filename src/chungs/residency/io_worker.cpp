@@ -40,7 +40,7 @@ void IoWorker::write_now(ChunkId id, const Block& data) {
   if (data->size() == 0)
     store_.remove(id);
   else
-    store_.save_arrays(id, data->arrays());
+    store_.save_arrays(id, data->arrays(), ChunkStore::Writeback::Leave);  // may be loaded and evicted again
 }
 
 void IoWorker::write_behind(ChunkId id, Block data) {

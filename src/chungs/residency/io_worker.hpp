@@ -5,7 +5,8 @@
 // any load of that chunk is served from the queued block, never from the stale file. Writes run on
 // `threads` threads: a refinement that mixes places evicts a dirty chunk for nearly every load, and
 // one thread writing them (~0.5 ms each on the GPU machine) held the optimiser up. Two writes of
-// one chunk never overlap, so the newest content is the one kept.
+// one chunk never overlap, so the newest content is the one kept. A written chunk is left to the
+// page cache (ChunkStore::Writeback::Leave): the next commit flushes it, if no later version replaced it.
 // Prefetch: chunks predicted to be needed next are read into host memory ahead of time, on every
 // thread (reads before writes, unless the write queue is half full): one reading thread at ~0.1 ms
 // a chunk was the limit of a refinement step that loads ~60 chunks (GPU, 2 km street under 300 k).

@@ -121,6 +121,7 @@ void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> pa
     if (::close(fd.release()) != 0) fail(tmp.string(), ": close failed: ", why());
     if (::rename(tmp.c_str(), file.c_str()) != 0)
       fail(file.string(), ": cannot rename ", tmp.filename().string(), " over it: ", why());
+    if (!durable && start_writeback) notify(file, FileEvent::WritebackStarted);
   } catch (...) {
     fd = FileDescriptor();
     ::unlink(tmp.c_str());

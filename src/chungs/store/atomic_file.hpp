@@ -63,9 +63,10 @@ void sync_directory(const std::filesystem::path& dir);
 
 // Test hook, told of every file made visible without a flush (Written), of every file flushed
 // (Synced), so a test can model power loss by discarding what was never flushed, of every file
-// about to be removed (Removing), so a test can hold a removal where it happens, and of every file
-// opened for reading (Reading), so a test can hold a read.
-enum class FileEvent { Written, Synced, Removing, Reading };
+// about to be removed (Removing), so a test can hold a removal where it happens, of every file
+// opened for reading (Reading), so a test can hold a read, and of every file whose writeback was
+// started without waiting for it (WritebackStarted; still not flushed).
+enum class FileEvent { Written, Synced, Removing, Reading, WritebackStarted };
 using FileEventHook = void (*)(const std::filesystem::path& file, FileEvent event);
 void set_file_event_hook(FileEventHook hook);  // nullptr turns it off
 

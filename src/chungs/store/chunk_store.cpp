@@ -285,13 +285,13 @@ void ChunkStore::save(ChunkId id, const GaussianBlock& block) {
   save_arrays(id, block_arrays(block));
 }
 
-void ChunkStore::save_arrays(ChunkId id, const ConstBlockArrays& block) {
+void ChunkStore::save_arrays(ChunkId id, const ConstBlockArrays& block, Writeback writeback) {
   refuse_write("save a chunk");
   if (block.count == 0) {
     remove(id);
     return;
   }
-  const auto [generation, info] = write_generation(id, block);
+  const auto [generation, info] = write_generation(id, block, writeback);
   std::optional<Retired> doomed;
   {
     std::lock_guard lock(mutex_);
@@ -304,12 +304,12 @@ void ChunkStore::save_arrays(ChunkId id, const ConstBlockArrays& block) {
   if (doomed) delete_file(*doomed);
 }
 
-std::pair<uint64_t, ChunkFileInfo> ChunkStore::write_generation(ChunkId id, const ConstBlockArrays& block) {
+std::pair<uint64_t, ChunkFileInfo> ChunkStore::write_generation(ChunkId id, const ConstBlockArrays& block,
+                                                                 Writeback writeback) {
   chunk_coord(id);  // rejects ids that no coordinate produces
-  // The write starts its way to the disk at once (on the I/O thread when written behind), so the
-  // next commit's barrier mostly waits for what is already done.
-  const ChunkWriteOptions opt{config_.compress,     config_.zstd_level,   config_.shuffle, false,
-                              config_.half_moments, config_.half_sh_rest, config_.durable};
+  const ChunkWriteOptions opt{config_.compress,     config_.zstd_level,   config_.shuffle,
+                              false,                config_.half_moments, config_.half_sh_rest,
+                              config_.durable && writeback == Writeback::Start};
   uint64_t generation;
   {
     std::lock_guard lock(mutex_);

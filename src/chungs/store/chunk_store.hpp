@@ -129,7 +129,14 @@ class ChunkStore {
   // Writes the chunk's next generation (kill-safe at once, power-safe after commit()); an empty
   // block removes the chunk.
   void save(ChunkId id, const GaussianBlock& block);
-  void save_arrays(ChunkId id, const ConstBlockArrays& block);  // the same from arrays held elsewhere
+  // How a durable store's new file heads for the disk before the next commit: Start begins its
+  // writeback at once, so the commit's barrier mostly waits for what is done; Leave lets the page
+  // cache hold it, for content likely replaced before the commit (chunks evicted while the map
+  // trains: a refinement under a small budget rewrites each ~16 times, and writing every version
+  // out made the disk's write bandwidth its limit, bench/README.md, issue 19).
+  enum class Writeback { Start, Leave };
+  // The same from arrays held elsewhere.
+  void save_arrays(ChunkId id, const ConstBlockArrays& block, Writeback writeback = Writeback::Start);
   void remove(ChunkId id);  // no-op when absent
 
   void set_config(const std::string& key, const std::string& value);
@@ -175,7 +182,8 @@ class ChunkStore {
   void refuse_write(const char* what) const;  // throws when opened read-only
   bool is_committed(ChunkId id, uint64_t generation) const;
   // Writes the chunk's next generation (not yet named anywhere): the generation and the file.
-  std::pair<uint64_t, ChunkFileInfo> write_generation(ChunkId id, const ConstBlockArrays& block);
+  std::pair<uint64_t, ChunkFileInfo> write_generation(ChunkId id, const ConstBlockArrays& block,
+                                                      Writeback writeback = Writeback::Start);
   bool is_current_locked(ChunkId id, uint64_t generation) const;
   // Takes a file out of use. Needs mutex_. When no manifest on disk may name it, it is handed back
   // for the caller to delete once it has released the lock (an unlink can wait for the file's
