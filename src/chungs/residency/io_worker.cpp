@@ -90,7 +90,7 @@ void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks)
       if (!staged_.count(c.first) && !pending_.count(c.first) && !reading_.count(c.first)) prefetch_queue_.push_back(c);
     }
   }
-  work_cv_.notify_all();  // all: the writer threads would take a notice meant for the reader
+  work_cv_.notify_all();  // all: a thread busy writing may take the notice
 }
 
 IoWorker::Block IoWorker::take(ChunkId id, Source* source) {

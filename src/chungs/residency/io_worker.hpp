@@ -8,8 +8,10 @@
 // one chunk never overlap, so the newest content is the one kept. A written chunk is left to the
 // page cache (ChunkStore::Writeback::Leave): the next commit flushes it, if no later version replaced it.
 // Prefetch: chunks predicted to be needed next are read into host memory ahead of time, on every
-// thread (reads before writes, unless the write queue is half full): one reading thread at ~0.1 ms
-// a chunk was the limit of a refinement step that loads ~60 chunks (GPU, 2 km street under 300 k).
+// thread: reads come before writes, unless the write queue is half full, except on the first thread,
+// which always reads first. In a refinement under a small budget the queue stays half full, and
+// reads that waited behind every thread's writes left 75 % of the loads to wait (GPU, 2 km street
+// under 300 k, bench/README.md, issue 19).
 // take() hands a chunk's current content to the caller from the first place that has it:
 // the write-behind queue, the prefetched blocks, a read in flight (waits for it), or the disk.
 //

@@ -31,7 +31,7 @@ size_t write_behind_max(const ResidencyConfig& c) {
 }
 // One per core, 4 to 16: they mostly wait on the file system. The 300 k cell alone on a 16-core H200
 // host waited 7.9 % of its run on chunk I/O with 4 (a full write queue, once the reads no longer
-// waited), 2.4-5.1 % with 8 and 2.5 % with 16 (bench/README.md, issue 19).
+// waited), 2.4-5.1 % with 8 and 2.5-3.3 % with 16 (bench/README.md, issue 19).
 int io_threads(const ResidencyConfig& c) {
   if (c.write_behind_threads > 0) return c.write_behind_threads;
   return std::clamp(int(std::thread::hardware_concurrency()), 4, 16);
