@@ -59,6 +59,11 @@ struct ResidencyConfig {
   void validate() const;  // throws Error naming the key out of range
 };
 
+// The read-ahead's and the write queue's limits in Gaussians, and the chunk I/O threads, for a config
+// (the automatic ones where it says 0; residency_config.cpp says why they are what they are).
+size_t prefetch_max_gaussians(const ResidencyConfig& config);
+size_t write_behind_max_gaussians(const ResidencyConfig& config);
+int io_threads(const ResidencyConfig& config);
 // Host memory the chunks in flight may hold at once, in Gaussians: read-ahead, queued writes and a
 // checkpoint's copies at their limits (the automatic ones where the config says 0).
 size_t in_flight_max_gaussians(const ResidencyConfig& config);
