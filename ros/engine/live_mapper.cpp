@@ -242,7 +242,10 @@ struct LiveMapper::Impl {
         {
           // The node's queries get their turns between steps, as during mapping.
           std::unique_lock lock(map_mutex);
-          mapper->refine(config.mapper.refinement_steps(mapper->keyframes().size()), [&](uint32_t) {
+          const uint64_t steps = config.mapper.refinement_steps(mapper->keyframes().size());
+          // Minutes on a long drive: whoever stopped the node sees why it has not exited yet.
+          if (steps > 0) log::info("refining the map: ", steps, " steps over ", mapper->keyframes().size(), " keyframes");
+          mapper->refine(steps, [&](uint32_t) {
             lock.unlock();
             lock.lock();
           });

@@ -160,12 +160,12 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
   }
 }
 
-TEST(Config, RefinementStepsAreOneAKeyframeUnderFixedPacingNoneUnderAnytimeOrAsGiven) {
+TEST(Config, RefinementStepsAreOneAKeyframeInEitherPacingOrAsGiven) {
   Config c;
   EXPECT_EQ(c.mapper.final_iterations, -1);
   EXPECT_EQ(c.mapper.refinement_steps(1034), 1034u);
   c = config_from_yaml("mapper: {pacing: anytime}");
-  EXPECT_EQ(c.mapper.refinement_steps(1034), 0u);
+  EXPECT_EQ(c.mapper.refinement_steps(1034), 1034u);
   c = config_from_yaml("mapper: {pacing: anytime, final_iterations: 7}");
   EXPECT_EQ(c.mapper.refinement_steps(1034), 7u);
   c = config_from_yaml("mapper: {final_iterations: 0}");

@@ -75,6 +75,23 @@ TEST(MappingRun, FixedPacingRefinesOneStepAKeyframeByDefault) {
   EXPECT_EQ(r["iterations"].get<uint64_t>(), keyframes * uint64_t(c.mapper.iterations_per_keyframe) + keyframes);
 }
 
+// Under a real-time intake too: the steps come after the last frame has arrived, where they cost
+// the intake nothing (an evicting map gains ~0.5 dB from them, bench/README.md).
+TEST(MappingRun, AnytimePacingRefinesOneStepAKeyframeByDefault) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(8);
+  Config c = tiny_config();
+  c.mapper.final_iterations = MapperConfig{}.final_iterations;
+  c.mapper.pacing = "anytime";
+  c.mapper.speed = 4;
+  const auto r = run_mapping(options(dir / "map", c), seq);
+  const uint64_t keyframes = r["keyframes"];
+  ASSERT_GT(keyframes, 0u);
+  ASSERT_TRUE(r.contains("refinement")) << r.dump(1);
+  EXPECT_EQ(r["refinement"]["steps"].get<uint64_t>(), keyframes);
+}
+
 namespace {
 // 6 m of wall over 1 m chunks under a budget of 1000 Gaussians: the map streams through it.
 const test::WallSequence& long_wall() {

@@ -117,8 +117,7 @@ void fields(V& v, MapperConfig& c) {
   v("pacing", c.pacing, "fixed (iterations per keyframe, deterministic) | anytime (real-time intake)");
   v("iterations_per_keyframe", c.iterations_per_keyframe, "fixed pacing: optimisation steps per keyframe");
   v("final_iterations", c.final_iterations,
-    "refinement steps after the last frame, spread over every keyframe (-1: one a keyframe under fixed pacing, "
-    "none under anytime)");
+    "refinement steps after the last frame, spread over every keyframe (-1: one a keyframe)");
   v("refinement_rounds", c.refinement_rounds,
     "rounds over the refinement's groups of keyframes: more mix the places' views better, and load each "
     "group's chunks once a round");

@@ -7,8 +7,7 @@
 namespace chungs {
 
 uint64_t MapperConfig::refinement_steps(size_t keyframes) const {
-  if (final_iterations >= 0) return uint64_t(final_iterations);
-  return pacing == "fixed" ? uint64_t(keyframes) : 0;
+  return final_iterations >= 0 ? uint64_t(final_iterations) : uint64_t(keyframes);
 }
 
 void MapperConfig::validate() const {
@@ -17,7 +16,7 @@ void MapperConfig::validate() const {
   if (iterations_per_keyframe < 0)
     fail("mapper: iterations_per_keyframe must be >= 0, got ", iterations_per_keyframe);
   if (final_iterations < -1)
-    fail("mapper: final_iterations must be >= 0, or -1 for one a keyframe under fixed pacing, got ", final_iterations);
+    fail("mapper: final_iterations must be >= 0, or -1 for one a keyframe, got ", final_iterations);
   if (refinement_rounds < 1 || refinement_rounds > 1000)
     fail("mapper: refinement_rounds must be in [1, 1000], got ", refinement_rounds);
   if (refinement_min_visit_steps < 1 || refinement_min_visit_steps > 1'000'000)
