@@ -81,19 +81,23 @@ TEST(ChunkStoreCrash, EveryChunkIsOldOrNewAfterSigkillAtRandomMoments) {
       child_loop(dir.path(), done, durable, fds[1], seed);
     }
     ::close(fds[1]);
+    Record r;
+    const auto take = [&] {
+      ASSERT_LT(r.chunk, uint32_t(kChunks));
+      ASSERT_EQ(r.version, done[r.chunk] + 1) << "versions are written in order";
+      done[r.chunk] = r.version;
+      ++writes;
+    };
+    // Every other kill comes after the child's first write: under a loaded machine (ctest -j) a child
+    // may otherwise spend the whole random wait starting up, and the test would kill only idle stores.
+    if (trial % 4 >= 2 && ::read(fds[0], &r, sizeof r) == sizeof r) ASSERT_NO_FATAL_FAILURE(take());
     std::this_thread::sleep_for(std::chrono::microseconds(rng() % 12000));
     ::kill(pid, SIGKILL);
     int status = 0;
     ASSERT_EQ(::waitpid(pid, &status, 0), pid);
     ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL)
         << "child failed on its own (exit " << WEXITSTATUS(status) << ") in trial " << trial;
-    Record r;
-    while (::read(fds[0], &r, sizeof r) == sizeof r) {
-      ASSERT_LT(r.chunk, uint32_t(kChunks));
-      ASSERT_EQ(r.version, done[r.chunk] + 1) << "versions are written in order";
-      done[r.chunk] = r.version;
-      ++writes;
-    }
+    while (::read(fds[0], &r, sizeof r) == sizeof r) ASSERT_NO_FATAL_FAILURE(take());
     ::close(fds[0]);
 
     // Whatever the moment of the kill, the manifest on disk is whole (old or new).
@@ -128,7 +132,8 @@ TEST(ChunkStoreCrash, EveryChunkIsOldOrNewAfterSigkillAtRandomMoments) {
     // The reopened store committed a manifest matching the files.
     ASSERT_EQ(Manifest::read(dir / "manifest.txt").chunks, store.manifest().chunks);
   }
-  EXPECT_GT(writes, size_t(trials)) << "the children should have written many chunks";
+  // Half the kills wait for a first write, so fewer than that means the children did not write.
+  EXPECT_GE(writes, size_t(trials / 2)) << "the children should have written chunks";
   std::printf("[ crash    ] %d kills, %zu chunk writes completed, %zu kills caught a write in flight\n",
               trials, writes, caught_mid_write);
 }
