@@ -209,10 +209,11 @@ struct LiveMapper::Impl {
     last_checkpoint = Clock::now();
   }
 
-  bool has_keyframes() {
+  size_t keyframe_count() {
     std::lock_guard lock(map_mutex);
-    return !mapper->keyframes().empty();
+    return mapper->keyframes().size();
   }
+  bool has_keyframes() { return keyframe_count() > 0; }
 
   void run() {
     try {
@@ -239,12 +240,17 @@ struct LiveMapper::Impl {
         }
       }
       if (has_keyframes()) {
+        const uint64_t steps = config.mapper.refinement_steps(keyframe_count());
+        if (steps > 0) {
+          // The refinement takes minutes after a long drive, and a launch that ends kills the node
+          // (roslaunch: SIGTERM 15 s after SIGINT): every frame mapped is committed before it starts,
+          // so such a kill costs the refinement only. Whoever stopped the node sees why it still runs.
+          commit(false, false);
+          log::info("refining the map: ", steps, " steps over ", keyframe_count(), " keyframes (every frame is committed)");
+        }
         {
           // The node's queries get their turns between steps, as during mapping.
           std::unique_lock lock(map_mutex);
-          const uint64_t steps = config.mapper.refinement_steps(mapper->keyframes().size());
-          // Minutes on a long drive: whoever stopped the node sees why it has not exited yet.
-          if (steps > 0) log::info("refining the map: ", steps, " steps over ", mapper->keyframes().size(), " keyframes");
           mapper->refine(steps, [&](uint32_t) {
             lock.unlock();
             lock.lock();

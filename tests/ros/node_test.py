@@ -7,6 +7,7 @@ ros/launch/kitti_stereo.launch (or rgbd.launch) and plays a bag written from ../
 renders and point clouds are published, the export service writes a PLY, the node maps every frame,
 exits cleanly on SIGINT with the map committed, reopens it with resume:=true, and its map scores
 within --tolerance dB of `diskchungs run` on the same frames (both maps rendered at the bag's frames).
+A node killed while it refines after the last frame keeps every frame mapped.
 
 Needs Debian's python3 (rospy, rosbag). Exit 77 (skipped) when the shared data is missing.
 """
@@ -302,6 +303,42 @@ def check_resume(ros, launch_file, out, settings, extra, name, cli, tmp):
         fail(f"{name}: the Gaussians moved by {shift:+.4f} m, expected 1 m")
 
 
+def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
+    """A launch that ends kills a node still refining (roslaunch: SIGTERM 15 s after SIGINT, then
+    SIGKILL), and the refinement after a long drive takes minutes: every frame the node mapped must be
+    committed before it starts. Here it is asked for more steps than it can take, and killed once it
+    says it refines."""
+    import rospy
+    from std_msgs.msg import String
+    settings = os.path.join(tmp, "refining_settings.yaml")
+    with open(settings, "w") as f:
+        json.dump({"mapper": dict(MAPPER["mapper"], final_iterations=1_000_000_000), "device": "cpu",
+                   "tf_timeout": 5.0}, f)
+    out = os.path.join(tmp, "refining_node_map")
+    node, log = launch(ros, launch_file, out, settings)
+    status = {}
+    sub = rospy.Subscriber("/diskchungs/status", String, lambda m: status.update(json.loads(m.data)))
+    wait_service("/diskchungs/stop", node, log)
+    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", bag, "--topics"] + list(topics),
+                          env=ros.env, capture_output=True, text=True, timeout=300)
+    if play.returncode != 0:
+        fail(f"rosbag play: {play.stderr[-1000:]}")
+    wait_for(lambda: status.get("frames", 0) >= frames and status.get("queued") == 0, 600,
+             f"refining: the node to map all {frames} frames (status {status})")
+    sub.unregister()
+    os.killpg(node.pid, signal.SIGINT)
+    wait_for(lambda: "refining the map" in open(log.name).read(), 120, "the node to start refining")
+    os.killpg(node.pid, signal.SIGKILL)
+    node.wait(timeout=30)
+    with open(os.path.join(out, "run_state.json")) as f:
+        state = json.load(f)
+    if state.get("finished") or state.get("next_frame") != frames:
+        fail(f"killed while refining: run_state.json has next_frame {state.get('next_frame')}, finished "
+             f"{state.get('finished')}; expected all {frames} frames, unfinished")
+    print(f"killed while refining: the committed map holds all {frames} frames, "
+          f"{len(keyframe_poses(out))} keyframes")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--cli", required=True)
@@ -348,6 +385,8 @@ def main():
         node_case(a, ros, tmp, "kitti_stereo", os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag,
                   f"rosbag:{bag}?left=/stereo/left/image_rect&right=/stereo/right/image_rect", "kitti:" + kitti,
                   a.frames, "outdoor", stereo + tf)
+        check_killed_while_refining(ros, tmp, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag, a.frames,
+                                    stereo + tf)
 
         room = os.path.join(tmp, "room")
         subprocess.run([a.cli, "synth", "room", "--out", room, "--frames", "30", "--width", "320", "--height", "240"],
