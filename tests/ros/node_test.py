@@ -303,6 +303,37 @@ def check_resume(ros, launch_file, out, settings, extra, name, cli, tmp):
         fail(f"{name}: the Gaussians moved by {shift:+.4f} m, expected 1 m")
 
 
+def child_pids(parent):
+    """The processes whose parent is `parent` (from /proc)."""
+    kids = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    if int(f.read().rsplit(")", 1)[1].split()[1]) == parent:
+                        kids.append(int(d))
+            except (OSError, ValueError, IndexError):
+                pass
+    return kids
+
+
+def cmdline(pid):
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            return f.read().replace(b"\0", b" ").decode("latin-1")
+    except OSError:
+        return ""
+
+
+def alive(pid):
+    """Running: not gone and not a zombie waiting for its parent."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
 def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
     """A launch that ends kills a node still refining (roslaunch: SIGTERM 15 s after SIGINT, then
     SIGKILL), and the refinement after a long drive takes minutes: every frame the node mapped must be
@@ -328,8 +359,15 @@ def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
     sub.unregister()
     os.killpg(node.pid, signal.SIGINT)
     wait_for(lambda: "refining the map" in open(log.name).read(), 120, "the node to start refining")
+    # roslaunch starts the node in a session of its own: killing roslaunch's group would leave it refining.
+    nodes = [pid for pid in child_pids(node.pid) if "diskchungs_node" in cmdline(pid)]
+    if not nodes:
+        fail(f"killed while refining: no diskchungs_node process under roslaunch ({node.pid})")
+    for pid in nodes:
+        os.kill(pid, signal.SIGKILL)
     os.killpg(node.pid, signal.SIGKILL)
     node.wait(timeout=30)
+    wait_for(lambda: not any(alive(pid) for pid in nodes), 30, "the killed node to end")
     with open(os.path.join(out, "run_state.json")) as f:
         state = json.load(f)
     if state.get("finished") or state.get("next_frame") != frames:
