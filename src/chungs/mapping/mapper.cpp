@@ -164,6 +164,16 @@ void Mapper::note_view_over_budget(uint64_t needed) {
     largest_view_ = needed;
   }
   largest_view_ = std::max(largest_view_, needed);
+  // From the largest view, not the latest: the map keeps what was sampled denser before, so lowering
+  // the density again at every view over the budget would compound.
+  const double share = config_.sampler.view_budget_share;
+  if (share > 0) {
+    const double scale = std::min(1.0, share * double(residency_->budget()) / double(largest_view_));
+    if (scale < density_scale_ * 0.95)
+      log::info("sampling density lowered to ", scale, "x of sampler.density: a view needs ", largest_view_,
+                " Gaussians, sampler.view_budget_share ", share, " of the budget ", residency_->budget());
+    density_scale_ = std::min(density_scale_, scale);
+  }
 }
 
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
@@ -209,8 +219,10 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
     });
   // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
   const auto t1 = clock::now();
+  SamplerConfig drawn = config_.sampler;
+  drawn.density *= density_scale_;
   const ImageF prob = with_pinned_slots(*residency_, shown, slots_, "mapper", [&](const std::vector<uint32_t>& slots) {
-    return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler, target);
+    return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), drawn, target);
   });
   keyframe_times_.render_ms += ms_since(t1);
   const auto t2 = clock::now();
