@@ -138,7 +138,8 @@ std::vector<ChunkCount> Mapper::nearest_visible(const Camera& camera, const SE3&
   return nearest_first(culler_->cull(camera, pose), *residency_, store_->chunk_size(), pose.t);
 }
 
-std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out) {
+std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out,
+                                            uint64_t* in_view) {
   std::vector<ChunkId> out;
   uint64_t total = 0, needed = 0;
   for (const ChunkCount& c : nearest_visible(camera, pose)) {
@@ -151,6 +152,7 @@ std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pos
     out.push_back(c.id);
   }
   if (needed > residency_->budget()) note_view_over_budget(needed);
+  if (in_view) *in_view = needed;
   return out;
 }
 
@@ -164,16 +166,20 @@ void Mapper::note_view_over_budget(uint64_t needed) {
     largest_view_ = needed;
   }
   largest_view_ = std::max(largest_view_, needed);
-  // From the largest view, not the latest: the map keeps what was sampled denser before, so lowering
-  // the density again at every view over the budget would compound.
+}
+
+void Mapper::fit_density_to_view(uint64_t needed) {
   const double share = config_.sampler.view_budget_share;
-  if (share > 0) {
-    const double scale = std::min(1.0, share * double(residency_->budget()) / double(largest_view_));
-    if (scale < density_scale_ * 0.95)
-      log::info("sampling density lowered to ", scale, "x of sampler.density: a view needs ", largest_view_,
-                " Gaussians, sampler.view_budget_share ", share, " of the budget ", residency_->budget());
-    density_scale_ = std::min(density_scale_, scale);
-  }
+  if (!(share > 0) || needed <= residency_->budget()) return;
+  // From the largest view sampled, not the latest: the map keeps what was sampled denser before, so
+  // lowering the density again at every view over the budget would compound. Views only rendered or
+  // trained (the refinement's, the evaluation's) sample nothing and do not count.
+  largest_sampled_view_ = std::max(largest_sampled_view_, needed);
+  const double scale = std::min(1.0, share * double(residency_->budget()) / double(largest_sampled_view_));
+  if (scale < density_scale_ * 0.95)
+    log::info("sampling density lowered to ", scale, "x of sampler.density: a keyframe's view needs ", needed,
+              " Gaussians, sampler.view_budget_share ", share, " of the budget ", residency_->budget());
+  density_scale_ = std::min(density_scale_, scale);
 }
 
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
@@ -211,7 +217,9 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
   SampleStats stats;
   const ImageF target = to_rgb_float(color);
   std::vector<ChunkId> left_out;
-  std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out);
+  uint64_t in_view = 0;
+  std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out, &in_view);
+  fit_density_to_view(in_view);
   // Beyond the view's core only what is resident is drawn (selector.core_share), and so sampled.
   if (core && !residency_->all_resident())
     std::erase_if(shown, [&](ChunkId c) {

@@ -202,10 +202,12 @@ class Mapper {
  private:
   // Visible chunks of a view, nearest first, trimmed so that they fit the budget; the ones trimmed
   // go to left_out.
-  std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out = nullptr);
+  std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out = nullptr,
+                                      uint64_t* in_view = nullptr);  // in_view: Gaussians in every visible chunk
   // Every visible chunk that holds Gaussians, nearest first, with its count.
   std::vector<ChunkCount> nearest_visible(const Camera& camera, const SE3& pose);
   void note_view_over_budget(uint64_t needed);  // warns when a view needs more than the budget
+  void fit_density_to_view(uint64_t needed);    // sampler.view_budget_share, for a view about to be sampled
   // New Gaussians a keyframe may add: what the optimiser trained per keyframe lately (see
   // SamplerConfig::new_per_step); 0 for no cap.
   uint64_t new_gaussian_cap(const Image8& image);
@@ -244,6 +246,7 @@ class Mapper {
   uint64_t steps_at_last_keyframe_ = 0, steps_at_last_sampling_ = 0;
   uint64_t views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0, renders_in_passes_ = 0;
   double density_scale_ = 1.0;
+  uint64_t largest_sampled_view_ = 0;
   WindowStats window_stats_;
   StepTimes step_times_;
   KeyframeTimes keyframe_times_;

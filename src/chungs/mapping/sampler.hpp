@@ -26,7 +26,7 @@ struct SamplerConfig {
   double density = 2.0;            // acceptance = density * (P - P_render)  (paper: 2)
   // Under a budget below what one view's chunks hold (their farthest chunks then stay out of the
   // view's steps), the density is lowered so that the largest such view would hold this share of the
-  // budget: density * min(1, view_budget_share * budget / largest view). 0: off. On the GPU (2 km
+  // budget: density * min(1, view_budget_share * budget / largest keyframe view). 0: off. On the GPU (2 km
   // street under 100 k, views of 100-136 k) half the density scored +0.5-0.6 dB (bench/README.md,
   // issue 19); off until a share is measured there.
   double view_budget_share = 0;
