@@ -240,13 +240,14 @@ struct LiveMapper::Impl {
         }
       }
       if (has_keyframes()) {
-        const uint64_t steps = config.mapper.refinement_steps(keyframe_count());
+        const size_t keyframes = keyframe_count();
+        const uint64_t steps = config.mapper.refinement_steps(keyframes);
         if (steps > 0) {
           // The refinement takes minutes after a long drive, and a launch that ends kills the node
           // (roslaunch: SIGTERM 15 s after SIGINT): every frame mapped is committed before it starts,
           // so such a kill costs the refinement only. Whoever stopped the node sees why it still runs.
           commit(false, false);
-          log::info("refining the map: ", steps, " steps over ", keyframe_count(), " keyframes (every frame is committed)");
+          log::info("refining the map: ", steps, " steps over ", keyframes, " keyframes (every frame is committed)");
         }
         {
           // The node's queries get their turns between steps, as during mapping.

@@ -174,12 +174,16 @@ void Mapper::fit_density_to_view(uint64_t needed) {
   // From the largest view sampled, not the latest: the map keeps what was sampled denser before, so
   // lowering the density again at every view over the budget would compound. Views only rendered or
   // trained (the refinement's, the evaluation's) sample nothing and do not count.
+  const double before = density_scale();
   largest_sampled_view_ = std::max(largest_sampled_view_, needed);
-  const double scale = std::min(1.0, share * double(residency_->budget()) / double(largest_sampled_view_));
-  if (scale < density_scale_ * 0.95)
-    log::info("sampling density lowered to ", scale, "x of sampler.density: a keyframe's view needs ", needed,
-              " Gaussians, sampler.view_budget_share ", share, " of the budget ", residency_->budget());
-  density_scale_ = std::min(density_scale_, scale);
+  if (density_scale() < before * 0.95)
+    log::info("sampling density lowered to ", density_scale(), "x of sampler.density: a keyframe's view needs ",
+              needed, " Gaussians, sampler.view_budget_share ", share, " of the budget ", residency_->budget());
+}
+
+double Mapper::density_scale() const {
+  if (largest_sampled_view_ == 0) return 1.0;
+  return std::min(1.0, config_.sampler.view_budget_share * double(residency_->budget()) / double(largest_sampled_view_));
 }
 
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
@@ -228,7 +232,7 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
   // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
   const auto t1 = clock::now();
   SamplerConfig drawn = config_.sampler;
-  drawn.density *= density_scale_;
+  drawn.density *= density_scale();
   const ImageF prob = with_pinned_slots(*residency_, shown, slots_, "mapper", [&](const std::vector<uint32_t>& slots) {
     return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), drawn, target);
   });

@@ -149,7 +149,7 @@ class Mapper {
   uint64_t largest_view() const { return largest_view_; }  // Gaussians of the largest such view
   // The factor on sampler.density that sampler.view_budget_share set (1: none); a resumed run finds
   // it again at its first view over the budget.
-  double density_scale() const { return density_scale_; }
+  double density_scale() const;
   // Where the optimiser thread's step time went (sums; the backend's includes keyframe loads it
   // asked for, and on the GPU the wait for the device).
   // chunks_ms = cull_ms + pin_ms + the slot list; pick_ms: drawing the next step's keyframe, culling
@@ -245,8 +245,7 @@ class Mapper {
   uint64_t strays_held_back_ = 0, strays_released_ = 0;
   uint64_t steps_at_last_keyframe_ = 0, steps_at_last_sampling_ = 0;
   uint64_t views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0, renders_in_passes_ = 0;
-  double density_scale_ = 1.0;
-  uint64_t largest_sampled_view_ = 0;
+  uint64_t largest_sampled_view_ = 0;  // over the budget, with sampler.view_budget_share set
   WindowStats window_stats_;
   StepTimes step_times_;
   KeyframeTimes keyframe_times_;
