@@ -31,6 +31,12 @@ std::vector<std::vector<ChunkCount>> drive(size_t keyframes, int span, std::mt19
   return views;
 }
 
+PackedViews pack(const std::vector<std::vector<ChunkCount>>& views) {
+  PackedViews packed;
+  for (const auto& v : views) packed.add(v);
+  return packed;
+}
+
 // Distinct chunks' Gaussians of a set of keyframes.
 uint64_t held_by(const std::vector<std::vector<ChunkCount>>& views, const std::vector<size_t>& keyframes) {
   std::map<ChunkId, uint64_t> held;
@@ -101,7 +107,7 @@ TEST(RefinementPlan, GroupsFitTheBudgetCoverEveryKeyframeAndShareTheStepsByTheir
         views[k] = {{ChunkId(1'000'000 + k), std::uniform_int_distribution<uint64_t>(50, 900)(rng)}};
     const uint64_t fit = std::uniform_int_distribution<uint64_t>(100, 20000)(rng);
     const uint64_t steps = std::uniform_int_distribution<uint64_t>(0, 5000)(rng);
-    const std::vector<RefinementGroup> groups = plan_refinement(views, fit, steps);
+    const std::vector<RefinementGroup> groups = plan_refinement(pack(views), fit, steps);
     ASSERT_FALSE(groups.empty());
     expect_valid_plan(views, fit, steps, groups, "trial " + std::to_string(trial));
   }
@@ -121,7 +127,7 @@ TEST(RefinementPlan, AStreetDrivenTwiceIsTrainedByBothPassesTogether) {
     // A fifth to a tenth of the map, or the largest view.
     uint64_t fit = held_by(views, all) / std::uniform_int_distribution<uint64_t>(5, 10)(rng);
     for (size_t k = 0; k < n; ++k) fit = std::max(fit, held_by(views, {k}));
-    const auto groups = plan_refinement(views, fit, 1000);
+    const auto groups = plan_refinement(pack(views), fit, 1000);
     ASSERT_GE(groups.size(), 2u) << "trial " << trial;
     expect_valid_plan(views, fit, 1000, groups, "trial " + std::to_string(trial));
     std::vector<size_t> group_of(2 * n);
@@ -136,15 +142,40 @@ TEST(RefinementPlan, AStreetDrivenTwiceIsTrainedByBothPassesTogether) {
 TEST(RefinementPlan, AMapThatFitsIsOneGroupAndHugeCountsDoNotOverflow) {
   std::mt19937_64 rng(3);
   const auto views = drive(40, 5, rng);
-  const auto one = plan_refinement(views, 1'000'000, 123);
+  const auto one = plan_refinement(pack(views), 1'000'000, 123);
   ASSERT_EQ(one.size(), 1u);
   EXPECT_EQ(one[0].steps, 123u);
   const uint64_t huge = (uint64_t(1) << 63) + 11;
   uint64_t total = 0;
-  for (const RefinementGroup& g : plan_refinement(views, 600, huge)) total += g.steps;
+  for (const RefinementGroup& g : plan_refinement(pack(views), 600, huge)) total += g.steps;
   EXPECT_EQ(total, huge);
-  EXPECT_THROW(plan_refinement(views, 0, 10), Error);
-  EXPECT_TRUE(plan_refinement({}, 10, 10).empty());
+  EXPECT_THROW(plan_refinement(pack(views), 0, 10), Error);
+  EXPECT_TRUE(plan_refinement(PackedViews{}, 10, 10).empty());
+}
+
+TEST(RefinementPlan, PackedViewsNumberEachChunkOnceAndKeepEveryViewsEntries) {
+  std::mt19937_64 rng(5);
+  auto views = drive(60, 7, rng);
+  views[20].clear();  // a keyframe that sees nothing
+  const PackedViews packed = pack(views);
+  ASSERT_EQ(packed.size(), views.size());
+  std::map<uint32_t, ChunkId> chunk_of;
+  std::set<ChunkId> distinct;
+  for (size_t k = 0; k < views.size(); ++k) {
+    ASSERT_EQ(packed.end(k) - packed.begin(k), views[k].size()) << "view " << k;
+    for (uint32_t e = packed.begin(k); e < packed.end(k); ++e) {
+      const ChunkCount& c = views[k][e - packed.begin(k)];
+      distinct.insert(c.id);
+      EXPECT_EQ(packed.count(e), c.count) << "view " << k;
+      const auto [it, fresh] = chunk_of.try_emplace(packed.number(e), c.id);
+      EXPECT_EQ(it->second, c.id) << "number " << packed.number(e) << " names two chunks";
+    }
+  }
+  EXPECT_EQ(packed.chunks(), distinct.size());
+  EXPECT_EQ(chunk_of.size(), distinct.size());
+  PackedViews big;
+  EXPECT_THROW(big.add({{ChunkId(1), uint64_t(1) << 32}}), Error);
+  EXPECT_EQ(big.size(), 0u) << "a refused view is not half added";
 }
 
 TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {

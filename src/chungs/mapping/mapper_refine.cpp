@@ -1,6 +1,8 @@
 // Mapper::refine: the steps after the last frame, spread over the whole map by refinement_plan.hpp.
 #include <algorithm>
 #include <deque>
+#include <optional>
+#include <vector>
 
 #include "chungs/common/error.hpp"
 #include "chungs/mapping/mapper.hpp"
@@ -21,18 +23,23 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
     Mapper* m;
     ~Leave() { m->refining_ = false; }
   } leave{this};
-  std::vector<std::vector<ChunkCount>> views;
-  views.reserve(keyframes_.size());
-  for (const KeyframeRecord& kf : keyframes_) views.push_back(nearest_visible(kf.camera, kf.pose));
   // 0.8: room for the chunks read ahead while a group's last steps still hold theirs.
   const uint64_t fit = std::max<uint64_t>(1, uint64_t(0.8 * double(residency_->budget())));
-  const std::vector<RefinementGroup> groups = plan_refinement(views, fit, steps);
+  std::vector<RefinementGroup> groups;
+  {  // every view at once for the plan only (its memory grows with the drive: refinement_plan.hpp)
+    PackedViews views;
+    for (const KeyframeRecord& kf : keyframes_) views.add(nearest_visible(kf.camera, kf.pose));
+    groups = plan_refinement(views, fit, steps);
+  }
   const size_t ahead = size_t(std::max(1, config_.mapper.read_ahead_steps));
   for (const RefinementGroup& g : groups) stats.groups += g.steps > 0;
   // The steps to come, a pass at a time, so that the read-ahead reaches into the next pass and the next
   // group: under a budget of about one view (100 k on the 2 km street) groups hold two views, and reads
   // that stopped at a group's end took the I/O wait of the run from 1.6 % to 2.65 % on the GPU.
   std::deque<size_t> queue;  // keyframe indices
+  // The nearest chunks of a queued keyframe's view that fit the budget, culled when first prefetched:
+  // the map as it is then, not as it was planned.
+  std::deque<std::optional<std::vector<ChunkId>>> nearest;
   const std::vector<RefinementVisit> visits =
       refinement_visits(groups, size_t(config_.mapper.refinement_rounds),
                         uint64_t(config_.mapper.refinement_min_visit_steps));
@@ -52,6 +59,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
         cursor[g] = 0;
       }
       queue.push_back(passes[g][cursor[g]++]);
+      nearest.emplace_back();
       --left;
     }
   };
@@ -62,10 +70,13 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
       // (Naming every queued step's chunks, a few visits ahead, left as many loads waiting on the GPU:
       // bench/README.md, issue 19, 2026-12-04 afternoon.)
       std::vector<ChunkId> wanted;
-      // The views were culled for the plan; the nearest chunks that fit the budget are what a step loads.
       for (size_t j = 0; j < std::min(queue.size(), 1 + ahead); ++j) {
-        const BudgetGroups fits = split_by_budget(views[queue[j]], residency_->budget());
-        if (!fits.groups.empty()) wanted.insert(wanted.end(), fits.groups[0].begin(), fits.groups[0].end());
+        if (!nearest[j]) {  // the nearest chunks that fit the budget are what a step loads
+          const KeyframeRecord& kf = keyframes_[queue[j]];
+          BudgetGroups fits = split_by_budget(nearest_visible(kf.camera, kf.pose), residency_->budget());
+          nearest[j] = fits.groups.empty() ? std::vector<ChunkId>{} : std::move(fits.groups[0]);
+        }
+        wanted.insert(wanted.end(), nearest[j]->begin(), nearest[j]->end());
       }
       residency_->prefetch(wanted);
     }
@@ -75,6 +86,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
       keyframe_store_->prefetch(keyframes_[queue[j]].id);
     const uint32_t id = keyframes_[queue.front()].id;
     queue.pop_front();
+    nearest.pop_front();
     step_keyframe(id, /*whole_view=*/true);
     ++stats.steps;
     if (after_step) after_step(id);

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <functional>
 #include <queue>
-#include <unordered_map>
-#include <unordered_set>
 #include <utility>
 
 #include "chungs/common/error.hpp"
@@ -18,23 +16,47 @@ uint64_t share(uint64_t total, uint64_t k, uint64_t parts) { return uint64_t((un
 
 }  // namespace
 
-std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<ChunkCount>>& views, uint64_t fit,
-                                             uint64_t steps) {
+void PackedViews::add(const std::vector<ChunkCount>& view) {
+  if (uint64_t(number_.size()) + view.size() > UINT32_MAX)
+    fail("refinement plan: more than 2^32 - 1 chunks seen over all keyframes");
+  for (const ChunkCount& c : view)  // before adding any: a refused view leaves no entry
+    if (c.count > UINT32_MAX) fail("refinement plan: chunk ", c.id, " holds ", c.count, " Gaussians (over 2^32 - 1)");
+  for (const ChunkCount& c : view) {
+    const auto [it, fresh] = numbered_.try_emplace(c.id, uint32_t(ids_.size()));
+    if (fresh) ids_.push_back(c.id);
+    number_.push_back(it->second);
+    count_.push_back(uint32_t(c.count));
+  }
+  start_.push_back(uint32_t(number_.size()));
+}
+
+std::vector<RefinementGroup> plan_refinement(const PackedViews& views, uint64_t fit, uint64_t steps) {
   if (fit == 0) fail("refinement plan: the share of the budget a group may fill is 0");
   const size_t total = views.size();
-  // Who sees a chunk, and with how many Gaussians, so that a chunk joining a group updates only the
-  // keyframes that see it.
-  std::unordered_map<ChunkId, std::vector<std::pair<size_t, uint64_t>>> seen_by;
+  // Who sees a chunk (the entries of its views, by chunk), so that a chunk joining a group updates only
+  // the keyframes that see it.
+  std::vector<uint32_t> seen_start(views.chunks() + 1, 0);
+  for (size_t k = 0; k < total; ++k)
+    for (uint32_t e = views.begin(k); e < views.end(k); ++e) ++seen_start[views.number(e) + 1];
+  for (size_t c = 0; c < views.chunks(); ++c) seen_start[c + 1] += seen_start[c];
+  std::vector<uint32_t> seen_by(seen_start.back());  // keyframes; the count is the entry's
+  std::vector<uint32_t> seen_entry(seen_start.back());
+  {
+    std::vector<uint32_t> fill(seen_start.begin(), seen_start.end() - 1);
+    for (size_t k = 0; k < total; ++k)
+      for (uint32_t e = views.begin(k); e < views.end(k); ++e) {
+        const uint32_t at = fill[views.number(e)]++;
+        seen_by[at] = uint32_t(k);
+        seen_entry[at] = e;
+      }
+  }
   std::vector<uint64_t> whole(total, 0);
   for (size_t k = 0; k < total; ++k)
-    for (const ChunkCount& c : views[k]) {
-      seen_by[c.id].push_back({k, c.count});
-      whole[k] += c.count;
-    }
+    for (uint32_t e = views.begin(k); e < views.end(k); ++e) whole[k] += views.count(e);
   std::vector<uint64_t> more = whole;  // what keyframe k would add to the group being built
-  std::vector<char> taken(total, 0), touched(total, 0);
+  std::vector<char> taken(total, 0), touched(total, 0), held(views.chunks(), 0);
   std::vector<size_t> touched_list;
-  std::unordered_set<ChunkId> held;
+  std::vector<uint32_t> held_list;
   using Entry = std::pair<uint64_t, size_t>;  // (more, keyframe): stale entries are skipped when popped
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
   std::vector<RefinementGroup> groups;
@@ -46,14 +68,18 @@ std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<Chunk
       taken[k] = 1;
       --left;
       group.keyframes.push_back(k);
-      for (const ChunkCount& c : views[k]) {
-        if (!held.insert(c.id).second) continue;
-        sum += c.count;
-        for (const auto& [j, n] : seen_by[c.id]) {
+      for (uint32_t e = views.begin(k); e < views.end(k); ++e) {
+        const uint32_t c = views.number(e);
+        if (held[c]) continue;
+        held[c] = 1;
+        held_list.push_back(c);
+        sum += views.count(e);
+        for (uint32_t s = seen_start[c]; s < seen_start[c + 1]; ++s) {
+          const size_t j = seen_by[s];
           if (taken[j]) continue;
           if (!touched[j]) touched_list.push_back(j);
           touched[j] = 1;
-          more[j] -= n;
+          more[j] -= views.count(seen_entry[s]);
           // The group only grows: a keyframe that does not fit now fits later only by a chunk joining
           // that it sees, which comes back here. Fewer entries: a group of one view in a crowded
           // place (100 k budget, loops) would push every neighbour at every chunk.
@@ -78,7 +104,8 @@ std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<Chunk
       touched[j] = 0;
     }
     touched_list.clear();
-    held.clear();
+    for (uint32_t c : held_list) held[c] = 0;
+    held_list.clear();
     heap = {};
     groups.push_back(std::move(group));
   }

@@ -18,6 +18,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "chungs/residency/budget_groups.hpp"
@@ -29,15 +30,37 @@ struct RefinementGroup {
   uint64_t steps = 0;             // the group's share of the steps
 };
 
-// `views[k]`: the chunks keyframe k (in the order keyframes were added) sees, with their Gaussians.
+// Every keyframe's view, packed: 8 bytes a chunk seen (its number here, its Gaussians), where a
+// vector of ChunkCount a keyframe, with the plan's lookup by chunk beside it, took ~40. The plan
+// needs every view at once, so its memory grows with the drive: on a 10 km drive (5,103 views of
+// ~110 chunks) the vectors raised the host RSS by 42 MB during the refinement, to 5.7 % over its
+// plateau (the heap keeps its peak: common/heap.hpp; bench/README.md, issue 19).
+class PackedViews {
+ public:
+  // The next keyframe's view. Throws Error for a chunk of more than 2^32 - 1 Gaussians.
+  void add(const std::vector<ChunkCount>& view);
+  size_t size() const { return start_.size() - 1; }
+  size_t chunks() const { return ids_.size(); }
+  // View k's entries are [begin(k), end(k)): number(e) is the chunk, count(e) its Gaussians.
+  uint32_t begin(size_t k) const { return start_[k]; }
+  uint32_t end(size_t k) const { return start_[k + 1]; }
+  uint32_t number(uint32_t e) const { return number_[e]; }
+  uint32_t count(uint32_t e) const { return count_[e]; }
+
+ private:
+  std::vector<uint32_t> start_{0}, number_, count_;
+  std::vector<ChunkId> ids_;                        // by number
+  std::unordered_map<ChunkId, uint32_t> numbered_;  // the inverse
+};
+
+// `views`: the chunks each keyframe (in the order keyframes were added) sees, with their Gaussians.
 // A group starts at the earliest keyframe left and takes, one at a time, the keyframe that adds the
 // fewest Gaussians not yet in the group, among those sharing a chunk with it and the earliest keyframe
 // left (ties: the earlier keyframe), while that keeps the group's distinct chunks within `fit`
 // Gaussians (a keyframe that alone needs more is a group of its own). A map that fits is one group.
 // Shares: with n_g keyframes before group g, it gets floor(steps * (n_g + size_g) / K) -
 // floor(steps * n_g / K). Throws Error when `fit` is 0.
-std::vector<RefinementGroup> plan_refinement(const std::vector<std::vector<ChunkCount>>& views, uint64_t fit,
-                                             uint64_t steps);
+std::vector<RefinementGroup> plan_refinement(const PackedViews& views, uint64_t fit, uint64_t steps);
 
 // The order the groups are trained in: `rounds` rounds over the groups in turn. Group g is visited
 // r_g = min(rounds, max(1, s_g / min_visit_steps)) times, spread evenly over the rounds (in round r when
