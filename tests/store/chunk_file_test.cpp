@@ -168,3 +168,37 @@ TEST(ChunkFile, RewriteLeavesNoTemporaries) {
   for (const auto& e : fs::directory_iterator(dir.path())) files += e.is_regular_file(), (void)e;
   EXPECT_EQ(files, 1u);
 }
+
+// Content made while it is written (uncompressed chunk files): the head lands at the start once the
+// content is in, and a failure while making it leaves the previous file as it was and no temporary.
+TEST(AtomicFile, StreamedContentGetsItsHeadLastAndAFailureKeepsTheOldFile) {
+  test::TempDir dir;
+  const fs::path f = dir / "s.bin";
+  const auto read_all = [&] {
+    std::ifstream in(f, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  std::string head = "????";
+  write_file_atomically(
+      f, {head.data(), head.size()},
+      [&](const Append& append) {
+        append("abc", 3);
+        append("", 0);
+        append("defg", 4);
+        head = "HEAD";  // known only now
+      },
+      false);
+  EXPECT_EQ(read_all(), "HEADabcdefg");
+  EXPECT_THROW(write_file_atomically(
+                   f, {head.data(), head.size()},
+                   [&](const Append& append) {
+                     append("xyz", 3);
+                     fail("made up");
+                   },
+                   true),
+               Error);
+  EXPECT_EQ(read_all(), "HEADabcdefg");
+  size_t files = 0;
+  for (const auto& e : fs::directory_iterator(dir.path())) files += e.is_regular_file(), (void)e;
+  EXPECT_EQ(files, 1u);
+}

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <random>
+#include <tuple>
 
 #include "chungs/common/error.hpp"
 #include "chungs/store/atomic_file.hpp"
@@ -205,14 +206,28 @@ TEST(ChunkFileHalf, ShrinksFilesAsAnnouncedAndKeepsParametersExact) {
   }
 }
 
-TEST(ChunkFileHalf, MomentsAndShComeBackWithinHalfPrecision) {
+// Uncompressed files are encoded and decoded a piece of 1,024 Gaussians at a time, zstd ones an array
+// at a time: both, on blocks of one piece and of three (the last one partial), with each array's
+// largest value in the last piece, where a scale taken from the first piece alone would not reach.
+class ChunkFileHalfSizes : public ::testing::TestWithParam<std::tuple<size_t, bool>> {};
+INSTANTIATE_TEST_SUITE_P(PiecesAndZstd, ChunkFileHalfSizes,
+                         ::testing::Combine(::testing::Values(size_t(500), size_t(2500)), ::testing::Bool()));
+
+TEST_P(ChunkFileHalfSizes, MomentsAndShComeBackWithinHalfPrecision) {
+  const auto [n, compress] = GetParam();
   test::TempDir dir;
-  GaussianBlock b = trained_block(500, 2);
+  GaussianBlock b = trained_block(n, 2);
   b.adam_v.opacity[7] = 1e-36f;  // sqrt 1e-18, far below what the array's scale resolves
+  for (auto* v : {&b.params.sh, &b.adam_m.sh, &b.adam_m.mean, &b.adam_v.sh, &b.adam_v.rotation}) {
+    const float top = float(largest(*v));
+    v->back() = (v == &b.adam_m.mean ? -50.f : 50.f) * top;
+  }
+  b.params.sh[48 * (n - 1) + 1] = 1e6f;  // a DC value, kept as float32 and out of the rest's scale
   const fs::path f = dir / "h.chunk";
-  write_chunk_file(f, kId, b, {true, 1, true, false, true, true});
+  write_chunk_file(f, kId, b, {compress, 1, true, false, true, true});
   GaussianBlock r;
   read_chunk_file(f, r);
+  EXPECT_EQ(r.params.sh[48 * (n - 1) + 1], 1e6f);
   const double rel = std::ldexp(1.0, -11);  // half's rounding, with margin for the scale
   // SH rest: relative precision unless far below the array's largest value.
   expect_close(r.params.sh, b.params.sh, rel, largest(b.params.sh) * std::ldexp(1.0, -40), "sh");

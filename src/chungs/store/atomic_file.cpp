@@ -109,12 +109,32 @@ void sync_directory(const fs::path& dir) {
 
 void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> parts, bool durable,
                            bool start_writeback) {
+  write_file_atomically(
+      file, {nullptr, 0}, [&](const Append& append) {
+        for (const ConstBuffer& p : parts) append(p.data, p.size);
+      },
+      durable, start_writeback);
+}
+
+void write_file_atomically(const fs::path& file, ConstBuffer head, const std::function<void(const Append&)>& fill,
+                           bool durable, bool start_writeback) {
   const fs::path tmp =
       file.string() + kTmpTag + std::to_string(::getpid()) + "-" + std::to_string(tmp_counter.fetch_add(1));
   FileDescriptor fd(::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
   if (!fd) fail(tmp.string(), ": cannot create: ", why());
   try {
-    write_all(fd.get(), parts, tmp);
+    if (head.size && ::lseek(fd.get(), off_t(head.size), SEEK_SET) != off_t(head.size))
+      fail(tmp.string(), ": cannot seek: ", why());
+    fill([&](const void* data, size_t size) {
+      const ConstBuffer part{data, size};
+      write_all(fd.get(), {&part, 1}, tmp);
+    });
+    for (size_t done = 0; done < head.size;) {  // filled in by now
+      const ssize_t n = ::pwrite(fd.get(), static_cast<const char*>(head.data) + done, head.size - done, off_t(done));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) fail(tmp.string(), ": write failed: ", why());
+      done += size_t(n);
+    }
     if (durable && ::fdatasync(fd.get()) != 0) fail(tmp.string(), ": flush failed: ", why());
     // Only a hint, so its failure is not an error.
     if (!durable && start_writeback) ::sync_file_range(fd.get(), 0, 0, SYNC_FILE_RANGE_WRITE);

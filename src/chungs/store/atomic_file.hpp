@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -51,6 +52,14 @@ std::vector<uint8_t> read_whole_file(const std::filesystem::path& file);
 // without waiting, so that a later flush (sync_files) finds little left to do.
 void write_file_atomically(const std::filesystem::path& file, std::span<const ConstBuffer> parts,
                            bool durable, bool start_writeback = false);
+// The same for content made while it is written, so that it need not be held whole: fill(append)
+// gives it in order, append(data, size) writing each piece before it returns (its buffer may be
+// reused); `head` is written at the start once fill has returned, over `head.size` bytes left for it
+// (a header that sums up what follows).
+using Append = std::function<void(const void* data, size_t size)>;
+void write_file_atomically(const std::filesystem::path& file, ConstBuffer head,
+                           const std::function<void(const Append&)>& fill, bool durable,
+                           bool start_writeback = false);
 // Flushes a file's data (fdatasync) so that it survives power loss; its folder entry needs
 // sync_directory as well.
 void sync_file(const std::filesystem::path& file);

@@ -1,6 +1,7 @@
 #include "chungs/store/chunk_codec.hpp"
 
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <limits>
 
@@ -19,6 +20,7 @@ struct Field {
   float* f;         // the block's float array (Raw floats, all non-Raw kinds)
   void* raw;        // Raw: the array's memory
   size_t elements;  // values stored (for ShDc/ShRest: per kind)
+  size_t per;       // of them a Gaussian
 };
 
 // The file order of the version 1 layout (the arrays' own order), with SH and moments switched to
@@ -29,16 +31,17 @@ std::vector<Field> fields_of(const BlockArrays& b, uint32_t flags) {
   for (int a = 0; a < kBlockArrays; ++a) {
     void* data = b.data[size_t(a)];
     float* f = static_cast<float*>(data);
+    const size_t width = size_t(kBlockArrayWidths[size_t(a)]);
     const int group = a < kBlockFirstWord ? a / kBlockArraysPerGroup : -1;  // params, m, v; -1: words
     const bool moment = group == 1 || group == 2;
     const bool sh = group == 0 && a % kBlockArraysPerGroup == kBlockGroupSh;
     if (moment && (flags & kChunkFlagHalfMoments)) {
-      out.push_back({group == 2 ? Kind::HalfSqrt : Kind::Half, f, nullptr, b.values(a)});
+      out.push_back({group == 2 ? Kind::HalfSqrt : Kind::Half, f, nullptr, b.values(a), width});
     } else if (sh && (flags & kChunkFlagHalfShRest)) {
-      out.push_back({Kind::ShDc, f, nullptr, 3 * n});
-      out.push_back({Kind::ShRest, f, nullptr, size_t(kShRest) * n});
+      out.push_back({Kind::ShDc, f, nullptr, 3 * n, 3});
+      out.push_back({Kind::ShRest, f, nullptr, size_t(kShRest) * n, size_t(kShRest)});
     } else {
-      out.push_back({Kind::Raw, nullptr, data, b.values(a)});
+      out.push_back({Kind::Raw, nullptr, data, b.values(a), width});
     }
   }
   return out;
@@ -48,75 +51,123 @@ size_t stored_bytes(const Field& f) {
   return f.kind == Kind::Raw || f.kind == Kind::ShDc ? 4 * f.elements : 4 + 2 * f.elements;
 }
 
-// The field's values in file order (SH split by coefficient), as a contiguous array.
-void gather(const Field& f, std::vector<float>& out) {
-  out.resize(f.elements);
+// Gaussians converted at a time. A thread's buffers are bounded by this, not by the largest chunk
+// it ever converted: whole-chunk copies left 16 I/O threads holding 96 MB of heap after chunks of
+// 10 k Gaussians (bench/README.md, issue 19).
+constexpr size_t kPieceGaussians = 2048;
+constexpr size_t kPieceValues =  // the widest field's
+    kPieceGaussians * size_t(*std::max_element(kBlockArrayWidths.begin(), kBlockArrayWidths.end()));
+
+// A thread's buffers for one piece: values in file order, and their encoding.
+float* piece_floats() {
+  thread_local std::unique_ptr<float[]> v = std::make_unique_for_overwrite<float[]>(kPieceValues);
+  return v.get();
+}
+uint8_t* piece_bytes() {
+  thread_local std::unique_ptr<uint8_t[]> v = std::make_unique_for_overwrite<uint8_t[]>(4 * kPieceValues);
+  return v.get();
+}
+
+// Values [begin, end) of the field in file order (SH split by coefficient; begin and end whole
+// Gaussians), into out.
+void gather(const Field& f, size_t begin, size_t end, float* out) {
   if (f.kind == Kind::ShDc || f.kind == Kind::ShRest) {
-    const int first = f.kind == Kind::ShDc ? 0 : 3, count = f.kind == Kind::ShDc ? 3 : kShRest;
-    const size_t gaussians = f.elements / size_t(count);
-    for (size_t g = 0; g < gaussians; ++g)
-      std::memcpy(&out[g * size_t(count)], f.f + g * kShFloats + first, sizeof(float) * size_t(count));
+    const size_t first = f.kind == Kind::ShDc ? 0 : 3;
+    for (size_t g = begin / f.per; g < end / f.per; ++g)
+      std::memcpy(out + (g * f.per - begin), f.f + g * kShFloats + first, sizeof(float) * f.per);
   } else if (f.kind == Kind::HalfSqrt) {
-    signed_sqrt(f.f, out.data(), f.elements);
+    signed_sqrt(f.f + begin, out, end - begin);
   } else {
-    std::memcpy(out.data(), f.f, sizeof(float) * f.elements);
+    std::memcpy(out, f.f + begin, sizeof(float) * (end - begin));
   }
 }
 
-void scatter(const Field& f, const std::vector<float>& in) {
+void scatter(const Field& f, size_t begin, size_t end, const float* in) {
   if (f.kind == Kind::ShDc || f.kind == Kind::ShRest) {
-    const int first = f.kind == Kind::ShDc ? 0 : 3, count = f.kind == Kind::ShDc ? 3 : kShRest;
-    const size_t gaussians = f.elements / size_t(count);
-    for (size_t g = 0; g < gaussians; ++g)
-      std::memcpy(f.f + g * kShFloats + first, &in[g * size_t(count)], sizeof(float) * size_t(count));
+    const size_t first = f.kind == Kind::ShDc ? 0 : 3;
+    for (size_t g = begin / f.per; g < end / f.per; ++g)
+      std::memcpy(f.f + g * kShFloats + first, in + (g * f.per - begin), sizeof(float) * f.per);
   } else if (f.kind == Kind::HalfSqrt) {
-    for (size_t i = 0; i < f.elements; ++i) f.f[i] = in[i] * std::fabs(in[i]);
+    for (size_t i = begin; i < end; ++i) f.f[i] = in[i - begin] * std::fabs(in[i - begin]);
   } else {
-    std::memcpy(f.f, in.data(), sizeof(float) * f.elements);
+    std::memcpy(f.f + begin, in, sizeof(float) * (end - begin));
   }
 }
 
-// Scratch arrays reused across chunks: fresh ones per array cost more in page faults and
-// zeroing than the conversion itself.
-std::vector<float>& scratch_floats() {
-  thread_local std::vector<float> v;
-  return v;
+// calls f(begin, end) over the field's values a piece at a time
+template <class F>
+void by_piece(const Field& field, F&& f) {
+  const size_t step = kPieceGaussians * field.per;
+  for (size_t begin = 0; begin < field.elements; begin += step) f(begin, std::min(field.elements, begin + step));
 }
 
-void encode(const Field& f, uint8_t* out) {
-  // Contiguous moments are converted in place; v's square roots and the SH split need a copy.
-  const float* values = f.f;
-  if (f.kind != Kind::Half) {
-    gather(f, scratch_floats());
-    values = scratch_floats().data();
+// The power of two that maps the field's largest finite magnitude just under 2^15.
+float scale_of(const Field& f) {
+  float largest = 0;
+  if (f.kind == Kind::Half) {  // contiguous: no copy
+    largest = max_finite_abs(f.f, f.elements);
+  } else {
+    by_piece(f, [&](size_t begin, size_t end) {
+      gather(f, begin, end, piece_floats());
+      largest = std::max(largest, max_finite_abs(piece_floats(), end - begin));
+    });
   }
-  if (f.kind == Kind::ShDc) {
-    std::memcpy(out, values, 4 * f.elements);
-    return;
-  }
-  const float largest = max_finite_abs(values, f.elements);
   int e = 0;
   std::frexp(largest, &e);  // largest < 2^e
-  const float scale = largest > 0 ? std::ldexp(1.0f, e - 15) : 1.0f;
-  std::memcpy(out, &scale, 4);
-  scaled_floats_to_halves(values, 1.0f / scale, out + 4, f.elements);  // 1/scale: exact, a power of two
-  if (f.kind == Kind::HalfSqrt) keep_nonzero(f.f, out + 4, f.elements);
+  return largest > 0 ? std::ldexp(1.0f, e - 15) : 1.0f;
+}
+
+// Values [begin, end) of an encoded field as stored (after the scale, for the halves).
+void encode_range(const Field& f, float scale, size_t begin, size_t end, uint8_t* out) {
+  const size_t n = end - begin;
+  // Contiguous moments are converted in place; v's square roots and the SH split need a copy.
+  const float* values = f.f + begin;
+  if (f.kind != Kind::Half) {
+    gather(f, begin, end, piece_floats());
+    values = piece_floats();
+  }
+  if (f.kind == Kind::ShDc) {
+    std::memcpy(out, values, 4 * n);
+    return;
+  }
+  scaled_floats_to_halves(values, 1.0f / scale, out, n);  // 1/scale: exact, a power of two
+  if (f.kind == Kind::HalfSqrt) keep_nonzero(f.f + begin, out, n);
+}
+
+void decode_range(const Field& f, float scale, size_t begin, size_t end, const uint8_t* in) {
+  const size_t n = end - begin;
+  if (f.kind == Kind::Half) {
+    halves_to_scaled_floats(in, scale, f.f + begin, n);
+    return;
+  }
+  float* values = piece_floats();
+  if (f.kind == Kind::ShDc)
+    std::memcpy(values, in, 4 * n);
+  else
+    halves_to_scaled_floats(in, scale, values, n);
+  scatter(f, begin, end, values);
+}
+
+size_t value_bytes(const Field& f) { return f.kind == Kind::ShDc ? 4 : 2; }
+
+// A whole encoded field into `out` (stored_bytes(f) of them).
+void encode(const Field& f, uint8_t* out) {
+  float scale = 1;
+  if (f.kind != Kind::ShDc) {
+    scale = scale_of(f);
+    std::memcpy(out, &scale, 4);
+    out += 4;
+  }
+  by_piece(f, [&](size_t begin, size_t end) { encode_range(f, scale, begin, end, out + value_bytes(f) * begin); });
 }
 
 void decode(const Field& f, const uint8_t* in) {
   float scale = 1;
-  if (f.kind != Kind::ShDc) std::memcpy(&scale, in, 4);
-  if (f.kind == Kind::Half) {
-    halves_to_scaled_floats(in + 4, scale, f.f, f.elements);
-    return;
+  if (f.kind != Kind::ShDc) {
+    std::memcpy(&scale, in, 4);
+    in += 4;
   }
-  std::vector<float>& values = scratch_floats();
-  values.resize(f.elements);
-  if (f.kind == Kind::ShDc)
-    std::memcpy(values.data(), in, 4 * f.elements);
-  else
-    halves_to_scaled_floats(in + 4, scale, values.data(), f.elements);
-  scatter(f, values);
+  by_piece(f, [&](size_t begin, size_t end) { decode_range(f, scale, begin, end, in + value_bytes(f) * begin); });
 }
 
 }  // namespace
@@ -164,6 +215,43 @@ ChunkDecoder::ChunkDecoder(const BlockArrays& block, uint32_t flags) : block_(bl
 void ChunkDecoder::finish() {
   const auto fields = fields_of(block_, flags_);
   for (const auto& [buffer, field] : steps_) decode(fields[size_t(field)], owned_[buffer].get());
+}
+
+void encode_payload(const ConstBlockArrays& cb, uint32_t flags, const std::function<void(const void*, size_t)>& emit) {
+  BlockArrays b;  // only read through these pointers
+  b.count = cb.count;
+  b.sh_degree = cb.sh_degree;
+  for (int a = 0; a < kBlockArrays; ++a) b.data[size_t(a)] = const_cast<void*>(cb.data[size_t(a)]);
+  for (const Field& f : fields_of(b, flags)) {
+    if (f.kind == Kind::Raw) {
+      emit(f.raw, 4 * f.elements);
+      continue;
+    }
+    float scale = 1;
+    if (f.kind != Kind::ShDc) {
+      scale = scale_of(f);
+      emit(&scale, 4);
+    }
+    by_piece(f, [&](size_t begin, size_t end) {
+      encode_range(f, scale, begin, end, piece_bytes());
+      emit(piece_bytes(), value_bytes(f) * (end - begin));
+    });
+  }
+}
+
+void decode_payload(const BlockArrays& block, uint32_t flags, const std::function<void(void*, size_t)>& read) {
+  for (const Field& f : fields_of(block, flags)) {
+    if (f.kind == Kind::Raw) {
+      read(f.raw, 4 * f.elements);
+      continue;
+    }
+    float scale = 1;
+    if (f.kind != Kind::ShDc) read(&scale, 4);
+    by_piece(f, [&](size_t begin, size_t end) {
+      read(piece_bytes(), value_bytes(f) * (end - begin));
+      decode_range(f, scale, begin, end, piece_bytes());
+    });
+  }
 }
 
 }  // namespace chungs

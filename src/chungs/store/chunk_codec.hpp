@@ -11,6 +11,7 @@
 // Parameters other than SH rest and the bookkeeping words stay float32/uint32 bit-exact.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -31,7 +32,18 @@ struct PayloadArray {
 // Payload bytes of `count` Gaussians under the given flags (before compression).
 uint64_t chunk_payload_bytes(uint64_t count, uint32_t flags);
 
-// The arrays to write, in file order; converted ones live in this object.
+// The payload of `block` under `flags`, in file order, a piece at a time: emit(data, bytes) for each
+// (it may not keep `data`). Arrays stored as they are come whole, straight from the block; converted
+// ones through buffers of the calling thread of ~300 KB, reused from piece to piece, so a thread that
+// writes chunks holds that much whatever their size.
+void encode_payload(const ConstBlockArrays& block, uint32_t flags,
+                    const std::function<void(const void*, size_t)>& emit);
+// The reverse, into a block already sized: read(dst, bytes) fills dst with the payload's next bytes.
+// The block holds the payload once it returns (partly, when read throws).
+void decode_payload(const BlockArrays& block, uint32_t flags, const std::function<void(void*, size_t)>& read);
+
+// The arrays to write, in file order; converted ones live in this object. (For zstd, which shuffles
+// an array's bytes as a whole; an uncompressed file is written by encode_payload.)
 class ChunkEncoder {
  public:
   ChunkEncoder(const ConstBlockArrays& block, uint32_t flags);
@@ -43,7 +55,7 @@ class ChunkEncoder {
 };
 
 // The arrays to read into, in file order (the block is already sized); finish() converts the
-// encoded ones into the block once all bytes are in.
+// encoded ones into the block once all bytes are in. (For zstd; see ChunkEncoder.)
 class ChunkDecoder {
  public:
   ChunkDecoder(const BlockArrays& block, uint32_t flags);
