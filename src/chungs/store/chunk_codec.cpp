@@ -64,7 +64,9 @@ float* piece_floats() {
   return v.get();
 }
 uint8_t* piece_bytes() {
-  thread_local std::unique_ptr<uint8_t[]> v = std::make_unique_for_overwrite<uint8_t[]>(4 * kPieceValues);
+  // Halves of the widest field, or the 3 float32 DC values a Gaussian: 2 bytes a value is enough.
+  static_assert(3 * 4 <= 2 * kPieceValues / kPieceGaussians);
+  thread_local std::unique_ptr<uint8_t[]> v = std::make_unique_for_overwrite<uint8_t[]>(2 * kPieceValues);
   return v.get();
 }
 

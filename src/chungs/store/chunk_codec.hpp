@@ -34,7 +34,7 @@ uint64_t chunk_payload_bytes(uint64_t count, uint32_t flags);
 
 // The payload of `block` under `flags`, in file order, a piece at a time: emit(data, bytes) for each
 // (it may not keep `data`). Arrays stored as they are come whole, straight from the block; converted
-// ones through buffers of the calling thread of ~300 KB, reused from piece to piece, so a thread that
+// ones through buffers of the calling thread of ~600 KB, reused from piece to piece, so a thread that
 // writes chunks holds that much whatever their size.
 void encode_payload(const ConstBlockArrays& block, uint32_t flags,
                     const std::function<void(const void*, size_t)>& emit);
