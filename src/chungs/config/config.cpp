@@ -161,8 +161,6 @@ void fields(V& v, MapperConfig& c) {
 template <class V>
 void fields(V& v, SamplerConfig& c) {
   v("density", c.density, "acceptance = density * (P_LoG(image) - P_LoG(render))");
-  v("view_budget_share", c.view_budget_share,
-    "a view holding more than the budget lowers the density so such a view would hold this share of it (0: off)");
   v("empty_floor", c.empty_floor, "least acceptance where the render is empty");
   v("init_opacity", c.init_opacity, "");
   v("min_scale_px", c.min_scale_px, "footprint of a new Gaussian: clamp(1/sqrt(P), min, fraction * W) px");

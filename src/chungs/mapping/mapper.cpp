@@ -138,8 +138,7 @@ std::vector<ChunkCount> Mapper::nearest_visible(const Camera& camera, const SE3&
   return nearest_first(culler_->cull(camera, pose), *residency_, store_->chunk_size(), pose.t);
 }
 
-std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out,
-                                            uint64_t* in_view) {
+std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out) {
   std::vector<ChunkId> out;
   uint64_t total = 0, needed = 0;
   for (const ChunkCount& c : nearest_visible(camera, pose)) {
@@ -152,7 +151,6 @@ std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pos
     out.push_back(c.id);
   }
   if (needed > residency_->budget()) note_view_over_budget(needed);
-  if (in_view) *in_view = needed;
   return out;
 }
 
@@ -166,24 +164,6 @@ void Mapper::note_view_over_budget(uint64_t needed) {
     largest_view_ = needed;
   }
   largest_view_ = std::max(largest_view_, needed);
-}
-
-void Mapper::fit_density_to_view(uint64_t needed) {
-  const double share = config_.sampler.view_budget_share;
-  if (!(share > 0) || needed <= residency_->budget()) return;
-  // From the largest view sampled, not the latest: the map keeps what was sampled denser before, so
-  // lowering the density again at every view over the budget would compound. Views only rendered or
-  // trained (the refinement's, the evaluation's) sample nothing and do not count.
-  const double before = density_scale();
-  largest_sampled_view_ = std::max(largest_sampled_view_, needed);
-  if (density_scale() < before * 0.95)
-    log::info("sampling density lowered to ", density_scale(), "x of sampler.density: a keyframe's view needs ",
-              needed, " Gaussians, sampler.view_budget_share ", share, " of the budget ", residency_->budget());
-}
-
-double Mapper::density_scale() const {
-  if (largest_sampled_view_ == 0) return 1.0;
-  return std::min(1.0, config_.sampler.view_budget_share * double(residency_->budget()) / double(largest_sampled_view_));
 }
 
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
@@ -221,9 +201,7 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
   SampleStats stats;
   const ImageF target = to_rgb_float(color);
   std::vector<ChunkId> left_out;
-  uint64_t in_view = 0;
-  std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out, &in_view);
-  fit_density_to_view(in_view);
+  std::vector<ChunkId> shown = visible_chunks(camera, pose, &left_out);
   // Beyond the view's core only what is resident is drawn (selector.core_share), and so sampled.
   if (core && !residency_->all_resident())
     std::erase_if(shown, [&](ChunkId c) {
@@ -231,10 +209,8 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
     });
   // Computed by the backend, so on the GPU only the one-channel map comes back to the host.
   const auto t1 = clock::now();
-  SamplerConfig drawn = config_.sampler;
-  drawn.density *= density_scale();
   const ImageF prob = with_pinned_slots(*residency_, shown, slots_, "mapper", [&](const std::vector<uint32_t>& slots) {
-    return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), drawn, target);
+    return backend_->sampling_probability(slots, make_render_camera<float>(camera, pose), config_.sampler, target);
   });
   keyframe_times_.render_ms += ms_since(t1);
   const auto t2 = clock::now();

@@ -147,9 +147,6 @@ class Mapper {
   uint64_t views_over_budget() const { return views_over_budget_; }  // views whose chunks exceed the budget
   uint64_t renders_in_passes() const { return renders_in_passes_; }  // render() calls drawn in passes
   uint64_t largest_view() const { return largest_view_; }  // Gaussians of the largest such view
-  // The factor on sampler.density that sampler.view_budget_share set (1: none); a resumed run finds
-  // it again at its first view over the budget.
-  double density_scale() const;
   // Where the optimiser thread's step time went (sums; the backend's includes keyframe loads it
   // asked for, and on the GPU the wait for the device).
   // chunks_ms = cull_ms + pin_ms + the slot list; pick_ms: drawing the next step's keyframe, culling
@@ -202,12 +199,10 @@ class Mapper {
  private:
   // Visible chunks of a view, nearest first, trimmed so that they fit the budget; the ones trimmed
   // go to left_out.
-  std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out = nullptr,
-                                      uint64_t* in_view = nullptr);  // in_view: Gaussians in every visible chunk
+  std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out = nullptr);
   // Every visible chunk that holds Gaussians, nearest first, with its count.
   std::vector<ChunkCount> nearest_visible(const Camera& camera, const SE3& pose);
   void note_view_over_budget(uint64_t needed);  // warns when a view needs more than the budget
-  void fit_density_to_view(uint64_t needed);    // sampler.view_budget_share, for a view about to be sampled
   // New Gaussians a keyframe may add: what the optimiser trained per keyframe lately (see
   // SamplerConfig::new_per_step); 0 for no cap.
   uint64_t new_gaussian_cap(const Image8& image);
@@ -245,7 +240,6 @@ class Mapper {
   uint64_t strays_held_back_ = 0, strays_released_ = 0;
   uint64_t steps_at_last_keyframe_ = 0, steps_at_last_sampling_ = 0;
   uint64_t views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0, renders_in_passes_ = 0;
-  uint64_t largest_sampled_view_ = 0;  // over the budget, with sampler.view_budget_share set
   WindowStats window_stats_;
   StepTimes step_times_;
   KeyframeTimes keyframe_times_;

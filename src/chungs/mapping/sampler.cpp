@@ -13,8 +13,6 @@ namespace chungs {
 
 void SamplerConfig::validate() const {
   if (!(density > 0)) fail("sampler: density must be > 0, got ", density);
-  if (!(view_budget_share >= 0 && view_budget_share <= 1))
-    fail("sampler: view_budget_share must be in [0, 1], got ", view_budget_share);
   if (!(empty_floor >= 0 && empty_floor <= 1)) fail("sampler: empty_floor must be in [0, 1], got ", empty_floor);
   if (!(init_opacity > 0 && init_opacity < 1)) fail("sampler: init_opacity must be in (0, 1), got ", init_opacity);
   if (!(min_scale_px > 0)) fail("sampler: min_scale_px must be > 0, got ", min_scale_px);

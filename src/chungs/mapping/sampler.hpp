@@ -24,12 +24,6 @@ namespace chungs {
 
 struct SamplerConfig {
   double density = 2.0;            // acceptance = density * (P - P_render)  (paper: 2)
-  // Under a budget below what one view's chunks hold (their farthest chunks then stay out of the
-  // view's steps), the density is lowered so that the largest such view would hold this share of the
-  // budget: density * min(1, view_budget_share * budget / largest keyframe view). 0: off. On the GPU (2 km
-  // street under 100 k, views of 100-136 k) half the density scored +0.5-0.6 dB (bench/README.md,
-  // issue 19); off until a share is measured there.
-  double view_budget_share = 0;
   double empty_floor = 0.02;       // least probability where the render is empty (alpha < 0.5)
   double init_opacity = 0.07;      // opacity of a new Gaussian (paper: 0.07)
   double min_scale_px = 1.0;       // footprint clamp, pixels: [min, max_scale_fraction * W]

@@ -17,7 +17,6 @@ nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSam
   pj["min_steps_per_keyframe"] = min_steps_per_keyframe;
   pj["views_over_budget"] = mapper.views_over_budget();
   if (mapper.views_over_budget()) pj["largest_view_gaussians"] = mapper.largest_view();
-  if (mapper.density_scale() < 1) pj["density_scale"] = mapper.density_scale();
   if (const Mapper::WindowStats& w = mapper.window_stats(); w.updates) {
     // How much of the selection cell the budget left trainable.
     const double n = double(std::max<uint64_t>(w.narrowed, 1));

@@ -47,6 +47,15 @@ std::vector<Field> fields_of(const BlockArrays& b, uint32_t flags) {
   return out;
 }
 
+// A block to be only read, as fields_of takes it.
+BlockArrays read_only(const ConstBlockArrays& cb) {
+  BlockArrays b;
+  b.count = cb.count;
+  b.sh_degree = cb.sh_degree;
+  for (int a = 0; a < kBlockArrays; ++a) b.data[size_t(a)] = const_cast<void*>(cb.data[size_t(a)]);
+  return b;
+}
+
 size_t stored_bytes(const Field& f) {
   return f.kind == Kind::Raw || f.kind == Kind::ShDc ? 4 * f.elements : 4 + 2 * f.elements;
 }
@@ -185,11 +194,7 @@ uint64_t chunk_payload_bytes(uint64_t count, uint32_t flags) {
 }
 
 ChunkEncoder::ChunkEncoder(const ConstBlockArrays& cb, uint32_t flags) {
-  BlockArrays b;  // only read through these pointers
-  b.count = cb.count;
-  b.sh_degree = cb.sh_degree;
-  for (int a = 0; a < kBlockArrays; ++a) b.data[size_t(a)] = const_cast<void*>(cb.data[size_t(a)]);
-  for (const Field& f : fields_of(b, flags)) {
+  for (const Field& f : fields_of(read_only(cb), flags)) {
     if (f.kind == Kind::Raw) {
       arrays_.push_back({static_cast<uint8_t*>(f.raw), 4 * f.elements, 4});
       continue;
@@ -220,11 +225,7 @@ void ChunkDecoder::finish() {
 }
 
 void encode_payload(const ConstBlockArrays& cb, uint32_t flags, const std::function<void(const void*, size_t)>& emit) {
-  BlockArrays b;  // only read through these pointers
-  b.count = cb.count;
-  b.sh_degree = cb.sh_degree;
-  for (int a = 0; a < kBlockArrays; ++a) b.data[size_t(a)] = const_cast<void*>(cb.data[size_t(a)]);
-  for (const Field& f : fields_of(b, flags)) {
+  for (const Field& f : fields_of(read_only(cb), flags)) {
     if (f.kind == Kind::Raw) {
       emit(f.raw, 4 * f.elements);
       continue;
