@@ -20,12 +20,15 @@ struct MappedAllocator {
   template <class U>
   MappedAllocator(const MappedAllocator<U>&) {}
   T* allocate(size_t n) {
+    if (n == 0) return nullptr;  // mmap refuses an empty mapping
     if (n > size_t(-1) / sizeof(T)) throw std::bad_alloc();
     void* p = ::mmap(nullptr, n * sizeof(T), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (p == MAP_FAILED) throw std::bad_alloc();
     return static_cast<T*>(p);
   }
-  void deallocate(T* p, size_t n) { ::munmap(p, n * sizeof(T)); }
+  void deallocate(T* p, size_t n) {
+    if (p) ::munmap(p, n * sizeof(T));
+  }
   template <class U>
   bool operator==(const MappedAllocator<U>&) const {
     return true;
