@@ -206,8 +206,8 @@ TEST(ChunkFileHalf, ShrinksFilesAsAnnouncedAndKeepsParametersExact) {
   }
 }
 
-// Uncompressed files are encoded and decoded a piece of 1,024 Gaussians at a time, zstd ones an array
-// at a time: both, on blocks of one piece and of three (the last one partial), with each array's
+// Uncompressed files are encoded and decoded a piece of 2,048 Gaussians at a time, zstd ones an array
+// at a time: both, on blocks of one piece and of two (the last one partial), with each array's
 // largest value in the last piece, where a scale taken from the first piece alone would not reach.
 class ChunkFileHalfSizes : public ::testing::TestWithParam<std::tuple<size_t, bool>> {};
 INSTANTIATE_TEST_SUITE_P(PiecesAndZstd, ChunkFileHalfSizes,
