@@ -2,7 +2,11 @@
 #pragma once
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <cstddef>
 #include <filesystem>
+#include <fstream>
 #include <random>
 #include <string>
 
@@ -55,5 +59,13 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// The process's resident memory now (/proc/self/statm), for tests of what the heap keeps.
+inline size_t resident_bytes() {
+  std::ifstream f("/proc/self/statm");
+  size_t pages = 0, resident = 0;
+  f >> pages >> resident;
+  return resident * size_t(::sysconf(_SC_PAGESIZE));
+}
 
 }  // namespace chungs::test

@@ -7,16 +7,12 @@
 #include <vector>
 
 #include "chungs/common/heap.hpp"
+#include "test_support.hpp"
 
 namespace chungs {
 namespace {
 
-size_t resident_bytes() {
-  std::ifstream f("/proc/self/statm");
-  size_t pages = 0, resident = 0;
-  f >> pages >> resident;
-  return resident * 4096;
-}
+using test::resident_bytes;
 
 TEST(Heap, TheReserveIsResidentAtOnceAndReusedAfterwards) {
 #if !defined(__GLIBC__) || !defined(__linux__)

@@ -2,24 +2,18 @@
 #include "chungs/common/mapped_allocator.hpp"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdint>
-#include <fstream>
 #include <numeric>
 #include <vector>
 
 #include "chungs/common/heap.hpp"
+#include "test_support.hpp"
 
 namespace chungs {
 namespace {
 
-double rss_mb() {
-  std::ifstream statm("/proc/self/statm");
-  uint64_t size = 0, resident = 0;
-  statm >> size >> resident;
-  return double(resident) * double(::sysconf(_SC_PAGESIZE)) / 1048576.0;
-}
+double rss_mb() { return double(test::resident_bytes()) / 1048576.0; }
 
 TEST(MappedAllocator, HoldsWhatAVectorHoldsAndGivesItsMemoryBackWhenFreed) {
   keep_heap_for_reuse(0);  // the mapping run's heap: blocks up to 32 MB from it, freed memory kept
