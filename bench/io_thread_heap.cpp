@@ -2,7 +2,7 @@
 // I/O threads (one per core) under its allocator settings (one arena, freed memory kept:
 // common/heap.hpp), each writing and reading back chunks of one size in a folder of its own.
 //
-//   bench_io_thread_heap THREADS GAUSSIANS [ROUNDS]
+//   bench_io_thread_heap THREADS GAUSSIANS [ROUNDS [zstd]]
 // prints the RSS growth over the writes and reads (the blocks themselves are made before) and the wall
 // time a round of them takes (per thread; all threads at once). Files go to
 // $CHUNGS_BENCH_DIR (default: the system temp folder), removed afterwards.
@@ -29,13 +29,16 @@ namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: bench_io_thread_heap THREADS GAUSSIANS [ROUNDS]\n");
+    std::fprintf(stderr, "usage: bench_io_thread_heap THREADS GAUSSIANS [ROUNDS [zstd]]\n");
     return 2;
   }
   const int threads = std::atoi(argv[1]), rounds = argc > 3 ? std::atoi(argv[3]) : 5;
   const long gaussians = std::atol(argv[2]);
-  if (threads < 1 || threads > 256 || gaussians < 1 || gaussians > 1'000'000 || rounds < 1) {
-    std::fprintf(stderr, "bench_io_thread_heap: THREADS in [1, 256], GAUSSIANS in [1, 1e6], ROUNDS >= 1\n");
+  const bool zstd = argc > 4 && std::string(argv[4]) == "zstd";
+  if (threads < 1 || threads > 256 || gaussians < 1 || gaussians > 1'000'000 || rounds < 1 ||
+      (argc > 4 && !zstd) || argc > 5) {
+    std::fprintf(stderr, "bench_io_thread_heap: THREADS in [1, 256], GAUSSIANS in [1, 1e6], ROUNDS >= 1, then "
+                         "nothing or zstd\n");
     return 2;
   }
   mallopt(M_ARENA_MAX, 1);  // as the CLI (apps/diskchungs/allocator.cpp)
@@ -61,6 +64,7 @@ int main(int argc, char** argv) {
   opt.durable = false;
   opt.half_moments = store.half_moments;
   opt.half_sh_rest = store.half_sh_rest;
+  opt.compress = zstd;  // the store's level and byte shuffle otherwise
   const double before = double(current_rss_bytes()) / 1048576.0;
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::thread> pool;
@@ -75,8 +79,8 @@ int main(int argc, char** argv) {
   for (std::thread& th : pool) th.join();
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const double after = double(current_rss_bytes()) / 1048576.0;
-  std::printf("%d threads, chunks of %ld Gaussians, %d rounds: RSS +%.1f MB (%.1f -> %.1f); %.2f ms a write and read\n",
-              threads, gaussians, rounds, after - before, before, after, ms / rounds);
+  std::printf("%d threads, chunks of %ld Gaussians%s, %d rounds: RSS +%.1f MB (%.1f -> %.1f); %.2f ms a write and read\n",
+              threads, gaussians, zstd ? " (zstd)" : "", rounds, after - before, before, after, ms / rounds);
   std::error_code ec;
   fs::remove_all(dir, ec);
   return 0;

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <zstd.h>
 
 #include <fstream>
 
@@ -116,6 +117,44 @@ TEST(ChunkFile, ArraysThatGoStraightToTheFileKeepTheirPlace) {
         EXPECT_EQ(r.lr_position_factor, b.lr_position_factor) << mode;
       }
     }
+  }
+}
+
+// The format of compressed files, restated from chunk_codec.hpp: the zstd content is each stored array
+// of the uncompressed payload byte-shuffled by its elements (4 bytes; 2 for a half array, whose scale
+// counts as its first two elements). Writers that shuffle a piece at a time must make exactly this.
+TEST(ChunkFile, ZstdContentIsEachStoredArrayShuffledByItsElements) {
+  test::TempDir dir;
+  const size_t n = 2500;  // over a piece of 2,048 Gaussians
+  const GaussianBlock b = test::random_block(n, 11, 30, -20, 170);
+  for (const bool half : {false, true}) {
+    write_chunk_file(dir / "raw", kId, b, {false, 1, false, false, half, half});
+    write_chunk_file(dir / "z", kId, b, {true, 1, true, false, half, half});
+    const std::vector<uint8_t> raw = read_whole_file(dir / "raw"), z = read_whole_file(dir / "z");
+    const std::vector<uint8_t> payload(raw.begin() + 72, raw.end());
+    std::vector<uint8_t> content(payload.size());
+    ASSERT_EQ(ZSTD_decompress(content.data(), content.size(), z.data() + 72, z.size() - 72), payload.size());
+    std::vector<uint8_t> expect;
+    size_t at = 0;
+    auto shuffled = [&](size_t bytes, size_t w) {
+      for (size_t k = 0; k < w; ++k)
+        for (size_t i = 0; i < bytes / w; ++i) expect.push_back(payload[at + w * i + k]);
+      at += bytes;
+    };
+    for (int a = 0; a < kBlockArrays; ++a) {
+      const size_t width = size_t(kBlockArrayWidths[size_t(a)]);
+      const int group = a < kBlockFirstWord ? a / kBlockArraysPerGroup : -1;
+      if (half && (group == 1 || group == 2)) {
+        shuffled(4 + 2 * width * n, 2);
+      } else if (half && group == 0 && a % kBlockArraysPerGroup == kBlockGroupSh) {
+        shuffled(4 * 3 * n, 4);
+        shuffled(4 + 2 * (width - 3) * n, 2);
+      } else {
+        shuffled(4 * width * n, 4);
+      }
+    }
+    ASSERT_EQ(at, payload.size()) << half;
+    EXPECT_TRUE(content == expect) << (half ? "half precision" : "float32");
   }
 }
 

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <vector>
 
 #include "chungs/store/half_float.hpp"
 
@@ -56,10 +58,6 @@ BlockArrays read_only(const ConstBlockArrays& cb) {
   return b;
 }
 
-size_t stored_bytes(const Field& f) {
-  return f.kind == Kind::Raw || f.kind == Kind::ShDc ? 4 * f.elements : 4 + 2 * f.elements;
-}
-
 // Gaussians converted at a time. A thread's buffers are bounded by this, not by the largest chunk
 // it ever converted: whole-chunk copies left 16 I/O threads holding 96 MB of heap after chunks of
 // 10 k Gaussians (bench/README.md, issue 19).
@@ -70,6 +68,11 @@ constexpr size_t kPieceValues =  // the widest field's
 // A thread's buffers for one piece: values in file order, and their encoding.
 float* piece_floats() {
   thread_local std::unique_ptr<float[]> v = std::make_unique_for_overwrite<float[]>(kPieceValues);
+  return v.get();
+}
+// One byte of each value of a piece (a plane of the byte shuffle).
+uint8_t* plane_bytes() {
+  thread_local std::unique_ptr<uint8_t[]> v = std::make_unique_for_overwrite<uint8_t[]>(kPieceValues);
   return v.get();
 }
 uint8_t* piece_bytes() {
@@ -161,25 +164,13 @@ void decode_range(const Field& f, float scale, size_t begin, size_t end, const u
 
 size_t value_bytes(const Field& f) { return f.kind == Kind::ShDc ? 4 : 2; }
 
-// A whole encoded field into `out` (stored_bytes(f) of them).
-void encode(const Field& f, uint8_t* out) {
-  float scale = 1;
-  if (f.kind != Kind::ShDc) {
-    scale = scale_of(f);
-    std::memcpy(out, &scale, 4);
-    out += 4;
-  }
-  by_piece(f, [&](size_t begin, size_t end) { encode_range(f, scale, begin, end, out + value_bytes(f) * begin); });
+// Where value i of an encoded field (file order) lives in the block.
+float* slot(const Field& f, size_t i) {
+  if (f.kind == Kind::ShDc) return f.f + (i / 3) * kShFloats + i % 3;
+  if (f.kind == Kind::ShRest) return f.f + (i / kShRest) * kShFloats + 3 + i % kShRest;
+  return f.f + i;
 }
-
-void decode(const Field& f, const uint8_t* in) {
-  float scale = 1;
-  if (f.kind != Kind::ShDc) {
-    std::memcpy(&scale, in, 4);
-    in += 4;
-  }
-  by_piece(f, [&](size_t begin, size_t end) { decode_range(f, scale, begin, end, in + value_bytes(f) * begin); });
-}
+uint8_t& byte_of(float* value, int b) { return reinterpret_cast<uint8_t*>(value)[b]; }
 
 }  // namespace
 
@@ -191,37 +182,6 @@ uint64_t chunk_payload_bytes(uint64_t count, uint32_t flags) {
   bytes += half_sh ? 4 * n * (raw_params + 3) + 4 + 2 * n * kShRest : 4 * n * kParamFloats;
   bytes += half_m ? 2 * (5 * 4 + 2 * n * kParamFloats) : 2 * 4 * n * kParamFloats;
   return bytes;
-}
-
-ChunkEncoder::ChunkEncoder(const ConstBlockArrays& cb, uint32_t flags) {
-  for (const Field& f : fields_of(read_only(cb), flags)) {
-    if (f.kind == Kind::Raw) {
-      arrays_.push_back({static_cast<uint8_t*>(f.raw), 4 * f.elements, 4});
-      continue;
-    }
-    owned_.push_back(std::make_unique_for_overwrite<uint8_t[]>(stored_bytes(f)));
-    encode(f, owned_.back().get());
-    arrays_.push_back({owned_.back().get(), stored_bytes(f), f.kind == Kind::ShDc ? 4 : 2});
-  }
-}
-
-ChunkDecoder::ChunkDecoder(const BlockArrays& block, uint32_t flags) : block_(block), flags_(flags) {
-  const auto fields = fields_of(block, flags);
-  for (size_t k = 0; k < fields.size(); ++k) {
-    const Field& f = fields[k];
-    if (f.kind == Kind::Raw) {
-      arrays_.push_back({static_cast<uint8_t*>(f.raw), 4 * f.elements, 4});
-      continue;
-    }
-    owned_.push_back(std::make_unique_for_overwrite<uint8_t[]>(stored_bytes(f)));
-    steps_.emplace_back(owned_.size() - 1, int(k));
-    arrays_.push_back({owned_.back().get(), stored_bytes(f), f.kind == Kind::ShDc ? 4 : 2});
-  }
-}
-
-void ChunkDecoder::finish() {
-  const auto fields = fields_of(block_, flags_);
-  for (const auto& [buffer, field] : steps_) decode(fields[size_t(field)], owned_[buffer].get());
 }
 
 void encode_payload(const ConstBlockArrays& cb, uint32_t flags, const std::function<void(const void*, size_t)>& emit) {
@@ -253,6 +213,82 @@ void decode_payload(const BlockArrays& block, uint32_t flags, const std::functio
     by_piece(f, [&](size_t begin, size_t end) {
       read(piece_bytes(), value_bytes(f) * (end - begin));
       decode_range(f, scale, begin, end, piece_bytes());
+    });
+  }
+}
+
+void encode_shuffled_payload(const ConstBlockArrays& cb, uint32_t flags,
+                             const std::function<void(const void*, size_t)>& emit) {
+  for (const Field& f : fields_of(read_only(cb), flags)) {
+    uint8_t* plane = plane_bytes();
+    if (f.kind == Kind::Raw) {
+      const auto* bytes = static_cast<const uint8_t*>(f.raw);
+      for (int b = 0; b < 4; ++b)
+        by_piece(f, [&](size_t begin, size_t end) {
+          for (size_t i = begin; i < end; ++i) plane[i - begin] = bytes[4 * i + size_t(b)];
+          emit(plane, end - begin);
+        });
+      continue;
+    }
+    const size_t w = value_bytes(f);
+    float scale = 1;
+    uint8_t s[4] = {};
+    if (f.kind != Kind::ShDc) {
+      scale = scale_of(f);
+      std::memcpy(s, &scale, 4);
+    }
+    // Each plane encodes the values again: a pass more over a piece, where holding the encoded array
+    // would cost its size for every thread.
+    for (size_t b = 0; b < w; ++b) {
+      if (f.kind != Kind::ShDc) {
+        const uint8_t head[2] = {s[b], s[2 + b]};
+        emit(head, 2);
+      }
+      by_piece(f, [&](size_t begin, size_t end) {
+        encode_range(f, scale, begin, end, piece_bytes());
+        const uint8_t* values = piece_bytes();
+        for (size_t i = 0; i < end - begin; ++i) plane[i] = values[w * i + b];
+        emit(plane, end - begin);
+      });
+    }
+  }
+}
+
+void decode_shuffled_payload(const BlockArrays& block, uint32_t flags, const std::function<void(void*, size_t)>& read) {
+  for (const Field& f : fields_of(block, flags)) {
+    uint8_t* plane = plane_bytes();
+    if (f.kind == Kind::Raw || f.kind == Kind::ShDc) {  // 4-byte values: each byte straight to its place
+      for (int b = 0; b < 4; ++b)
+        by_piece(f, [&](size_t begin, size_t end) {
+          read(plane, end - begin);
+          if (f.kind == Kind::Raw) {
+            auto* bytes = static_cast<uint8_t*>(f.raw);
+            for (size_t i = begin; i < end; ++i) bytes[4 * i + size_t(b)] = plane[i - begin];
+          } else {
+            for (size_t i = begin; i < end; ++i) byte_of(slot(f, i), b) = plane[i - begin];
+          }
+        });
+      continue;
+    }
+    uint8_t s[4], head[2];
+    read(head, 2);
+    s[0] = head[0], s[2] = head[1];
+    by_piece(f, [&](size_t begin, size_t end) {
+      read(plane, end - begin);
+      for (size_t i = begin; i < end; ++i) byte_of(slot(f, i), 0) = plane[i - begin];
+    });
+    read(head, 2);
+    s[1] = head[0], s[3] = head[1];
+    float scale;
+    std::memcpy(&scale, s, 4);
+    by_piece(f, [&](size_t begin, size_t end) {
+      read(plane, end - begin);
+      uint8_t* halves = piece_bytes();
+      for (size_t i = begin; i < end; ++i) {
+        halves[2 * (i - begin)] = byte_of(slot(f, i), 0);
+        halves[2 * (i - begin) + 1] = plane[i - begin];
+      }
+      decode_range(f, scale, begin, end, halves);
     });
   }
 }

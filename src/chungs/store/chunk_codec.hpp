@@ -12,8 +12,6 @@
 #pragma once
 #include <cstdint>
 #include <functional>
-#include <memory>
-#include <vector>
 
 #include "chungs/gaussians/block_arrays.hpp"
 
@@ -42,32 +40,15 @@ void encode_payload(const ConstBlockArrays& block, uint32_t flags,
 // The block holds the payload once it returns (partly, when read throws).
 void decode_payload(const BlockArrays& block, uint32_t flags, const std::function<void(void*, size_t)>& read);
 
-// The arrays to write, in file order; converted ones live in this object. (For zstd, which shuffles
-// an array's bytes as a whole; an uncompressed file is written by encode_payload.)
-class ChunkEncoder {
- public:
-  ChunkEncoder(const ConstBlockArrays& block, uint32_t flags);
-  const std::vector<PayloadArray>& arrays() const { return arrays_; }
-
- private:
-  std::vector<std::unique_ptr<uint8_t[]>> owned_;  // not zeroed first: every byte is written
-  std::vector<PayloadArray> arrays_;
-};
-
-// The arrays to read into, in file order (the block is already sized); finish() converts the
-// encoded ones into the block once all bytes are in. (For zstd; see ChunkEncoder.)
-class ChunkDecoder {
- public:
-  ChunkDecoder(const BlockArrays& block, uint32_t flags);
-  const std::vector<PayloadArray>& arrays() const { return arrays_; }
-  void finish();
-
- private:
-  std::vector<std::unique_ptr<uint8_t[]>> owned_;
-  std::vector<PayloadArray> arrays_;
-  std::vector<std::pair<size_t, int>> steps_;  // (owned buffer, field in file order) to decode
-  BlockArrays block_;
-  uint32_t flags_;
-};
+// The payload as zstd takes it with the byte shuffle: each stored array's elements by byte, all first
+// bytes, then all second bytes, ... (elements of 4 bytes; of 2 for the halves, their scale being the
+// array's first two elements), a piece at a time through buffers of the calling thread, as
+// encode_payload. The stream is the one a whole-array shuffle makes, so files written either way
+// read the same.
+void encode_shuffled_payload(const ConstBlockArrays& block, uint32_t flags,
+                             const std::function<void(const void*, size_t)>& emit);
+// The reverse, into a block already sized. The first bytes of the halves wait in the memory of the
+// values they belong to until their second bytes come, so no array is held twice.
+void decode_shuffled_payload(const BlockArrays& block, uint32_t flags, const std::function<void(void*, size_t)>& read);
 
 }  // namespace chungs

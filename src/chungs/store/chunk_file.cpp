@@ -1,18 +1,19 @@
 #include "chungs/store/chunk_file.hpp"
 
 #include <unistd.h>
-#include <zstd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <memory>
+#include <optional>
 
 #include "chungs/common/error.hpp"
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/checksum.hpp"
 #include "chungs/store/chunk_codec.hpp"
 #include "chungs/store/zstd_limits.hpp"
+#include "chungs/store/zstd_stream.hpp"
 
 namespace chungs {
 
@@ -32,97 +33,7 @@ struct Header {
 static_assert(sizeof(Header) == 72, "chunk header must have no padding");
 constexpr size_t kChecksummedHeaderBytes = offsetof(Header, header_checksum);
 
-using Arrays = std::vector<PayloadArray>;
 static_assert(kChunkFlagsHalf == (kChunkFlagHalfMoments | kChunkFlagHalfShRest));
-
-// Byte shuffle over elements of w bytes: all first bytes, then all second bytes, ...
-void shuffle(const uint8_t* in, uint8_t* out, size_t bytes, int w) {
-  const size_t n = bytes / size_t(w);
-  for (size_t i = 0; i < n; ++i)
-    for (int k = 0; k < w; ++k) out[size_t(k) * n + i] = in[size_t(w) * i + size_t(k)];
-}
-void unshuffle(const uint8_t* in, uint8_t* out, size_t bytes, int w) {
-  const size_t n = bytes / size_t(w);
-  for (int k = 0; k < w; ++k)
-    for (size_t i = 0; i < n; ++i) out[size_t(w) * i + size_t(k)] = in[size_t(k) * n + i];
-}
-
-struct CCtxFree {
-  void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
-};
-struct DCtxFree {
-  void operator()(ZSTD_DCtx* c) const { ZSTD_freeDCtx(c); }
-};
-// One context per thread: creating one per chunk costs more than compressing a small chunk.
-ZSTD_CCtx* compressor() {
-  thread_local std::unique_ptr<ZSTD_CCtx, CCtxFree> c(ZSTD_createCCtx());
-  if (!c) fail("zstd: cannot create a compression context");
-  return c.get();
-}
-ZSTD_DCtx* decompressor() {
-  thread_local std::unique_ptr<ZSTD_DCtx, DCtxFree> d(ZSTD_createDCtx());
-  if (!d) fail("zstd: cannot create a decompression context");
-  return d.get();
-}
-
-std::vector<uint8_t> compress(const Arrays& arrays, uint64_t raw_bytes, const ChunkWriteOptions& opt,
-                              const fs::path& file) {
-  ZSTD_CCtx* c = compressor();
-  ZSTD_CCtx_reset(c, ZSTD_reset_session_and_parameters);
-  ZSTD_CCtx_setParameter(c, ZSTD_c_compressionLevel, opt.zstd_level);
-  ZSTD_CCtx_setPledgedSrcSize(c, raw_bytes);
-  std::vector<uint8_t> out(ZSTD_compressBound(raw_bytes)), scratch;
-  ZSTD_outBuffer ob{out.data(), out.size(), 0};
-  for (size_t a = 0; a <= arrays.size(); ++a) {
-    const bool last = a == arrays.size();
-    ZSTD_inBuffer ib{nullptr, 0, 0};
-    if (!last) {
-      const size_t bytes = arrays[a].bytes;
-      ib.src = arrays[a].data;
-      ib.size = bytes;
-      if (opt.shuffle) {
-        scratch.resize(bytes);
-        shuffle(arrays[a].data, scratch.data(), bytes, arrays[a].element_bytes);
-        ib.src = scratch.data();
-      }
-    }
-    size_t left;
-    do {
-      left = ZSTD_compressStream2(c, &ob, &ib, last ? ZSTD_e_end : ZSTD_e_continue);
-      if (ZSTD_isError(left)) fail(file.string(), ": zstd compression failed: ", ZSTD_getErrorName(left));
-    } while (last ? left != 0 : ib.pos < ib.size);
-  }
-  out.resize(ob.pos);
-  return out;
-}
-
-void decompress(const std::vector<uint8_t>& in, const Arrays& arrays, bool shuffled, const fs::path& file) {
-  ZSTD_DCtx* d = decompressor();
-  ZSTD_DCtx_reset(d, ZSTD_reset_session_and_parameters);
-  ZSTD_inBuffer ib{in.data(), in.size(), 0};
-  std::vector<uint8_t> scratch;
-  size_t ret = 1;
-  for (const PayloadArray& a : arrays) {
-    const size_t bytes = a.bytes;
-    if (shuffled) scratch.resize(bytes);
-    ZSTD_outBuffer ob{shuffled ? scratch.data() : a.data, bytes, 0};
-    while (ob.pos < ob.size) {
-      const size_t in_before = ib.pos, out_before = ob.pos;
-      ret = ZSTD_decompressStream(d, &ob, &ib);
-      if (ZSTD_isError(ret)) fail(file.string(), ": zstd payload is corrupt: ", ZSTD_getErrorName(ret));
-      if (ib.pos == in_before && ob.pos == out_before)
-        fail(file.string(), ": compressed payload ends before all arrays were read");
-    }
-    if (shuffled) unshuffle(scratch.data(), a.data, bytes, a.element_bytes);
-  }
-  if (ret != 0) {  // the frame's end mark may still be unread after the last byte came out
-    ZSTD_outBuffer none{nullptr, 0, 0};
-    ret = ZSTD_decompressStream(d, &none, &ib);
-    if (ZSTD_isError(ret)) fail(file.string(), ": zstd payload is corrupt: ", ZSTD_getErrorName(ret));
-  }
-  if (ret != 0 || ib.pos != ib.size)
-    fail(file.string(), ": compressed payload has trailing or unterminated data");
-}
 
 // Pieces of the payload pass through a buffer of the thread's, so that a file is a few large reads or
 // writes and not one per converted piece and scale (a syscall each made a chunk of 3,000 Gaussians
@@ -189,6 +100,24 @@ class BufferedRead {
   size_t at_ = 0, end_ = 0;
 };
 
+// Checks a zstd payload at the file's current offset before anything is allocated for it: its
+// checksum, and the content size its frame declares.
+void check_zstd_payload(const FileDescriptor& fd, const fs::path& file, uint64_t packed, uint64_t checksum,
+                        uint64_t raw_bytes) {
+  Xxh64 sum;
+  uint8_t frame_header[18];  // a frame header's most (ZSTD_FRAMEHEADERSIZE_MAX): all the declared size needs
+  size_t header_bytes = 0;
+  for (uint64_t left = packed; left > 0;) {
+    const size_t n = size_t(std::min<uint64_t>(kIoBuffer, left));
+    read_exact(fd, io_buffer(), n, file);
+    if (left == packed) std::memcpy(frame_header, io_buffer(), header_bytes = std::min(n, sizeof frame_header));
+    sum.update(io_buffer(), n);
+    left -= n;
+  }
+  if (sum.digest() != checksum) fail(file.string(), ": payload checksum mismatch: the file is corrupt");
+  check_zstd_content_size(file, frame_header, header_bytes, raw_bytes);
+}
+
 Header read_and_check_header(const FileDescriptor& fd, const fs::path& file, uint64_t& size) {
   size = file_size(fd, file);
   Header h;
@@ -246,37 +175,40 @@ ChunkFileInfo write_chunk_file(const fs::path& file, ChunkId id, const ConstBloc
   h.sh_degree = uint32_t(block.sh_degree);
   h.flags = (opt.half_moments ? kChunkFlagHalfMoments : 0) | (opt.half_sh_rest ? kChunkFlagHalfShRest : 0);
   h.raw_bytes = chunk_payload_bytes(h.count, h.flags);
-  if (opt.compress) {
-    const ChunkEncoder encoder(block, h.flags);  // whole arrays: zstd shuffles each as one
-    h.flags |= kChunkFlagZstd | (opt.shuffle ? kChunkFlagShuffled : 0);
-    const std::vector<uint8_t> packed = compress(encoder.arrays(), h.raw_bytes, opt, file);
-    h.payload_bytes = packed.size();
-    h.payload_checksum = xxh64(packed.data(), packed.size());
-    h.header_checksum = xxh64(&h, kChecksummedHeaderBytes);
-    const ConstBuffer parts[] = {{&h, sizeof h}, {packed.data(), packed.size()}};
-    write_file_atomically(file, parts, opt.durable, opt.start_writeback);
-  } else {
-    // Written as it is encoded, the header last: a thread writing chunks holds no copy of one.
-    h.payload_bytes = h.raw_bytes;
-    write_file_atomically(
-        file, {&h, sizeof h},
-        [&](const Append& append) {
-          Xxh64 sum;
-          uint64_t bytes = 0;
-          BufferedAppend out(append);
-          encode_payload(block, h.flags, [&](const void* data, size_t size) {
-            sum.update(data, size);
-            bytes += size;
-            out(data, size);
-          });
-          out.flush();
-          if (bytes != h.raw_bytes)
-            fail(file.string(), ": internal error: ", bytes, " payload bytes written for ", h.raw_bytes);
-          h.payload_checksum = sum.digest();
-          h.header_checksum = xxh64(&h, kChecksummedHeaderBytes);
-        },
-        opt.durable, opt.start_writeback);
-  }
+  const uint32_t half = h.flags;
+  if (opt.compress) h.flags |= kChunkFlagZstd | (opt.shuffle ? kChunkFlagShuffled : 0);
+  // Written as it is encoded (and compressed), the header last: a thread writing chunks holds no
+  // copy of one.
+  write_file_atomically(
+      file, {&h, sizeof h},
+      [&](const Append& append) {
+        Xxh64 sum;
+        uint64_t raw = 0, packed = 0;
+        BufferedAppend out(append);
+        auto store = [&](const void* data, size_t size) {
+          sum.update(data, size);
+          packed += size;
+          out(data, size);
+        };
+        std::optional<ZstdWriter> zstd;
+        if (opt.compress) zstd.emplace(opt.zstd_level, h.raw_bytes, file, store);
+        auto emit = [&](const void* data, size_t size) {
+          raw += size;
+          zstd ? zstd->feed(data, size) : store(data, size);
+        };
+        if (opt.compress && opt.shuffle)
+          encode_shuffled_payload(block, half, emit);
+        else
+          encode_payload(block, half, emit);
+        if (zstd) zstd->end();
+        out.flush();
+        if (raw != h.raw_bytes)
+          fail(file.string(), ": internal error: ", raw, " payload bytes written for ", h.raw_bytes);
+        h.payload_bytes = packed;
+        h.payload_checksum = sum.digest();
+        h.header_checksum = xxh64(&h, kChecksummedHeaderBytes);
+      },
+      opt.durable, opt.start_writeback);
   return info_of(h, sizeof h + h.payload_bytes);
 }
 
@@ -307,26 +239,28 @@ ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const fs::path& file, co
   uint64_t size = 0;
   const Header h = read_and_check_header(fd, file, size);
   // A compressed payload is read and checked before the block is allocated: the file's length bounds
-  // the payload, but only the header speaks for the block.
+  // the payload, but only the header speaks for the block. It is then read again as it decompresses.
   const bool zstd = h.flags & kChunkFlagZstd;
-  std::vector<uint8_t> packed;
   if (zstd) {
-    packed.resize(h.payload_bytes);
-    read_exact(fd, packed.data(), packed.size(), file);
-    if (xxh64(packed.data(), packed.size()) != h.payload_checksum)
-      fail(file.string(), ": payload checksum mismatch: the file is corrupt");
-    check_zstd_content_size(file, packed.data(), packed.size(), h.raw_bytes);
+    check_zstd_payload(fd, file, h.payload_bytes, h.payload_checksum, h.raw_bytes);
+    if (::lseek(fd.get(), sizeof h, SEEK_SET) != off_t(sizeof h))
+      fail(file.string(), ": cannot seek: ", std::strerror(errno));
   }
   const BlockArrays b = place(h.count, int(h.sh_degree));
   if (b.count != h.count) fail(file.string(), ": room for ", b.count, " Gaussians given for ", h.count);
+  const uint32_t half = h.flags & kChunkFlagsHalf;
   if (zstd) {
-    ChunkDecoder decoder(b, h.flags & kChunkFlagsHalf);
-    decompress(packed, decoder.arrays(), h.flags & kChunkFlagShuffled, file);
-    decoder.finish();
+    ZstdReader unpack(fd, file, h.payload_bytes);
+    const auto in = [&](void* data, size_t bytes) { unpack(data, bytes); };
+    if (h.flags & kChunkFlagShuffled)
+      decode_shuffled_payload(b, half, in);
+    else
+      decode_payload(b, half, in);
+    unpack.finish();
   } else {
     Xxh64 sum;
     BufferedRead in(fd, file, h.payload_bytes);
-    decode_payload(b, h.flags & kChunkFlagsHalf, [&](void* data, size_t bytes) {
+    decode_payload(b, half, [&](void* data, size_t bytes) {
       in(data, bytes);
       sum.update(data, bytes);
     });
