@@ -1,5 +1,6 @@
 // MappedAllocator: memory straight from the system (mmap), given back when freed (munmap), for the
-// large arrays of a phase that comes once, such as the refinement's plan over every keyframe's view.
+// large arrays of a phase that comes once, such as the refinement's plan over every keyframe's view,
+// and for the buffers of threads that live for one task (a checkpoint's writers).
 // A mapping run keeps freed heap for reuse (heap.hpp), so arrays of a few MB from the heap stay in
 // its RSS after the phase; and growing by doubling, they needed fresh heap beyond the holes that
 // smaller blocks left: the plan of a 5 km CPU drive raised RSS by 10 MB that stayed (bench/README.md,
@@ -10,6 +11,7 @@
 
 #include <cstddef>
 #include <new>
+#include <vector>
 
 namespace chungs {
 
@@ -34,5 +36,8 @@ struct MappedAllocator {
     return true;
   }
 };
+
+template <class T>
+using MappedVector = std::vector<T, MappedAllocator<T>>;
 
 }  // namespace chungs

@@ -35,14 +35,14 @@ std::vector<RefinementGroup> plan_refinement(const PackedViews& views, uint64_t 
   const size_t total = views.size();
   // Who sees a chunk (the entries of its views, by chunk), so that a chunk joining a group updates only
   // the keyframes that see it.
-  PlanArray<uint32_t> seen_start(views.chunks() + 1, 0);
+  MappedVector<uint32_t> seen_start(views.chunks() + 1, 0);
   for (size_t k = 0; k < total; ++k)
     for (uint32_t e = views.begin(k); e < views.end(k); ++e) ++seen_start[views.number(e) + 1];
   for (size_t c = 0; c < views.chunks(); ++c) seen_start[c + 1] += seen_start[c];
-  PlanArray<uint32_t> seen_by(seen_start.back());  // keyframes; the count is the entry's
-  PlanArray<uint32_t> seen_entry(seen_start.back());
+  MappedVector<uint32_t> seen_by(seen_start.back());  // keyframes; the count is the entry's
+  MappedVector<uint32_t> seen_entry(seen_start.back());
   {
-    PlanArray<uint32_t> fill(seen_start.begin(), seen_start.end() - 1);
+    MappedVector<uint32_t> fill(seen_start.begin(), seen_start.end() - 1);
     for (size_t k = 0; k < total; ++k)
       for (uint32_t e = views.begin(k); e < views.end(k); ++e) {
         const uint32_t at = fill[views.number(e)]++;
@@ -50,15 +50,15 @@ std::vector<RefinementGroup> plan_refinement(const PackedViews& views, uint64_t 
         seen_entry[at] = e;
       }
   }
-  PlanArray<uint64_t> whole(total, 0);
+  MappedVector<uint64_t> whole(total, 0);
   for (size_t k = 0; k < total; ++k)
     for (uint32_t e = views.begin(k); e < views.end(k); ++e) whole[k] += views.count(e);
-  PlanArray<uint64_t> more = whole;  // what keyframe k would add to the group being built
-  PlanArray<char> taken(total, 0), touched(total, 0), held(views.chunks(), 0);
-  PlanArray<size_t> touched_list;
-  PlanArray<uint32_t> held_list;
+  MappedVector<uint64_t> more = whole;  // what keyframe k would add to the group being built
+  MappedVector<char> taken(total, 0), touched(total, 0), held(views.chunks(), 0);
+  MappedVector<size_t> touched_list;
+  MappedVector<uint32_t> held_list;
   using Entry = std::pair<uint64_t, size_t>;  // (more, keyframe): stale entries are skipped when popped
-  std::priority_queue<Entry, PlanArray<Entry>, std::greater<Entry>> heap;
+  std::priority_queue<Entry, MappedVector<Entry>, std::greater<Entry>> heap;
   std::vector<RefinementGroup> groups;
   size_t earliest = 0, left = total;
   while (left > 0) {

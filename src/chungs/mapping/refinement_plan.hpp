@@ -36,8 +36,6 @@ struct RefinementGroup {
 // needs every view at once, so its memory grows with the drive, and the heap keeps its peak
 // (common/heap.hpp): for 5,100 views of ~110 chunks (a 10 km drive) 25 MB, packed 8 MB. The plan's
 // arrays are mapped for it and given back after (common/mapped_allocator.hpp).
-template <class T>
-using PlanArray = std::vector<T, MappedAllocator<T>>;
 class PackedViews {
  public:
   // The next keyframe's view. Throws Error for a chunk of more than 2^32 - 1 Gaussians.
@@ -51,8 +49,8 @@ class PackedViews {
   uint32_t count(uint32_t e) const { return count_[e]; }
 
  private:
-  PlanArray<uint32_t> start_{0}, number_, count_;
-  PlanArray<ChunkId> ids_;                          // by number
+  MappedVector<uint32_t> start_{0}, number_, count_;
+  MappedVector<ChunkId> ids_;                          // by number
   std::unordered_map<ChunkId, uint32_t> numbered_;  // the inverse
 };
 

@@ -7,6 +7,7 @@
 #include <memory>
 #include <vector>
 
+#include "chungs/common/mapped_allocator.hpp"
 #include "chungs/store/half_float.hpp"
 
 namespace chungs {
@@ -65,21 +66,25 @@ constexpr size_t kPieceGaussians = 2048;
 constexpr size_t kPieceValues =  // the widest field's
     kPieceGaussians * size_t(*std::max_element(kBlockArrayWidths.begin(), kBlockArrayWidths.end()));
 
-// A thread's buffers for one piece: values in file order, and their encoding.
+// A thread's buffers for one piece: values in file order, and their encoding. They and the file
+// buffers (chunk_file.cpp, zstd_stream.cpp) are mapped, not taken from the heap: a checkpoint's writer
+// threads are made for it and end with it, and between checkpoints other blocks took the heap holes
+// their buffers left, so every checkpoint took fresh heap (a 5 km CPU drive: the heap grew 17 MB after
+// the budget was full; 7 MB with the buffers mapped; bench/README.md).
 float* piece_floats() {
-  thread_local std::unique_ptr<float[]> v = std::make_unique_for_overwrite<float[]>(kPieceValues);
-  return v.get();
+  thread_local MappedVector<float> v(kPieceValues);
+  return v.data();
 }
 // One byte of each value of a piece (a plane of the byte shuffle).
 uint8_t* plane_bytes() {
-  thread_local std::unique_ptr<uint8_t[]> v = std::make_unique_for_overwrite<uint8_t[]>(kPieceValues);
-  return v.get();
+  thread_local MappedVector<uint8_t> v(kPieceValues);
+  return v.data();
 }
 uint8_t* piece_bytes() {
   // Halves of the widest field, or the 3 float32 DC values a Gaussian: 2 bytes a value is enough.
   static_assert(3 * 4 <= 2 * kPieceValues / kPieceGaussians);
-  thread_local std::unique_ptr<uint8_t[]> v = std::make_unique_for_overwrite<uint8_t[]>(2 * kPieceValues);
-  return v.get();
+  thread_local MappedVector<uint8_t> v(2 * kPieceValues);
+  return v.data();
 }
 
 // Values [begin, end) of the field in file order (SH split by coefficient; begin and end whole

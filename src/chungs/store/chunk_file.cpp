@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/mapped_allocator.hpp"
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/checksum.hpp"
 #include "chungs/store/chunk_codec.hpp"
@@ -40,8 +41,8 @@ static_assert(kChunkFlagsHalf == (kChunkFlagHalfMoments | kChunkFlagHalfShRest))
 // 45 % slower to write and read); arrays as large as half of it go straight through.
 constexpr size_t kIoBuffer = size_t(512) << 10;
 uint8_t* io_buffer() {
-  thread_local std::unique_ptr<uint8_t[]> b = std::make_unique_for_overwrite<uint8_t[]>(kIoBuffer);
-  return b.get();
+  thread_local MappedVector<uint8_t> b(kIoBuffer);
+  return b.data();
 }
 
 class BufferedAppend {

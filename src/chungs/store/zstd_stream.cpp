@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/mapped_allocator.hpp"
 
 namespace chungs {
 
@@ -30,12 +31,12 @@ ZSTD_DCtx* decompressor() {
 }
 
 uint8_t* out_buffer() {
-  thread_local std::unique_ptr<uint8_t[]> b = std::make_unique_for_overwrite<uint8_t[]>(ZSTD_CStreamOutSize());
-  return b.get();
+  thread_local MappedVector<uint8_t> b(ZSTD_CStreamOutSize());
+  return b.data();
 }
 uint8_t* in_buffer() {
-  thread_local std::unique_ptr<uint8_t[]> b = std::make_unique_for_overwrite<uint8_t[]>(ZSTD_DStreamInSize());
-  return b.get();
+  thread_local MappedVector<uint8_t> b(ZSTD_DStreamInSize());
+  return b.data();
 }
 
 }  // namespace
