@@ -36,10 +36,13 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
   // The steps to come, a pass at a time, so that the read-ahead reaches into the next pass and the next
   // group: under a budget of about one view (100 k on the 2 km street) groups hold two views, and reads
   // that stopped at a group's end took the I/O wait of the run from 1.6 % to 2.65 % on the GPU.
-  std::deque<size_t> queue;  // keyframe indices
-  // The nearest chunks of a queued keyframe's view that fit the budget, culled when first prefetched:
-  // the map as it is then, not as it was planned.
-  std::deque<std::optional<std::vector<ChunkId>>> nearest;
+  struct Queued {
+    size_t keyframe;  // index
+    // The nearest chunks of its view that fit the budget, culled when first prefetched: the map as it
+    // is then, not as it was planned.
+    std::optional<std::vector<ChunkId>> nearest;
+  };
+  std::deque<Queued> queue;
   const std::vector<RefinementVisit> visits =
       refinement_visits(groups, size_t(config_.mapper.refinement_rounds),
                         uint64_t(config_.mapper.refinement_min_visit_steps));
@@ -58,8 +61,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
         std::shuffle(passes[g].begin(), passes[g].end(), rng_);
         cursor[g] = 0;
       }
-      queue.push_back(passes[g][cursor[g]++]);
-      nearest.emplace_back();
+      queue.push_back({passes[g][cursor[g]++], std::nullopt});
       --left;
     }
   };
@@ -71,22 +73,22 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
       // bench/README.md, issue 19, 2026-12-04 afternoon.)
       std::vector<ChunkId> wanted;
       for (size_t j = 0; j < std::min(queue.size(), 1 + ahead); ++j) {
-        if (!nearest[j]) {  // the nearest chunks that fit the budget are what a step loads
-          const KeyframeRecord& kf = keyframes_[queue[j]];
+        std::optional<std::vector<ChunkId>>& nearest = queue[j].nearest;
+        if (!nearest) {  // the nearest chunks that fit the budget are what a step loads
+          const KeyframeRecord& kf = keyframes_[queue[j].keyframe];
           BudgetGroups fits = split_by_budget(nearest_visible(kf.camera, kf.pose), residency_->budget());
-          nearest[j] = fits.groups.empty() ? std::vector<ChunkId>{} : std::move(fits.groups[0]);
+          nearest = fits.groups.empty() ? std::vector<ChunkId>{} : std::move(fits.groups[0]);
         }
-        wanted.insert(wanted.end(), nearest[j]->begin(), nearest[j]->end());
+        wanted.insert(wanted.end(), nearest->begin(), nearest->end());
       }
       residency_->prefetch(wanted);
     }
     // Images further ahead than chunks (they are small): a shuffled pass reads most keyframes from
     // disk. Farthest first, since the store serves its latest request first.
     for (size_t j = std::min(queue.size(), reach); j-- > 1;)
-      keyframe_store_->prefetch(keyframes_[queue[j]].id);
-    const uint32_t id = keyframes_[queue.front()].id;
+      keyframe_store_->prefetch(keyframes_[queue[j].keyframe].id);
+    const uint32_t id = keyframes_[queue.front().keyframe].id;
     queue.pop_front();
-    nearest.pop_front();
     step_keyframe(id, /*whole_view=*/true);
     ++stats.steps;
     if (after_step) after_step(id);

@@ -52,11 +52,12 @@ class BufferedAppend {
     // array of 256-512 KB overtook up to 256 KB of the fields before it, in float32 files of 1,366-2,259
     // Gaussians and in half-precision files of 65,536 or more (their bookkeeping words); the payload
     // checksum refused such a file, so its chunk could not be loaded back.
-    if (used_ + size > kIoBuffer || size >= kIoBuffer / 2) flush();
     if (size >= kIoBuffer / 2) {
+      flush();
       append_(data, size);
       return;
     }
+    if (used_ + size > kIoBuffer) flush();
     std::memcpy(io_buffer() + used_, data, size);
     used_ += size;
   }
