@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include <omp.h>
+
 namespace chungs::synth {
 namespace {
 
@@ -111,14 +113,22 @@ void Rasterizer::setup_triangles(const std::vector<const Mesh*>& meshes, const C
       items.push_back({m, f, std::min(f + kChunk, mesh.faces.size())});
   }
 
-  chunk_tris_.resize(std::max(chunk_tris_.size(), items.size()));
+  // Each thread appends its items' triangles to a buffer of its own and notes where each item's
+  // went; they are gathered in item order afterwards. Buffers per thread, not per item: a buffer
+  // per item kept the largest output each item index ever had, and over a long drive the sum of
+  // those maxima kept growing.
+  const size_t threads = size_t(std::max(1, omp_get_max_threads()));
+  thread_tris_.resize(threads);
+  for (auto& b : thread_tris_) b.clear();
+  item_spans_.resize(items.size());
   const double fx = cam.fx, fy = cam.fy, cx = cam.cx, cy = cam.cy;
 #pragma omp parallel for schedule(dynamic, 1)
   for (long it = 0; it < long(items.size()); ++it) {
     const Item& item = items[it];
     const Mesh& mesh = *meshes[item.mesh];
-    auto& out = chunk_tris_[it];
-    out.clear();
+    const size_t tid = size_t(omp_get_thread_num());
+    auto& out = thread_tris_[tid];
+    const size_t first = out.size();
     const Eigen::Matrix3f R = R_cw.cast<float>();
     const Eigen::Vector3f c = (R_cw * (mesh.origin - T_wc.t)).cast<float>();
     for (size_t f = item.f0; f < item.f1; ++f) {
@@ -162,9 +172,13 @@ void Rasterizer::setup_triangles(const std::vector<const Mesh*>& meshes, const C
         out.push_back(st);
       }
     }
+    item_spans_[it] = {tid, first, out.size()};
   }
   tris_.clear();
-  for (size_t it = 0; it < items.size(); ++it) tris_.insert(tris_.end(), chunk_tris_[it].begin(), chunk_tris_[it].end());
+  for (const ItemSpan& sp : item_spans_) {
+    const auto& src = thread_tris_[sp.thread];
+    tris_.insert(tris_.end(), src.begin() + long(sp.begin), src.begin() + long(sp.end));
+  }
 }
 
 void Rasterizer::rasterize(const RenderOptions& opt) {

@@ -51,7 +51,11 @@ class Rasterizer {
 
   // Work buffers kept between calls to avoid reallocating them every frame.
   std::vector<ScreenTri> tris_;
-  std::vector<std::vector<ScreenTri>> chunk_tris_;
+  struct ItemSpan {
+    size_t thread, begin, end;  // an item's triangles: thread_tris_[thread][begin, end)
+  };
+  std::vector<std::vector<ScreenTri>> thread_tris_;
+  std::vector<ItemSpan> item_spans_;
   std::vector<std::vector<uint32_t>> bands_;
   std::vector<float> zbuf_;
   std::vector<uint32_t> mesh_id_, face_id_;
