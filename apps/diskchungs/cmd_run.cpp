@@ -97,6 +97,13 @@ const Command cmd{
           std::printf("%s\n", pacing_line(r).c_str());
           if (const std::string w = training_window_line(r["pacing"]); !w.empty()) std::printf("%s\n", w.c_str());
         }
+        if (const uint64_t refused = r["gaussians"].value("refused_over_budget", uint64_t(0)); refused) {
+          // Map content lost to a budget below one chunk's worth: the user must see it without the log.
+          std::printf("budget: %llu new Gaussians were left out of the map (their chunk could not hold them under "
+                      "the budget of %llu); a budget of at least %llu holds them\n",
+                      (unsigned long long)refused, r["gaussians"]["budget"].get<unsigned long long>(),
+                      r["gaussians"]["least_budget_for_refused"].get<unsigned long long>());
+        }
         if (r["memory"].contains("after_budget")) {
           // Flat memory is the point of the chunked map: say how level it stayed once the budget was full.
           const auto& f = r["memory"]["after_budget"];

@@ -166,6 +166,19 @@ void Mapper::note_view_over_budget(uint64_t needed) {
   largest_view_ = std::max(largest_view_, needed);
 }
 
+void Mapper::note_refused(uint32_t keyframe, ChunkId chunk, uint64_t gaussians, const PinResult& why) {
+  refused_gaussians_ += gaussians;
+  const uint64_t needed = why.budget + why.over_budget;
+  // Said once, and again whenever a chunk needs a quarter more than any before it: a budget this
+  // small refuses new Gaussians at every keyframe.
+  if (needed > largest_refusal_ * 5 / 4)
+    log::warn("keyframe ", keyframe, ": its ", gaussians, " new Gaussians in ", chunk_name(chunk),
+              " do not fit the budget of ", why.budget, " Gaussians beside the chunk's ", needed - gaussians -
+              why.pinned_gaussians, " and ", why.pinned_gaussians, " pinned ones, so they are left out of the map; "
+              "a budget of at least ", needed, " (--budget) keeps them");
+  largest_refusal_ = std::max(largest_refusal_, needed);
+}
+
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {
   const RenderCamera<float> rc = make_render_camera<float>(camera, pose);
   const auto draw = [&](const std::vector<ChunkId>& chunks, bool sky) {
@@ -257,10 +270,12 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
   }
   for (auto& b : batches) {
     const PinResult res = residency_->add(b.id, b.block);
-    if (!res.ok)
+    if (!res.ok) {
       stats.kept -= b.block.size();
-    else
+      note_refused(id, b.id, b.block.size(), res);
+    } else {
       keyframe_chunks_.add(id, b.id);
+    }
   }
   sampled_total_ += stats.kept;
   strays_held_back_ += stats.dropped_small_chunks;

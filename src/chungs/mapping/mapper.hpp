@@ -147,6 +147,10 @@ class Mapper {
   uint64_t views_over_budget() const { return views_over_budget_; }  // views whose chunks exceed the budget
   uint64_t renders_in_passes() const { return renders_in_passes_; }  // render() calls drawn in passes
   uint64_t largest_view() const { return largest_view_; }  // Gaussians of the largest such view
+  // New Gaussians left out because their chunk could not hold them under the budget (this process),
+  // and the least budget that would have held the largest such chunk.
+  uint64_t refused_gaussians() const { return refused_gaussians_; }
+  uint64_t largest_refusal() const { return largest_refusal_; }
   // Where the optimiser thread's step time went (sums; the backend's includes keyframe loads it
   // asked for, and on the GPU the wait for the device).
   // chunks_ms = cull_ms + pin_ms + the slot list; pick_ms: drawing the next step's keyframe, culling
@@ -203,6 +207,8 @@ class Mapper {
   // Every visible chunk that holds Gaussians, nearest first, with its count.
   std::vector<ChunkCount> nearest_visible(const Camera& camera, const SE3& pose);
   void note_view_over_budget(uint64_t needed);  // warns when a view needs more than the budget
+  // Counts new Gaussians the residency refused (their chunk cannot hold them under the budget) and warns.
+  void note_refused(uint32_t keyframe, ChunkId chunk, uint64_t gaussians, const PinResult& why);
   // New Gaussians a keyframe may add: what the optimiser trained per keyframe lately (see
   // SamplerConfig::new_per_step); 0 for no cap.
   uint64_t new_gaussian_cap(const Image8& image);
@@ -240,6 +246,7 @@ class Mapper {
   uint64_t strays_held_back_ = 0, strays_released_ = 0;
   uint64_t steps_at_last_keyframe_ = 0, steps_at_last_sampling_ = 0;
   uint64_t views_over_budget_ = 0, largest_view_ = 0, keyframes_without_depth_ = 0, renders_in_passes_ = 0;
+  uint64_t refused_gaussians_ = 0, largest_refusal_ = 0;
   WindowStats window_stats_;
   StepTimes step_times_;
   KeyframeTimes keyframe_times_;

@@ -387,6 +387,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   progress.finish();
   const size_t done = stopped_at ? *stopped_at + 1 : n;  // frames the map covers
   if (mapper.keyframes().empty()) fail("dataset ", o.dataset, ": no frame with a pose became a keyframe");
+  if (mapper.total_gaussians() == 0 && mapper.refused_gaussians() > 0)
+    fail("--budget ", cfg.residency.budget_gaussians, ": the map is empty, as every new Gaussian (",
+         mapper.refused_gaussians(), ") was refused because its chunk could not hold it under the budget; a "
+         "budget of at least ", mapper.largest_refusal(), " holds the largest of them, and a budget that holds "
+         "whole views (several times that) maps well");
   if (multiview && mapper.total_gaussians() == 0)
     log::warn("dataset ", o.dataset,
               ": no keyframe got depth from its neighbours (one camera needs two keyframes "
@@ -513,6 +518,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                          {"budget", mapper.budget()},
                          {"chunks", mapper.chunk_count()},
                          {"pruned", mapper.pruned_total()}};
+  // New Gaussians a chunk could not take under the budget (a budget below one chunk's worth).
+  report["gaussians"]["refused_over_budget"] = mapper.refused_gaussians();
+  if (mapper.refused_gaussians()) report["gaussians"]["least_budget_for_refused"] = mapper.largest_refusal();
   // New chunks' picks too few for a chunk file: held back, then made into chunks or forgotten.
   report["gaussians"]["stray_picks"] = {{"held_back", mapper.strays_held_back()},
                                         {"made_into_chunks", mapper.strays_released()},

@@ -340,7 +340,6 @@ PinResult Residency::add(ChunkId id, const GaussianBlock& block) {
     r.message = cat("residency: adding ", block.size(), " Gaussians to ", chunk_name(id), " (", count(id),
                     " already) beside ", pinned_gaussians_, " pinned ones would exceed the budget of ", budget_,
                     " by ", r.over_budget, "; nothing was added.");
-    log::warn(r.message);
     return r;
   }
   const uint64_t extra = (resident ? 0 : count(id)) + block.size();

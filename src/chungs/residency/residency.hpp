@@ -99,7 +99,8 @@ class Residency {
   void unpin_all();
 
   // Appends Gaussians to a chunk, creating it if new; the chunk becomes resident (not pinned).
-  // When they cannot fit beside the pinned chunks nothing is added and the result says why.
+  // When they cannot fit beside the pinned chunks nothing is added and the result says why (the
+  // caller decides whether that is worth a warning: a mapper's log would repeat it every keyframe).
   PinResult add(ChunkId id, const GaussianBlock& block);
   // Deletes Gaussians (by pool slot) from a resident chunk, e.g. after pruning.
   void remove_slots(ChunkId id, std::span<const uint32_t> slots);
