@@ -41,6 +41,9 @@ int run_render(const RenderArgs& a) {
     const Trajectory traj = read_trajectory(a.poses_file);
     if (traj.empty()) fail(a.poses_file, ": no poses");
     const Camera cam = renderer.mapping_camera().scaled(a.resolution > 0 ? a.resolution : 1.0);
+    if (cam.width < 1 || cam.height < 1)
+      fail("--resolution ", a.resolution, ": the map's ", renderer.mapping_camera().width, "x",
+           renderer.mapping_camera().height, " camera would give ", cam.width, "x", cam.height, " images");
     log::info("rendering ", traj.size(), " poses of ", a.poses_file, " at ", cam.width, "x", cam.height);
     s = render_trajectory(renderer, traj, cam, out, size_t(a.stride));
   } else {
@@ -57,6 +60,15 @@ int run_render(const RenderArgs& a) {
                   dataset->info().camera.width, " px images: rendering them at their own size");
         f = 1;
       }
+    }
+    {
+      // Scores need SSIM's window inside the image (a degenerate camera failed at the first frame, unnamed).
+      constexpr int kMinScoredSide = 11;
+      const Camera scaled = dataset->info().camera.scaled(f);
+      if (scaled.width < kMinScoredSide || scaled.height < kMinScoredSide)
+        fail("--resolution ", f, ": the dataset's ", dataset->info().camera.width, "x",
+             dataset->info().camera.height, " images would be ", scaled.width, "x", scaled.height,
+             ", below the ", kMinScoredSide, "x", kMinScoredSide, " that scoring them needs");
     }
     const auto poses = frame_poses(*dataset, a.dataset_poses);
     log::info("rendering ", a.dataset, " (", dataset->size(), " frames) at ", f, " of ",

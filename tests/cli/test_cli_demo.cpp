@@ -144,3 +144,19 @@ TEST(CliRender, ADatasetOfSmallerImagesIsDrawnAtItsOwnSize) {
   EXPECT_GT(j["scored"].get<int>(), 0);
   EXPECT_GT(j["mean_psnr"].get<double>(), 10.0);  // the street drawn, not an empty frame
 }
+
+// A resolution that leaves no image, or one too small to score, is refused naming it (it failed at the
+// first frame inside the frustum or SSIM code).
+TEST(CliRender, AResolutionThatLeavesTooFewPixelsIsRefusedNamingIt) {
+  DemoRun& d = demo();
+  const std::string map = (d.dir / "map").string();
+  auto scored = run_cli("render --map " + map + " --dataset tum:" + (d.dir / "room").string() +
+                        " --resolution 0.02 --out " + (d.dir / "tiny_ds").string());
+  EXPECT_NE(scored.code, 0);
+  EXPECT_NE(scored.out.find("--resolution 0.02: the dataset's"), std::string::npos) << scored.out;
+  EXPECT_NE(scored.out.find("that scoring them needs"), std::string::npos) << scored.out;
+  auto none = run_cli("render --map " + map + " --poses " + (d.dir / "room/groundtruth.txt").string() +
+                      " --resolution 0.001 --out " + (d.dir / "tiny_traj").string());
+  EXPECT_NE(none.code, 0);
+  EXPECT_NE(none.out.find("--resolution 0.001: the map's"), std::string::npos) << none.out;
+}
