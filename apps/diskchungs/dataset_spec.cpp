@@ -22,12 +22,13 @@ double number(const std::string& spec, const std::string& key, const std::string
   return v;
 }
 
-uint64_t whole(const std::string& spec, const std::string& key, const std::string& value, uint64_t max) {
+uint64_t whole(const std::string& spec, const std::string& key, const std::string& value, uint64_t max,
+               uint64_t min = 0) {
   char* end = nullptr;
   errno = 0;
   const unsigned long long v = std::strtoull(value.c_str(), &end, 10);
-  if (value.empty() || value[0] == '-' || *end != '\0' || errno == ERANGE || v > max)
-    fail("dataset '", spec, "': value '", value, "' of ", key, " is not a whole number from 0 to ", max);
+  if (value.empty() || value[0] == '-' || *end != '\0' || errno == ERANGE || v < min || v > max)
+    fail("dataset '", spec, "': value '", value, "' of ", key, " is not a whole number from ", min, " to ", max);
   return v;
 }
 
@@ -60,7 +61,8 @@ std::unique_ptr<Dataset> open_street(const std::string& spec, const std::string&
     } else if (key == "seed") {
       o.street.seed = whole(spec, key, value, UINT64_MAX);
     } else if (key == "frames") {
-      o.max_frames = whole(spec, key, value, uint64_t(1) << 32);
+      // From 1: 0 is the reader's "every frame of the route", which a typed 0 must not become.
+      o.max_frames = whole(spec, key, value, uint64_t(1) << 32, 1);
     } else if (key == "depth") {
       if (value != "0" && value != "1")
         fail("dataset '", spec, "': value '", value, "' of depth must be 0 or 1");

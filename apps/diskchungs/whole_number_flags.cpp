@@ -1,5 +1,6 @@
 #include "whole_number_flags.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cstdint>
 #include <limits>
@@ -87,10 +88,20 @@ std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& 
   if (!option) return {};
   const std::string type = read_as(*option);
   if (type == "INT" || type == "UINT") {
-    if (!written_in_decimal(text)) return not_decimal(name, text);
     // CLI11 keeps whatever strtoll / strtoull make of decimal text for a 64-bit flag (misread_whole_number
     // checks those): decimal text it refused was refused by a 32-bit flag.
-    return type == "UINT" ? out_of_range<uint32_t>(name, text) : out_of_range<int32_t>(name, text);
+    const auto refuse = [&](const std::string& value) {
+      if (!written_in_decimal(value)) return not_decimal(name, value);
+      return type == "UINT" ? out_of_range<uint32_t>(name, value) : out_of_range<int32_t>(name, value);
+    };
+    // A flag of several values (--chunk CX CY CZ) is reported with them joined by commas: name the one at fault.
+    for (size_t begin = 0, end = 0; text.find(',') != std::string::npos && begin <= text.size(); begin = end + 1) {
+      end = std::min(text.find(',', begin), text.size());
+      const std::string value = text.substr(begin, end - begin);
+      const bool fits = type == "UINT" ? reads_as_written<uint32_t>(value) : reads_as_written<int32_t>(value);
+      if (!fits) return refuse(value);
+    }
+    return refuse(text);
   }
   if (type == "FLOAT") return cat(name, " must be a number, got ", text);
   return {};

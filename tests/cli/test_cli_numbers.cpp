@@ -234,7 +234,12 @@ TEST(CliNumbers, WholeNumbersAreReadAsWrittenOrRefused) {
             "99999999999999999999"},
            {run + "--speed fast", "--speed must be a number, got fast"},
            {"synth street --out " + out.string() + " --width 99999999999",
-            "--width must be a whole number from -2147483648 to 2147483647"}}) {
+            "--width must be a whole number from -2147483648 to 2147483647"},
+           // A flag of three values names the one at fault (it said "got 99999999999,0,0", "written in decimal").
+           {"export --map " + (dir / "map").string() + " --out " + out.string() + " --chunk 0 99999999999 0",
+            "--chunk must be a whole number from -2147483648 to 2147483647, got 99999999999\n"},
+           {"export --map " + (dir / "map").string() + " --out " + out.string() + " --chunk 0 0 x",
+            "--chunk must be a whole number written in decimal, got x\n"}}) {
     auto r = run_cli(args);
     EXPECT_EQ(r.code, 1) << args << "\n" << r.out;
     EXPECT_NE(r.out.find("diskchungs: error: " + says), std::string::npos) << args << "\n" << r.out;
