@@ -156,7 +156,7 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
   c.min_per_chunk_floor = 0;
   std::mt19937_64 rng(3);
   SampleStats st;
-  auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
+  auto batches = sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &st);
   EXPECT_EQ(st.dropped_small_chunks, 10u);
   for (const auto& b : batches) EXPECT_GE(b.block.size(), 20u);
   {
@@ -164,7 +164,7 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
     std::mt19937_64 same(3);
     std::vector<ChunkBatch> strays;
     SampleStats s2;
-    const auto kept = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 2, 9, same, &s2, nullptr, 0, nullptr,
+    const auto kept = sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 2, 9, same, &s2, nullptr, 0, nullptr,
                                        nullptr, nullptr, &strays);
     EXPECT_EQ(s2.kept, st.kept);
     EXPECT_EQ(kept.size(), batches.size());
@@ -186,7 +186,7 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
   for (int k = 0; k < 2; ++k) {
     std::mt19937_64 again(3);
     SampleStats with;
-    auto kept = sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, again, &with, nullptr, 0, nullptr,
+    auto kept = sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, again, &with, nullptr, 0, nullptr,
                                  nullptr, &established);
     if (k == 0) {  // nothing established: the same as without the set
       EXPECT_EQ(with.dropped_small_chunks, 10u);
@@ -195,7 +195,7 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
       SamplerConfig all = c;
       all.min_per_chunk_per_100k_px = 0;
       std::mt19937_64 r3(3);
-      for (const auto& b : sample_gaussians(all, img, depth, prob, cam, SE3(), 4.0, 0, 0, r3)) established.insert(b.id);
+      for (const auto& b : sample_gaussians(all, img, depth, prob, cam, SE3(), 10.0, 0, 0, r3)) established.insert(b.id);
       EXPECT_GT(established.size(), batches.size());
     } else {
       EXPECT_EQ(with.dropped_small_chunks, 0u);
@@ -209,27 +209,60 @@ TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
 // the floor, which keeps chunk files from holding a handful of Gaussians each.
 TEST(Sampler, TheLeastPerChunkFollowsThePixelCountDownToAFloor) {
   SamplerConfig c;
-  EXPECT_EQ(c.min_per_chunk(1241 * 376), 100u);
-  EXPECT_EQ(c.min_per_chunk(2 * 1241 * 376), 200u);
-  EXPECT_EQ(c.min_per_chunk(620 * 188), 50u);  // 25 scaled, under the floor
-  EXPECT_EQ(c.min_per_chunk(310 * 94), 50u);
+  EXPECT_EQ(c.min_per_chunk(1241 * 376, 10), 100u);
+  EXPECT_EQ(c.min_per_chunk(2 * 1241 * 376, 10), 200u);
+  EXPECT_EQ(c.min_per_chunk(620 * 188, 10), 50u);  // 25 scaled, under the floor
+  EXPECT_EQ(c.min_per_chunk(310 * 94, 10), 50u);
   // A chunk of 10 points in a 60x10 image: dropped at the default floor, kept without one.
   const Camera cam(60, 10, 50, 50, 29.5, 4.5);
   ImageF img(60, 10, 3, 0.5f), depth(60, 10, 1, 5.f), prob(60, 10, 1, 1.f);
   for (int y = 0; y < 10; ++y) depth(0, y) = 40.f;
   std::mt19937_64 rng(3);
   SampleStats st;
-  sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
+  sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &st);
   EXPECT_EQ(st.dropped_small_chunks, 10u);
   c.min_per_chunk_floor = 0;
-  EXPECT_EQ(c.min_per_chunk(310 * 94), 6u);
-  sample_gaussians(c, img, depth, prob, cam, SE3(), 4.0, 0, 0, rng, &st);
+  EXPECT_EQ(c.min_per_chunk(310 * 94, 10), 6u);
+  sample_gaussians(c, img, depth, prob, cam, SE3(), 10.0, 0, 0, rng, &st);
   EXPECT_EQ(st.dropped_small_chunks, 0u);
   for (double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity(), 2e5}) {
     SamplerConfig b;
     b.min_per_chunk_per_100k_px = bad;
     EXPECT_THROW(b.validate(), std::exception) << bad;
   }
+}
+
+
+// The threshold's counts are for 10 m chunks and scale with a chunk's face area: chunks of 5 m need a
+// quarter, the indoor preset's 2 m a twenty-fifth, 20 m four times as many; never below one.
+TEST(Sampler, TheLeastPerChunkScalesWithTheChunksFaceArea) {
+  SamplerConfig c;
+  EXPECT_EQ(c.min_per_chunk(1241 * 376, 5), 25u);
+  EXPECT_EQ(c.min_per_chunk(310 * 94, 5), 13u);  // the floor's 50 / 4 = 12.5, rounded
+  EXPECT_EQ(c.min_per_chunk(1241 * 376, 2), 4u);
+  EXPECT_EQ(c.min_per_chunk(1241 * 376, 20), 400u);
+  EXPECT_EQ(c.min_per_chunk(310 * 94, 0.5), 1u);
+  // Under 5 m chunks the sampler drops exactly the chunks under the scaled threshold (13 here), not
+  // those under 10 m's (50): the chunks of an unthresholded draw say which those are.
+  const Camera cam(60, 10, 50, 50, 29.5, 4.5);
+  ImageF img(60, 10, 3, 0.5f), depth(60, 10, 1, 5.f), prob(60, 10, 1, 1.f);
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 10; ++y) depth(x, y) = 40.f;
+  SamplerConfig all = c;
+  all.min_per_chunk_floor = 0;
+  all.min_per_chunk_per_100k_px = 0;
+  std::mt19937_64 r0(3);
+  uint64_t under_scaled = 0, under_unscaled = 0;
+  for (const ChunkBatch& b : sample_gaussians(all, img, depth, prob, cam, SE3(), 5.0, 0, 0, r0)) {
+    if (b.block.size() < c.min_per_chunk(60 * 10, 5.0)) under_scaled += b.block.size();
+    if (b.block.size() < c.min_per_chunk(60 * 10, 10.0)) under_unscaled += b.block.size();
+  }
+  ASSERT_GT(under_scaled, 0u);
+  ASSERT_GT(under_unscaled, under_scaled);  // the geometry tells the two thresholds apart
+  std::mt19937_64 rng(3);
+  SampleStats st;
+  sample_gaussians(c, img, depth, prob, cam, SE3(), 5.0, 0, 0, rng, &st);
+  EXPECT_EQ(st.dropped_small_chunks, under_scaled);
 }
 
 TEST(Sampler, SkipsPointsInExcludedChunksAndCapsTheRestEvenly) {

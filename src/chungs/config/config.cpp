@@ -166,8 +166,9 @@ void fields(V& v, SamplerConfig& c) {
   v("min_scale_px", c.min_scale_px, "footprint of a new Gaussian: clamp(1/sqrt(P), min, fraction * W) px");
   v("max_scale_fraction", c.max_scale_fraction, "");
   v("min_per_chunk_per_100k_px", c.min_per_chunk_per_100k_px,
-    "chunks receiving fewer new Gaussians than this per 100 k pixels get none (the paper: 100 at 1241x376)");
-  v("min_per_chunk_floor", c.min_per_chunk_floor, "... nor fewer than this many (0: no floor)");
+    "chunks receiving fewer new Gaussians than this per 100 k pixels get none (the paper: 100 at 1241x376); "
+    "for 10 m chunks, scaled by the chunk's face area for others");
+  v("min_per_chunk_floor", c.min_per_chunk_floor, "... nor fewer than this many (0: no floor; scaled alike)");
   v("stray_wait_keyframes", c.stray_wait_keyframes,
     "keyframes a new chunk's too few picks wait for more in the same chunk (0: dropped at once)");
   v("max_per_keyframe", c.max_per_keyframe, "cap on new Gaussians per keyframe (0: none)");

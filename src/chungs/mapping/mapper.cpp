@@ -257,7 +257,7 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
       const auto it = residency_->catalogue().find(c);
       return made.count(c) || (it != residency_->catalogue().end() && it->second > 0);
     };
-    auto released = stray_pool_.add(id, std::move(strays), config_.sampler.min_per_chunk(color.pixels()),
+    auto released = stray_pool_.add(id, std::move(strays), config_.sampler.min_per_chunk(color.pixels(), store_->chunk_size()),
                                     config_.sampler.stray_wait_keyframes, uint32_t(iterations_), exists);
     for (const ChunkBatch& b : released) stats.released_strays += b.block.size();
     const uint64_t limit = config_.sampler.new_gaussian_limit(cap);
@@ -390,7 +390,7 @@ void Mapper::resample(const KeyframeRecord& kf) {
   if (images->depth.empty()) return;
   // As many as the keyframe cap allows for this many steps.
   const double rate = config_.sampler.new_per_step;
-  const uint64_t cap = rate > 0 ? std::max<uint64_t>(config_.sampler.min_per_chunk(images->color.pixels()),
+  const uint64_t cap = rate > 0 ? std::max<uint64_t>(config_.sampler.min_per_chunk(images->color.pixels(), store_->chunk_size()),
                                                      uint64_t(rate * (double(images->color.pixels()) / 1e5) *
                                                               double(config_.sampler.resample_every)))
                                 : 0;
@@ -423,7 +423,7 @@ uint64_t Mapper::new_gaussian_cap(const Image8& image) {
   const double rate = config_.sampler.new_per_step;
   if (!(rate > 0)) return 0;
   const double cap = rate * (double(image.pixels()) / 1e5) * std::max(steps_per_keyframe_, 1.0);
-  return std::max<uint64_t>(config_.sampler.min_per_chunk(image.pixels()), uint64_t(cap));
+  return std::max<uint64_t>(config_.sampler.min_per_chunk(image.pixels(), store_->chunk_size()), uint64_t(cap));
 }
 
 double Mapper::optimiser_io_wait_ms() const {

@@ -229,7 +229,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   {
     std::unordered_map<ChunkId, uint64_t> per_chunk;
     for (const Pick& pk : picks) ++per_chunk[pk.id];
-    const uint64_t least = config.min_per_chunk(image.pixels());
+    const uint64_t least = config.min_per_chunk(image.pixels(), chunk_size);
     // A place that enters the view a few pixels at a time (a turn's side, the far end of the street)
     // gives each keyframe only a few picks in its chunk: once the chunk exists, they are kept.
     const auto small = [&](const Pick& pk) {
