@@ -3,6 +3,8 @@
 // and every chunk made holds at least the threshold.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "synthetic_sequence.hpp"
@@ -22,7 +24,9 @@ Outcome map_wall(uint64_t least, int wait) {
   Config c = test::tiny_mapping_config();
   c.mapper.device = "cpu";
   c.sampler.min_per_chunk_per_100k_px = 0;
-  c.sampler.min_per_chunk_floor = least;
+  // The floor is given for 10 m chunks and scaled to the chunk's face area: `least` on these chunks.
+  const double side = c.store.chunk_size / SamplerConfig::kThresholdChunkM;
+  c.sampler.min_per_chunk_floor = uint64_t(std::llround(double(least) / (side * side)));
   c.sampler.stray_wait_keyframes = wait;
   const test::WallSequence seq(4);
   Mapper m(dir / "map", c, false);
