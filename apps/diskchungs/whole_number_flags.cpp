@@ -1,6 +1,5 @@
 #include "whole_number_flags.hpp"
 
-#include <algorithm>
 #include <charconv>
 #include <cstdint>
 #include <limits>
@@ -95,13 +94,13 @@ std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& 
       return type == "UINT" ? out_of_range<uint32_t>(name, value) : out_of_range<int32_t>(name, value);
     };
     // A flag of several values (--chunk CX CY CZ) is reported with them joined by commas: name the one at fault.
-    for (size_t begin = 0, end = 0; text.find(',') != std::string::npos && begin <= text.size(); begin = end + 1) {
-      end = std::min(text.find(',', begin), text.size());
-      const std::string value = text.substr(begin, end - begin);
-      const bool fits = type == "UINT" ? reads_as_written<uint32_t>(value) : reads_as_written<int32_t>(value);
-      if (!fits) return refuse(value);
+    std::string_view rest = text;
+    for (size_t comma = rest.find(','); comma != std::string_view::npos; comma = rest.find(',')) {
+      const std::string value(rest.substr(0, comma));
+      if (!(type == "UINT" ? reads_as_written<uint32_t>(value) : reads_as_written<int32_t>(value))) return refuse(value);
+      rest.remove_prefix(comma + 1);
     }
-    return refuse(text);
+    return refuse(std::string(rest));
   }
   if (type == "FLOAT") return cat(name, " must be a number, got ", text);
   return {};
