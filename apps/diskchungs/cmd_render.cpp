@@ -7,6 +7,7 @@
 #include "chungs/common/log.hpp"
 #include "chungs/pipeline/frame_source.hpp"
 #include "chungs/pipeline/render_poses.hpp"
+#include "chungs/store/chunk_id.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
 #include "flag_checks.hpp"
@@ -34,6 +35,11 @@ int run_render(const RenderArgs& a) {
   else if (from_report)
     c.residency.budget_gaussians = from_report;
   MapRenderer renderer(a.map, c);
+  // A chunk alone above the budget can never be drawn: its views would come out with a hole.
+  if (const auto [id, n] = renderer.largest_chunk(); n > renderer.budget())
+    fail(a.budget ? "--budget " : from_report ? "the map's budget (report.json) of " : "the budget of ",
+         renderer.budget(), ": ", chunk_name(id), " of ", a.map, " holds ", n,
+         " Gaussians, more than the budget, so it could not be drawn; give a budget of at least ", n);
   const std::filesystem::path out =
       a.out.empty() ? beside_map(a.map, "-renders") : std::filesystem::path(a.out);
   RenderPosesSummary s;
@@ -83,7 +89,6 @@ int run_render(const RenderArgs& a) {
                       {"peak_resident", renderer.peak_resident_gaussians()},
                       {"budget", renderer.budget()}};
     j["chunk_io"] = {{"loads", io.loads}, {"mean_load_ms", io.mean_load_ms()}};
-    j["chunks_skipped_for_budget"] = renderer.chunks_skipped();
     j["views_in_passes"] = renderer.views_in_passes();
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
@@ -93,8 +98,6 @@ int run_render(const RenderArgs& a) {
               renderer.peak_resident_gaussians(), renderer.budget(), (unsigned long long)io.loads);
   if (renderer.views_in_passes())
     std::printf(", %zu views beyond the budget drawn in passes", renderer.views_in_passes());
-  if (renderer.chunks_skipped())
-    std::printf(", %zu visible chunks left out (each alone above the budget)", renderer.chunks_skipped());
   std::printf("\n");
   if (s.scored) std::printf("PSNR %.3f dB  SSIM %.4f  (mean over %zu frames)\n", s.mean_psnr, s.mean_ssim, s.scored);
   return 0;

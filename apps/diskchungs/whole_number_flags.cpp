@@ -26,10 +26,13 @@ std::string not_decimal(const std::string& name, const std::string& text) {
   return cat(name, " must be a whole number written in decimal, got ", text);
 }
 
+// Decimal text beyond T names the end it passed: "--budget must be at most 9223372036854775807" rather
+// than a range from a negative number that no budget could take.
 template <class T>
 std::string out_of_range(const std::string& name, const std::string& text) {
-  return cat(name, " must be a whole number from ", std::numeric_limits<T>::min(), " to ",
-             std::numeric_limits<T>::max(), ", got ", text);
+  if (text[0] == '-')
+    return cat(name, " must be a whole number at least ", +std::numeric_limits<T>::min(), ", got ", text);
+  return cat(name, " must be a whole number at most ", +std::numeric_limits<T>::max(), ", got ", text);
 }
 
 std::string refusal(const CLI::Option& option, const std::string& text, bool is_unsigned) {

@@ -147,6 +147,31 @@ TEST(CliRender, ADatasetOfSmallerImagesIsDrawnAtItsOwnSize) {
 
 // A resolution that leaves no image, or one too small to score, is refused naming it (it failed at the
 // first frame inside the frustum or SSIM code).
+// A chunk alone above the budget can never be drawn: such a budget is refused, naming the least that
+// draws every chunk, instead of rendering views with holes and exiting 0.
+TEST(CliRender, ABudgetBelowTheLargestChunkIsRefusedNamingTheLeastThatDrawsIt) {
+  DemoRun& d = demo();
+  ASSERT_EQ(d.result.code, 0) << d.result.out;
+  const std::string map = (d.dir / "map").string(), poses = (d.dir / "room/groundtruth.txt").string();
+  const fs::path out = d.dir / "render_budget_1";
+  auto refused = run_cli("render --map " + map + " --poses " + poses + " --stride 8 --budget 1 --out " + out.string());
+  EXPECT_NE(refused.code, 0);
+  EXPECT_NE(refused.out.find("--budget 1: chunk ("), std::string::npos) << refused.out;
+  EXPECT_FALSE(fs::exists(out)) << "nothing is written for a refused budget";
+  const std::string tail = "give a budget of at least ";
+  const size_t at = refused.out.find(tail);
+  ASSERT_NE(at, std::string::npos) << refused.out;
+  const unsigned long long least = std::stoull(refused.out.substr(at + tail.size()));
+  ASSERT_GT(least, 1u);
+  auto below = run_cli("render --map " + map + " --poses " + poses + " --stride 8 --budget " +
+                       std::to_string(least - 1) + " --out " + out.string());
+  EXPECT_NE(below.code, 0) << below.out;
+  auto enough = run_cli("-q render --json --map " + map + " --poses " + poses + " --stride 8 --budget " +
+                        std::to_string(least) + " --out " + out.string());
+  ASSERT_EQ(enough.code, 0) << enough.out;
+  EXPECT_LE(nlohmann::json::parse(enough.out)["gaussians"]["peak_resident"].get<uint64_t>(), least);
+}
+
 TEST(CliRender, AResolutionThatLeavesTooFewPixelsIsRefusedNamingIt) {
   DemoRun& d = demo();
   const std::string map = (d.dir / "map").string();

@@ -220,24 +220,28 @@ TEST(CliNumbers, WholeNumbersAreReadAsWrittenOrRefused) {
   // the same words as above, with the flag's range.
   for (const auto& [args, says] : std::vector<std::pair<std::string, std::string>>{
            {run + "--iterations 3000000000",
-            "--iterations must be a whole number from -2147483648 to 2147483647, got 3000000000"},
+            "--iterations must be a whole number at most 2147483647, got 3000000000"},
            {run + "--iterations 99999999999999999999",
-            "--iterations must be a whole number from -2147483648 to 2147483647, got 99999999999999999999"},
+            "--iterations must be a whole number at most 2147483647, got 99999999999999999999"},
            {run + "--iterations -3000000000",
-            "--iterations must be a whole number from -2147483648 to 2147483647"},
+            "--iterations must be a whole number at least -2147483648, got -3000000000"},
            {run + "--iterations ten", "--iterations must be a whole number written in decimal, got ten"},
            {run + "--budget ten", "--budget must be a whole number written in decimal, got ten"},
            {run + "--iterations 0x10", "--iterations must be a whole number written in decimal, got 0x10"},
            {run + "--max-frames 0x10", "--max-frames must be a whole number written in decimal, got 0x10"},
            {run + "--max-frames 99999999999999999999",
-            "--max-frames must be a whole number from -9223372036854775808 to 9223372036854775807, got "
-            "99999999999999999999"},
+            "--max-frames must be a whole number at most 9223372036854775807, got 99999999999999999999"},
+           // The end the number passed, not a range from a negative number that no budget could take.
+           {run + "--budget 99999999999999999999",
+            "--budget must be a whole number at most 9223372036854775807, got 99999999999999999999"},
+           {run + "--budget -99999999999999999999",
+            "--budget must be a whole number at least -9223372036854775808, got -99999999999999999999"},
            {run + "--speed fast", "--speed must be a number, got fast"},
            {"synth street --out " + out.string() + " --width 99999999999",
-            "--width must be a whole number from -2147483648 to 2147483647"},
+            "--width must be a whole number at most 2147483647"},
            // A flag of three values names the one at fault (it said "got 99999999999,0,0", "written in decimal").
            {"export --map " + (dir / "map").string() + " --out " + out.string() + " --chunk 0 99999999999 0",
-            "--chunk must be a whole number from -2147483648 to 2147483647, got 99999999999\n"},
+            "--chunk must be a whole number at most 2147483647, got 99999999999\n"},
            {"export --map " + (dir / "map").string() + " --out " + out.string() + " --chunk 0 0 x",
             "--chunk must be a whole number written in decimal, got x\n"}}) {
     auto r = run_cli(args);

@@ -92,6 +92,12 @@ uint64_t MapRenderer::total_gaussians() const {
   for (const auto& kv : impl_->residency.catalogue()) n += kv.second;
   return n;
 }
+std::pair<ChunkId, uint64_t> MapRenderer::largest_chunk() const {
+  std::pair<ChunkId, uint64_t> largest{0, 0};
+  for (const auto& [id, n] : impl_->residency.catalogue())
+    if (n > largest.second || (n == largest.second && n > 0 && id < largest.first)) largest = {id, n};
+  return largest;
+}
 size_t MapRenderer::peak_resident_gaussians() const { return impl_->residency.peak_resident_gaussians(); }
 size_t MapRenderer::budget() const { return impl_->residency.budget(); }
 IoStats MapRenderer::io_stats() const { return impl_->residency.stats(); }

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "chungs/config/config.hpp"
@@ -15,6 +16,7 @@
 #include "chungs/geometry/trajectory.hpp"
 #include "chungs/mapping/map_state.hpp"
 #include "chungs/render/render_output.hpp"
+#include "chungs/store/chunk_id.hpp"
 
 namespace chungs {
 
@@ -35,6 +37,8 @@ class MapRenderer {
   // The camera the map was built with (its first keyframe's); throws when the map has none.
   const Camera& mapping_camera() const;
   uint64_t total_gaussians() const;
+  // The map's largest chunk and its Gaussians (0, 0 for an empty map): a budget below it can never draw it.
+  std::pair<ChunkId, uint64_t> largest_chunk() const;
   size_t peak_resident_gaussians() const;
   size_t budget() const;
   IoStats io_stats() const;
