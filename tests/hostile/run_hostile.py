@@ -56,7 +56,10 @@ CRASH_MARKERS = ("terminate called", "Segmentation fault", "Aborted", "AddressSa
                  "core dumped")
 MEMORY_MARKERS = ("bad_alloc", "out of memory", "Cannot allocate memory", "cannot allocate memory")
 READERS = ("export", "render", "inspect", "eval", "info", "track")
-FAILED = ("crash", "hang", "memory", "changed", "accepted", "refused", "unclear")
+FAILED = ("crash", "hang", "memory", "changed", "partial", "accepted", "refused", "unclear")
+# Commands whose --out is one file: a failed one must leave none (a failed export once left a PLY of
+# 0 Gaussians that read as a valid, empty map).
+ONE_FILE_OUT = ("export",)
 KNOWN_FAILURES = Path(__file__).resolve().parent / "known_failures.txt"
 
 
@@ -186,7 +189,7 @@ def said(stderr: str, word) -> bool:
     return any(w in stderr for w in word) if isinstance(word, tuple) else word in stderr
 
 
-def problems(case, code, rss_kb, small, stderr, changed):
+def problems(case, code, rss_kb, small, stderr, changed, partial=None):
     """Every check that failed, most severe first, as (verdict, detail); empty for a pass."""
     if code is None:
         return [("hang", "no exit within %g s" % case.timeout)]
@@ -200,6 +203,8 @@ def problems(case, code, rss_kb, small, stderr, changed):
         found.append(("memory", "allocation failed"))
     if changed:
         found.append(("changed", "folder changed: " + ", ".join(changed)))
+    if partial:
+        found.append(("partial", "a failed run left its output " + partial))
     if case.expect == "error" and code == 0:
         found.append(("accepted", "exit 0; expected an error naming " + ", ".join(map(spelled, case.says))))
     if case.expect == "ok" and code != 0:
@@ -234,6 +239,9 @@ def run_case(case, index: int, cli: str, seeds: Seeds, work: Path, limit: float)
     watched = [w for w in case.watch if (d / w).exists()]
     before = {w: folder_digest(d / w) for w in watched}
     argv = ["prlimit", "--as=%d" % ADDRESS_SPACE_LIMIT, "--", cli] + case.argv()
+    args = case.argv()
+    out = args[args.index("--out") + 1] if "--out" in args[:-1] else None
+    one_file = out if out and args and args[0] in ONE_FILE_OUT and not (d / out).exists() else None
     code, rss_kb, seconds = run_process(argv, d, case.timeout, case.hold_lock)
     # Progress and info lines do not count as naming the fault: the error (or warning) must.
     stderr = "\n".join(line for line in (d / "stderr.txt").read_text(errors="replace").splitlines()
@@ -243,7 +251,8 @@ def run_case(case, index: int, cli: str, seeds: Seeds, work: Path, limit: float)
     # A dataset is never an output; a map is one only for a writer that succeeded.
     changed = [w for w in watched
                if (w != "map" or reader or code != 0) and folder_digest(d / w) != before[w]]
-    found = problems(case, code, rss_kb, small, stderr, changed)
+    partial = one_file if one_file and code != 0 and (d / one_file).exists() else None
+    found = problems(case, code, rss_kb, small, stderr, changed, partial)
     if not found:
         return Result(case, "pass", code, rss_kb, seconds)
     # The worst problem is the verdict; the others ride along so one does not hide another.

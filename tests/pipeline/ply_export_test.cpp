@@ -2,11 +2,14 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
 
+#include "chungs/common/error.hpp"
 #include "chungs/pipeline/ply_export.hpp"
+#include "store/random_block.hpp"
 #include "test_support.hpp"
 
 namespace chungs {
@@ -44,6 +47,87 @@ TEST(PlyExport, WritesStandardLayoutWithChannelMajorRest) {
     EXPECT_EQ(row[55 + 2], b.params.log_scale[3 * i + 2]);
     EXPECT_EQ(row[58], b.params.rotation[4 * i]);  // w first
   }
+}
+
+std::string read_all(const std::filesystem::path& f) {
+  std::ifstream in(f, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// A map export streams its rows (never the whole map in memory) and names the count in a header
+// written last: every Gaussian of every chunk in order, a count that matches, whatever its digits.
+TEST(PlyExport, AMapExportHoldsEveryGaussianUnderTheCountItsHeaderNames) {
+  test::TempDir dir;
+  ChunkStoreConfig c;
+  c.half_moments = c.half_sh_rest = false;  // exact values to compare
+  c.durable = false;
+  uint64_t total = 0;
+  std::vector<std::pair<ChunkId, GaussianBlock>> blocks;
+  {
+    ChunkStore store(dir / "map", c);
+    for (int i = 0; i < 5; ++i) {
+      blocks.emplace_back(chunk_id({i, 0, -i}), test::random_block(size_t(1000 + 997 * i), uint32_t(i + 1)));
+      store.save(blocks.back().first, blocks.back().second);
+      total += blocks.back().second.size();
+    }
+  }
+  const ChunkStore store(dir / "map", reader_config(c));
+  EXPECT_EQ(export_ply(store, dir / "all.ply", {}), total);
+  const std::string all = read_all(dir / "all.ply");
+  const size_t end = all.find("end_header\n");
+  ASSERT_NE(end, std::string::npos);
+  EXPECT_NE(all.substr(0, end).find("\nelement vertex " + std::to_string(total) + "\n"), std::string::npos);
+  ASSERT_EQ(all.size() - (end + 11), total * 62u * 4u);
+  // Each chunk's rows follow the previous chunk's, in the store's order.
+  size_t row = 0;
+  for (ChunkId id : store.ids()) {
+    float x;
+    std::memcpy(&x, all.data() + end + 11 + row * 62 * 4, 4);
+    EXPECT_EQ(x, store.load(id).params.mean[0]);
+    row += store.count(id);
+  }
+  // One chunk: a count of fewer digits under a header of the same length (its padding comment is longer).
+  const ChunkId first = store.ids().front();
+  EXPECT_EQ(export_ply(store, dir / "one.ply", PlySelection{first, {}, {}}), store.count(first));
+  const std::string one = read_all(dir / "one.ply");
+  EXPECT_EQ(one.find("end_header\n"), end);
+  EXPECT_EQ(one.size() - (end + 11), store.count(first) * 62u * 4u);
+}
+
+// An export that fails part way (here a damaged chunk) leaves the file that was there, never a partial
+// one: it wrote the header with 0 Gaussians first, so a failed export left a valid, empty PLY.
+TEST(PlyExport, AFailedExportLeavesTheFileThatWasThereAndNoTemporaries) {
+  test::TempDir dir;
+  ChunkStoreConfig c;
+  c.durable = false;
+  std::filesystem::path damaged;
+  {
+    ChunkStore store(dir / "map", c);
+    for (int i = 0; i < 3; ++i) store.save(chunk_id({i, 0, 0}), test::random_block(300, uint32_t(i + 7)));
+    damaged = store.chunk_path(chunk_id({2, 0, 0}));
+  }
+  std::filesystem::create_directories(dir / "out");
+  const std::filesystem::path ply = dir / "out" / "map.ply";
+  {
+    std::ofstream(ply, std::ios::binary) << "an earlier export";
+  }
+  std::filesystem::resize_file(damaged, std::filesystem::file_size(damaged) / 2);
+  const ChunkStore store(dir / "map", reader_config(c));
+  try {
+    export_ply(store, ply, {});
+    FAIL() << "a damaged chunk exported";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(damaged.filename().string()), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(read_all(ply), "an earlier export");
+  size_t files = 0;
+  for (const auto& f : std::filesystem::directory_iterator(dir / "out")) ++files, (void)f;
+  EXPECT_EQ(files, 1u) << "a temporary was left beside the export";
+  std::filesystem::remove(ply);
+  EXPECT_THROW(export_ply(store, ply, {}), Error);
+  EXPECT_FALSE(std::filesystem::exists(ply));
 }
 
 }  // namespace

@@ -1,29 +1,34 @@
 #include "chungs/pipeline/ply_export.hpp"
 
-#include <cstdio>
-#include <cstring>
-#include <fstream>
+#include <cstdint>
+#include <functional>
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/store/atomic_file.hpp"
 
 namespace chungs {
 
 namespace {
 
+// The header is written last, once the count is known, over room left for it at the start of the
+// file: a comment pads it to the length it has with the largest count, so the rows need not be held.
 std::string header(uint64_t n) {
-  std::string h = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(n) + "\n";
+  std::string h = "ply\nformat binary_little_endian 1.0\ncomment DiskChunGS map";
+  const std::string rest = "\nelement vertex " + std::to_string(n) + "\n";
+  std::string props;
   for (const char* p : {"x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"})
-    h += std::string("property float ") + p + "\n";
-  for (int i = 0; i < 45; ++i) h += "property float f_rest_" + std::to_string(i) + "\n";
-  h += "property float opacity\n";
-  for (int i = 0; i < 3; ++i) h += "property float scale_" + std::to_string(i) + "\n";
-  for (int i = 0; i < 4; ++i) h += "property float rot_" + std::to_string(i) + "\n";
-  return h + "end_header\n";
+    props += std::string("property float ") + p + "\n";
+  for (int i = 0; i < 45; ++i) props += "property float f_rest_" + std::to_string(i) + "\n";
+  props += "property float opacity\n";
+  for (int i = 0; i < 3; ++i) props += "property float scale_" + std::to_string(i) + "\n";
+  for (int i = 0; i < 4; ++i) props += "property float rot_" + std::to_string(i) + "\n";
+  const size_t digits = std::to_string(n).size(), most = std::to_string(UINT64_MAX).size();
+  h.append(most - digits, ' ');
+  return h + rest + props + "end_header\n";
 }
 
 void append_row(const GaussianParams& p, size_t i, std::vector<float>& row) {
-  row.clear();
   for (int k = 0; k < 3; ++k) row.push_back(p.mean[3 * i + k]);
   row.insert(row.end(), {0.f, 0.f, 0.f});
   for (int c = 0; c < 3; ++c) row.push_back(p.sh[48 * i + c]);
@@ -43,43 +48,40 @@ bool in_box(const GaussianParams& p, size_t i, const PlySelection& s) {
   return true;
 }
 
-class PlyWriter {
- public:
-  explicit PlyWriter(const std::filesystem::path& file) : file_(file) {
-    if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
-    out_.open(file, std::ios::binary);
-    if (!out_) fail(file.string(), ": cannot create the PLY file");
-    out_ << header(0) ;  // rewritten with the final count
-  }
-  void add(const GaussianParams& p, size_t i) {
-    append_row(p, i, row_);
-    body_.insert(body_.end(), row_.begin(), row_.end());
-    ++n_;
-  }
-  uint64_t finish() {
-    out_.seekp(0);
-    const std::string h = header(n_);
-    out_.write(h.data(), std::streamsize(h.size()));
-    out_.write(reinterpret_cast<const char*>(body_.data()), std::streamsize(body_.size() * sizeof(float)));
-    out_.close();
-    if (!out_) fail(file_.string(), ": write failed (disk full?)");
-    return n_;
-  }
-
- private:
-  std::filesystem::path file_;
-  std::ofstream out_;
-  std::vector<float> row_, body_;
-  uint64_t n_ = 0;
-};
+// Rows are streamed to a temporary file renamed over `file` once complete: a failed export (a
+// damaged chunk, a full disk) leaves no file, or the one that was there, never a partial one.
+// `blocks(add)` calls add(params, i) for every Gaussian in order.
+using AddRow = std::function<void(const GaussianParams&, size_t)>;
+uint64_t write_ply(const std::filesystem::path& file, const std::function<void(const AddRow&)>& blocks) {
+  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+  std::string head = header(0);  // its length; the text is written over once the count is known
+  uint64_t n = 0;
+  write_file_atomically(
+      file, {head.data(), head.size()},
+      [&](const Append& append) {
+        constexpr size_t kFlushFloats = size_t(1) << 18;  // 1 MiB a write
+        std::vector<float> rows;
+        rows.reserve(kFlushFloats + 62);
+        blocks([&](const GaussianParams& p, size_t i) {
+          append_row(p, i, rows);
+          ++n;
+          if (rows.size() >= kFlushFloats) append(rows.data(), rows.size() * sizeof(float)), rows.clear();
+        });
+        append(rows.data(), rows.size() * sizeof(float));
+        const std::string h = header(n);
+        head.replace(0, h.size(), h);  // the same length: the buffer handed over stays where it is
+      },
+      false);
+  return n;
+}
 
 }  // namespace
 
 void write_gaussian_ply(const std::filesystem::path& file, const std::vector<const GaussianBlock*>& blocks) {
-  PlyWriter w(file);
-  for (const GaussianBlock* b : blocks)
-    for (size_t i = 0; i < b->size(); ++i) w.add(b->params, i);
-  w.finish();
+  write_ply(file, [&](const AddRow& add) {
+    for (const GaussianBlock* b : blocks)
+      for (size_t i = 0; i < b->size(); ++i) add(b->params, i);
+  });
 }
 
 uint64_t export_ply(const ChunkStore& store, const std::filesystem::path& file, const PlySelection& select) {
@@ -98,13 +100,13 @@ uint64_t export_ply(const ChunkStore& store, const std::filesystem::path& file, 
       ids.push_back(id);
     }
   }
-  PlyWriter w(file);
-  for (ChunkId id : ids) {
-    const GaussianBlock b = store.load(id);
-    for (size_t i = 0; i < b.size(); ++i)
-      if (in_box(b.params, i, select)) w.add(b.params, i);
-  }
-  return w.finish();
+  return write_ply(file, [&](const AddRow& add) {
+    for (ChunkId id : ids) {
+      const GaussianBlock b = store.load(id);
+      for (size_t i = 0; i < b.size(); ++i)
+        if (in_box(b.params, i, select)) add(b.params, i);
+    }
+  });
 }
 
 }  // namespace chungs
