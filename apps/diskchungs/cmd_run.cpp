@@ -10,6 +10,7 @@
 #include "dataset_spec.hpp"
 #include "flag_checks.hpp"
 #include "map_flags.hpp"
+#include "stop_signal.hpp"
 
 namespace chungs::app {
 namespace {
@@ -61,8 +62,25 @@ const Command cmd{
           std::printf("viewer at %s (the map appears with the run's first checkpoint)\n", view->url().c_str());
           std::fflush(stdout);
         }
+        const StopSignal signal(
+            "\ndiskchungs: stopping at the end of this frame (or refinement step) and committing the map; "
+            "Ctrl-C again quits at once, leaving the map as last committed\n");
+        o.stop = &signal.stop();
         const nlohmann::json r = run_mapping(o, *open_map_dataset(a->map));
         view.reset();  // the run is over: `diskchungs view MAP` shows the finished map
+        if (r.contains("interrupted")) {
+          const nlohmann::json& s = r["interrupted"];
+          std::fprintf(stderr,
+                       "interrupted %s: %s holds the map committed there (%zu keyframes, %llu Gaussians); "
+                       "the same command with --resume %s\n",
+                       s["refining"].get<bool>()
+                           ? "during the refinement"
+                           : cat("at frame ", s["next_frame"].get<size_t>(), " of ", s["frames"].get<size_t>()).c_str(),
+                       o.out.string().c_str(), s["keyframes"].get<size_t>(),
+                       (unsigned long long)s["gaussians"].get<uint64_t>(),
+                       s["refining"].get<bool>() ? "refines and scores it" : "maps the rest");
+          return 130;  // as a shell reports a command ended by SIGINT
+        }
         if (a->json) {
           std::printf("%s\n", r.dump(2).c_str());
           return 0;

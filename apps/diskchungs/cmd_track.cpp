@@ -93,6 +93,10 @@ int run_track(const TrackArgs& a) {
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const Trajectory est = tracker.trajectory();
+  // Nothing to write or score: an empty trajectory file and an ATE error would not say why.
+  if (est.empty())
+    fail("track ", a.dataset, ": ", tracker.why_not_started(), " (", ds->info().camera.width, "x",
+         ds->info().camera.height, " images); nothing was written");
   write_trajectory(a.out, est, format, mono);
   const std::string quality_file = a.out + ".quality.csv";
   {

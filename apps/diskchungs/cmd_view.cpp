@@ -1,7 +1,6 @@
 // `diskchungs view MAP`: serves the browser viewer for a map folder (src/chungs/serve) until Ctrl-C,
 // following the checkpoints a run beside it commits (the page hears of each through /api/events).
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 
 #include <atomic>
@@ -15,12 +14,10 @@
 #include "chungs/serve/view_server.hpp"
 #include "command.hpp"
 #include "flag_checks.hpp"
+#include "stop_signal.hpp"
 
 namespace chungs::app {
 namespace {
-
-std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop = true; }
 
 struct ViewArgs {
   std::string map, host = "127.0.0.1", web;
@@ -30,11 +27,8 @@ struct ViewArgs {
 };
 
 int run_view(const ViewArgs& a) {
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  const StopSignal signal("");
+  const std::atomic<bool>& g_stop = signal.stop();
   if (a.wait && !std::filesystem::exists(std::filesystem::path(a.map) / "manifest.txt")) {
     log::info("waiting for ", a.map, "'s first checkpoint (Ctrl-C stops)");
     while (!g_stop && !std::filesystem::exists(std::filesystem::path(a.map) / "manifest.txt"))

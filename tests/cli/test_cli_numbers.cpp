@@ -69,6 +69,22 @@ TEST(CliNumbers, TrackingRefusesTinyImagesInsteadOfAborting) {
   EXPECT_NE(r.out.find("is 1x1, below the 32x32"), std::string::npos) << r.out;
 }
 
+// Images too small for any feature: the tracker never starts. `track` said only that ATE matched 0 poses
+// (after writing an empty trajectory), `run --poses track` that no frame became a keyframe.
+TEST(CliNumbers, ATrackerThatNeverStartsSaysWhyAndWritesNoTrajectory) {
+  chungs::test::TempDir dir;
+  const std::string street = "synth-street:length=20,width=64,height=32";
+  auto r = run_cli("-q track --dataset " + street + " --out " + (dir / "t.txt").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("the tracker never started: a frame needs 50 features with depth"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(64x32 images)"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "t.txt"));
+  r = run_cli("-q run --dataset " + street + " --poses track --out " + (dir / "map").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("no frame with a pose became a keyframe; the tracker never started"), std::string::npos)
+      << r.out;
+}
+
 TEST(CliNumbers, DemoRefusesOutOfRangeValuesNamingTheFlag) {
   chungs::test::TempDir dir;
   const auto out = dir / "demo";

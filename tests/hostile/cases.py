@@ -919,6 +919,10 @@ def map_cases():
         resume("chunk_count_huge", chunk(lambda p: forge.resign_chunk(
             p, payload=b"\x28\xb5\x2f\xfd" + b"\0" * 60, count=1 << 28, flags=forge.chunk_header(p)["flags"] | 1,
             raw=forge.chunk_payload_bytes(1 << 28, forge.chunk_header(p)["flags"]))), ".chunk", known=STORE_HEADER),
+        # A new map into a folder of the user's files (one named as a run's trajectory.txt): refused, left as it was.
+        err("map.run.out_holds_other_files", RUN + " --dataset tum:ds --out mine", ["mine", "notes.md"],
+            both(dataset("tum"), lambda d, s: [forge.write(d / "mine" / f, "keep") for f in ("notes.md", "trajectory.txt")]),
+            watch=["mine", "ds"], quick=True),
     ]
     return c
 

@@ -68,5 +68,42 @@ TEST(RunState, AResumedRunNeedsANextFrameWithinTheDataset) {
   EXPECT_EQ(resume_frame(state, "map/run_state.json", 8), 8u);
 }
 
+// A new map's run writes report.json, trajectory.txt, memory.png ... into its folder: a folder of other
+// files is refused naming them, and left as it was. New, empty and a run's own leftovers are taken.
+TEST(NewMapFolder, AFolderOfOtherFilesIsRefusedNamingThemAndLeftAsItWas) {
+  test::TempDir dir;
+  EXPECT_NO_THROW(require_folder_for_new_map(dir / "new"));
+  fs::create_directories(dir / "empty");
+  EXPECT_NO_THROW(require_folder_for_new_map(dir / "empty"));
+  // Stopped before its first checkpoint: the store's chunk folder and lock, a numbered keyframe list, a temporary.
+  fs::create_directories(dir / "leftover" / "chunks");
+  for (const char* f : {"lock", "checkpoint-1-keyframes.txt", "manifest.txt.tmp-12-0", "timeline.csv"})
+    std::ofstream(dir / "leftover" / f) << "x";
+  EXPECT_NO_THROW(require_folder_for_new_map(dir / "leftover"));
+  // The user's files beside a run's names.
+  fs::create_directories(dir / "user" / "photos");
+  for (const char* f : {"trajectory.txt", "notes.md", "a.txt", "b.txt"}) std::ofstream(dir / "user" / f) << "keep";
+  try {
+    require_folder_for_new_map(dir / "user");
+    FAIL() << "a folder of other files was taken";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("holds files and no map (a.txt, b.txt, notes.md and 1 more)"), std::string::npos) << m;
+  }
+  // A run's name alone, without the chunk folder a run makes first, is not a run's leftover.
+  fs::create_directories(dir / "only_trajectory");
+  std::ofstream(dir / "only_trajectory" / "trajectory.txt") << "keep";
+  try {
+    require_folder_for_new_map(dir / "only_trajectory");
+    FAIL() << "a folder holding only the user's trajectory.txt was taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("(trajectory.txt)"), std::string::npos) << e.what();
+  }
+  std::ifstream in(dir / "only_trajectory" / "trajectory.txt");
+  std::string kept;
+  in >> kept;
+  EXPECT_EQ(kept, "keep");
+}
+
 }  // namespace
 }  // namespace chungs

@@ -1,8 +1,10 @@
 #include "chungs/mapping/map_state.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "chungs/common/text_file.hpp"
@@ -68,6 +70,33 @@ std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& f
 std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint64_t seq,
                                       const std::string& final_name) {
   return folder / cat("checkpoint-", seq, "-", final_name);
+}
+
+void require_folder_for_new_map(const std::filesystem::path& folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) return;  // made by the store, or refused there (a file)
+  static const std::set<std::string> made_by_a_run = {
+      "chunks",      "keyframes",  "lock",      "manifest.txt", "keyframes.txt", "sky.bin",
+      "run_state.json", "report.json", "timeline.csv", "memory.png", "trajectory.txt", "renders"};
+  std::vector<std::string> other;
+  bool leftover = false;  // a run's chunk folder: the store makes it before anything else
+  size_t entries = 0;
+  for (const fs::directory_entry& e : fs::directory_iterator(folder)) {
+    ++entries;
+    const std::string name = e.path().filename().string();
+    leftover |= name == "chunks";
+    if (!made_by_a_run.count(name) && name.rfind("checkpoint-", 0) != 0 && name.find(".tmp-") == std::string::npos)
+      other.push_back(name);
+  }
+  if (entries == 0 || (leftover && other.empty())) return;
+  if (other.empty()) other.push_back(fs::directory_iterator(folder)->path().filename().string());
+  std::sort(other.begin(), other.end());
+  std::string names;
+  for (size_t i = 0; i < other.size() && i < 3; ++i) names += (i ? ", " : "") + other[i];
+  if (other.size() > 3) names += cat(" and ", other.size() - 3, " more");
+  fail(folder.string(), " holds files and no map (", names,
+       "): a new map goes into a new or empty folder, so that none of them is written over");
 }
 
 std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq,

@@ -49,6 +49,11 @@ std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint6
 std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq,
                                      const std::string& final_name);
 
+// A new map goes into a new or empty folder, or one a run left before its first checkpoint (its
+// chunks folder, and only files a run makes); any other folder is refused naming a few of its
+// files, since the run would write its report, trajectory and plots over files of the same names.
+void require_folder_for_new_map(const std::filesystem::path& folder);
+
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& j, bool durable);
 void write_text_atomically(const std::filesystem::path& file, const std::string& text, bool durable);
 void write_text_atomically(const std::filesystem::path& file, const TextPieces& text, bool durable);

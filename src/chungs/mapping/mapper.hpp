@@ -88,11 +88,13 @@ class Mapper {
   // view and every pixel of it (no best-view masks: every view of a place is trained, as without a
   // budget), in groups of keyframes whose views fit 0.8 of the budget, visited in mapper.refinement_rounds
   // rounds, in a random order within a group (mapping/refinement_plan.hpp). `after_step` runs after each,
-  // given its keyframe. Throws when there is no keyframe and steps > 0.
+  // given its keyframe; when `stop` returns true before a step, the refinement ends there. Throws when
+  // there is no keyframe and steps > 0.
   struct RefineStats {
     uint64_t steps = 0, groups = 0;
   };
-  RefineStats refine(uint64_t steps, const std::function<void(uint32_t keyframe)>& after_step = {});
+  RefineStats refine(uint64_t steps, const std::function<void(uint32_t keyframe)>& after_step = {},
+                     const std::function<bool()>& stop = {});
   // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
 

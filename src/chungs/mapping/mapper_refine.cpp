@@ -10,7 +10,8 @@
 
 namespace chungs {
 
-Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint32_t)>& after_step) {
+Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint32_t)>& after_step,
+                                   const std::function<bool()>& stop) {
   RefineStats stats;
   if (steps == 0) return stats;
   if (keyframes_.empty()) fail("mapper: refinement needs at least one keyframe");
@@ -66,6 +67,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
     }
   };
   for (refill(); !queue.empty(); refill()) {
+    if (stop && stop()) break;  // between steps: nothing pinned; chunks read ahead are kept as any
     residency_->advance_checkpoint();
     if (!residency_->all_resident()) {
       // This step's chunks first, then those of the next few: read in the background meanwhile.

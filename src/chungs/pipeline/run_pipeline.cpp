@@ -304,7 +304,14 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     f();
     acc += since(a) * 1000.0;
   };
+  const auto stop_asked = [&] { return o.stop && o.stop->load(); };
+  size_t next_frame = start;  // the frame after the last one fully handled
+  bool interrupted = false;
   while (true) {
+    if (stop_asked()) {
+      interrupted = true;
+      break;
+    }
     // Real time: while a live source (the tracker) has no frame for the map yet, the map trains.
     if (anytime && !mapper.keyframes().empty())
       while (!ahead.next_ready()) mapper.step();
@@ -314,6 +321,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     progress.step();
     const FeedItem* item = &entry->item;
     const size_t i = item->frame;
+    next_frame = i + 1;  // handled in full by the next check of stop_asked()
     if (item->pose) {
       if (last_pose) path_m += (item->pose->t - last_pose->t).norm();
       last_pose = item->pose;
@@ -385,8 +393,23 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     }
   }
   progress.finish();
+  // Stopped by the user (Ctrl-C): the map as it stands is committed where --resume picks it up; nothing
+  // is refined, scored or reported (the tracker's feed is left unfinished: its poses are not all known).
+  const auto commit_interrupted = [&](size_t next, bool refining) {
+    mapper.checkpoint(state(next, false), /*behind=*/false, timeline_member());
+    return nlohmann::json{{"interrupted",
+                           {{"next_frame", next},
+                            {"frames", n},
+                            {"keyframes", mapper.keyframes().size()},
+                            {"gaussians", mapper.total_gaussians()},
+                            {"refining", refining}}}};
+  };
+  if (interrupted) return commit_interrupted(next_frame, false);
   const size_t done = stopped_at ? *stopped_at + 1 : n;  // frames the map covers
-  if (mapper.keyframes().empty()) fail("dataset ", o.dataset, ": no frame with a pose became a keyframe");
+  if (mapper.keyframes().empty()) {
+    const std::string why = feed->why_no_pose();
+    fail("dataset ", o.dataset, ": no frame with a pose became a keyframe", why.empty() ? "" : "; " + why);
+  }
   if (mapper.total_gaussians() == 0 && mapper.refused_gaussians() > 0)
     fail("--budget ", cfg.residency.budget_gaussians, ": the map is empty, as every new Gaussian (",
          mapper.refused_gaussians(), ") was refused because its chunk could not hold it under the budget; a "
@@ -403,8 +426,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     const auto t0 = std::chrono::steady_clock::now();
     const Mapper::StepTimes steps_before = mapper.step_times();
     const IoStats io_before = mapper.io_stats();
-    const Mapper::RefineStats r = mapper.refine(refine_steps, [&](uint32_t) { refine.step(); });
+    const Mapper::RefineStats r = mapper.refine(refine_steps, [&](uint32_t) { refine.step(); }, stop_asked);
     refine.finish();
+    if (stop_asked()) return commit_interrupted(done, true);  // --resume refines again
     if (r.steps > 0) {
       const double seconds = ms_since(t0) / 1000;
       const IoStats io = mapper.io_stats() - io_before;

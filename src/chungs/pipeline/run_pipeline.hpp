@@ -1,6 +1,7 @@
 // The mapping run behind `diskchungs run`: frames and poses in, a map folder out, with held-out
 // evaluation, renders, a JSON report, a timeline CSV and a memory plot. Resumable after a crash.
 #pragma once
+#include <atomic>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -25,6 +26,9 @@ struct RunOptions {
   bool evaluate = true;       // render and score held-out frames (and keyframes) at the end
   // config.mapper.mono_depth_model loaded by the caller (the CLI checks it before the folder is touched).
   std::shared_ptr<const LearnedDepth> mono_depth_model;
+  // Set (Ctrl-C) to stop at the next frame or refinement step: the map is committed there and the
+  // report holds only "interrupted" (next_frame, frames, keyframes, gaussians, refining); --resume goes on.
+  const std::atomic<bool>* stop = nullptr;
 };
 
 // Runs (or resumes) the mapping and returns the report that it also writes to out/report.json.

@@ -44,6 +44,8 @@ class TrackerFeed : public FrameFeed {
     return out;
   }
 
+  std::string why_no_pose() const override { return tracker_.why_not_started(); }
+
   nlohmann::json report() const override {
     const auto& t = tracker_.timings();
     nlohmann::json j = {{"tracker", tracker_.describe()}, {"frames", t.frames},

@@ -37,6 +37,16 @@ const char* state_name(TrackState s) {
 VisualTracker::VisualTracker(TrackerOptions opt) : opt_(std::move(opt)) {}
 VisualTracker::~VisualTracker() = default;
 
+std::string VisualTracker::why_not_started() const {
+  if (!trajectory().empty()) return {};
+  if (mono_)
+    return cat("the tracker never started: no pair of its ", timings_.frames,
+               " frames had the parallax and matches a monocular start needs");
+  return cat("the tracker never started: a frame needs ", opt_.min_init_points,
+             " features with depth to start the map, and the most any of its ", timings_.frames, " frames had was ",
+             timings_.most_points_before_start);
+}
+
 std::string VisualTracker::describe() const {
   std::string out = cat("visual tracker (", mono_ ? "monocular" : stereo_ ? "stereo" : "rgb-d", "): ", map_.keyframes(),
                         " keyframes, ", map_.points(), " points, ", timings_.loops, " loop(s), ", timings_.lost_frames,
@@ -386,6 +396,7 @@ bool VisualTracker::initialize(Current& c) {
   int with_depth = 0;
   for (size_t i = 0; i < c.f.size(); ++i) with_depth += c.f.has_depth(i);
   if (with_depth < opt_.min_init_points) {
+    timings_.most_points_before_start = std::max(timings_.most_points_before_start, with_depth);
     log::info("tracking: frame ", c.index, " has ", with_depth, " features with depth, waiting for ", opt_.min_init_points);
     return false;
   }

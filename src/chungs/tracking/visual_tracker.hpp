@@ -23,6 +23,7 @@ struct TrackerTimings {
   size_t frames = 0, keyframes = 0, loops = 0, lost_frames = 0;
   size_t doubtful_frames = 0, coasted_frames = 0;
   size_t map_segments = 0, reinitialisations = 0;  // monocular: segments started, and those after a loss
+  int most_points_before_start = 0;  // with depth: the most features with depth of a frame that could not start
 };
 
 // A frame's features (ORB on both images and their stereo matches, or depth attached), computed
@@ -49,6 +50,9 @@ class VisualTracker : public Tracker {
   std::vector<MapOperation> take_map_operations() override;
   Trajectory trajectory() const override;
   std::string describe() const override;
+  // Why no frame has a pose yet ("" once the tracker has started): the frames it saw and, with depth,
+  // the most features with depth any of them had against the number starting needs.
+  std::string why_not_started() const;
   const Map& map() const { return map_; }
   const TrackerTimings& timings() const { return timings_; }
 
