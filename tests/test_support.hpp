@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 
 #ifdef CHUNGS_WITH_CUDA
@@ -59,6 +60,14 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// A file's bytes ("" when it cannot be read).
+inline std::string read_all(const std::filesystem::path& file) {
+  std::ifstream f(file, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
 
 // The process's resident memory now (/proc/self/statm), for tests of what the heap keeps.
 inline size_t resident_bytes() {

@@ -21,17 +21,12 @@
 
 extern char** environ;
 
+using chungs::test::read_all;
 using chungs::test::run_cli;
 namespace fs = std::filesystem;
 
 namespace {
 
-std::string read_all(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
 
 size_t files_in(const fs::path& dir) {
   std::error_code ec;

@@ -16,6 +16,7 @@
 #include "eval/lpips_fixtures.hpp"
 #include "test_support.hpp"
 
+using chungs::test::read_all;
 using chungs::test::run_cli;
 namespace fs = std::filesystem;
 
@@ -24,12 +25,6 @@ namespace {
 const std::string kTiny =
     "-q pareto --dataset synth-street:length=30,width=160,height=48,seed=2 --device cpu --max-frames 12";
 
-std::string read_all(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
 
 size_t occurrences(const std::string& text, const std::string& what) {
   size_t n = 0;

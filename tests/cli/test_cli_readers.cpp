@@ -12,17 +12,12 @@
 #include "png_bytes.hpp"
 #include "test_support.hpp"
 
+using chungs::test::read_all;
 using chungs::test::run_cli;
 namespace fs = std::filesystem;
 
 namespace {
 
-std::string read_all(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
 
 TEST(CliReaders, ExportNeverWritesIntoTheMapNorRepairsIt) {
   chungs::test::TempDir dir;

@@ -12,6 +12,7 @@
 #include "cli/cli_support.hpp"
 #include "test_support.hpp"
 
+using chungs::test::read_all;
 using chungs::test::run_cli;
 namespace fs = std::filesystem;
 
@@ -19,12 +20,6 @@ namespace {
 
 const std::string kDataset = "synth-street:length=30,width=160,height=48,seed=2";
 
-std::string read_all(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
 
 // Names and sizes of every file under the folder, for "nothing changed".
 std::string listing(const fs::path& dir) {

@@ -15,6 +15,8 @@
 namespace chungs {
 namespace {
 
+using test::read_all;
+
 TEST(PlyExport, WritesStandardLayoutWithChannelMajorRest) {
   test::TempDir dir;
   GaussianBlock b;
@@ -49,12 +51,6 @@ TEST(PlyExport, WritesStandardLayoutWithChannelMajorRest) {
   }
 }
 
-std::string read_all(const std::filesystem::path& f) {
-  std::ifstream in(f, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 // A map export streams its rows (never the whole map in memory) and names the count in a header
 // written last: every Gaussian of every chunk in order, a count that matches, whatever its digits.
