@@ -63,8 +63,9 @@ const Command cmd{
           std::fflush(stdout);
         }
         const StopSignal signal(
-            "\ndiskchungs: stopping at the end of this frame (or refinement step) and committing the map; "
-            "Ctrl-C again quits at once, leaving the map as last committed\n");
+            "\ndiskchungs: stopping at the end of this frame (or refinement step) and committing the map there; "
+            "a run already scoring its finished map goes on to its report; Ctrl-C again quits at once, leaving "
+            "the map as last committed\n");
         o.stop = &signal.stop();
         const nlohmann::json r = run_mapping(o, *open_map_dataset(a->map));
         view.reset();  // the run is over: `diskchungs view MAP` shows the finished map
