@@ -314,7 +314,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     }
     // Real time: while a live source (the tracker) has no frame for the map yet, the map trains.
     if (anytime && !mapper.keyframes().empty())
-      while (!ahead.next_ready()) mapper.step();
+      while (!ahead.next_ready() && !stop_asked()) mapper.step();
     std::optional<FrameLookahead::Entry> entry;
     timed(frames_wait_ms, [&] { entry = ahead.next(); });
     if (!entry) break;
@@ -335,8 +335,15 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         // ... and a keyframe that a later loaded one supersedes is dropped, not queued behind.
         drop = ahead.later_keyframe_ready();
         // Otherwise the map trains until the frame has arrived and its depth is computed.
-        if (!drop)
-          while (!FrameLookahead::ready(*entry)) mapper.step();
+        if (!drop) {
+          while (!FrameLookahead::ready(*entry) && !stop_asked()) mapper.step();
+          // A slow intake (--speed 0.01) leaves seconds before the frame arrives: a stop leaves it to --resume.
+          if (!FrameLookahead::ready(*entry)) {
+            next_frame = i;
+            interrupted = true;
+            break;
+          }
+        }
       }
       if (drop) {
         ++dropped;
