@@ -201,6 +201,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     timeline.push_back(t);
   };
   auto arrival = [&](size_t i) { return (dataset->timestamp(i) - stamp0) / mc.speed; };
+  // A resumed real-time run starts its intake again at frame `start` as this process starts, at the speed
+  // given now: the clock it carries holds the time of the run it continues, whose speed may have been
+  // another (--speed 4 after 0.02 made every frame late, 25 of 41 dropped) or which may have fallen behind.
+  const double pace_shift = start > 0 && start < n ? arrival(start) - carried_seconds : 0;
 
   // One camera measures no scale, so its tracker sets the map's unit at its first keyframe. Setting that
   // keyframe's median depth to a typical scene's metres keeps the metric settings (chunk size, far plane,
@@ -282,7 +286,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
         }
         return m;
       },
-      mc.pacing == "anytime" ? FrameLookahead::SecondsUntil([&](size_t i) { return arrival(i) - seconds(); })
+      mc.pacing == "anytime" ? FrameLookahead::SecondsUntil([&](size_t i) { return arrival(i) - pace_shift - seconds(); })
                              : FrameLookahead::SecondsUntil(),
       [&](const FeedItem& item) {
         if (multiview) multiview->seen(item);
@@ -372,7 +376,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
             std::lock_guard lock(load_times_mutex);
             if (auto it = load_times.find(i); it != load_times.end()) load = it->second, load_times.erase(it);
           }
-          log::debug("frame ", i, ": arrived at ", arrival(i), " s, loaded ", load.first, "-", load.second,
+          log::debug("frame ", i, ": arrived at ", arrival(i) - pace_shift, " s, loaded ", load.first, "-", load.second,
                      " s, added at ", seconds(), " s");
         }
         if (mc.pacing == "fixed")
