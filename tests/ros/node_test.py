@@ -156,8 +156,11 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
             rospy.Subscriber("/diskchungs/status", String, lambda m: got.__setitem__("status", json.loads(m.data)))]
     wait_service("/diskchungs/export", node, log)
     # Only the topics this case's node reads, each waited for until the node subscribes it: a frame lost
-    # to a slow connection would shift the frame numbers (and so the held-out frames).
-    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", bag, "--topics"] + list(topics),
+    # to a slow connection would shift the frame numbers (and so the held-out frames). A subscriber being
+    # registered does not mean its connection is up: under ctest -j 2 on 2 cores one run mapped 19 of 20
+    # frames, so every advertise is followed by half a second for the connections (--delay).
+    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", "--delay", "0.5", bag, "--topics"]
+                          + list(topics),
                           env=ros.env, capture_output=True, text=True, timeout=300)
     if play.returncode != 0:
         fail(f"rosbag play: {play.stderr[-1000:]}")
@@ -350,8 +353,8 @@ def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
     status = {}
     sub = rospy.Subscriber("/diskchungs/status", String, lambda m: status.update(json.loads(m.data)))
     wait_service("/diskchungs/stop", node, log)
-    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", bag, "--topics"] + list(topics),
-                          env=ros.env, capture_output=True, text=True, timeout=300)
+    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", "--delay", "0.5", bag, "--topics"]
+                          + list(topics), env=ros.env, capture_output=True, text=True, timeout=300)
     if play.returncode != 0:
         fail(f"rosbag play: {play.stderr[-1000:]}")
     wait_for(lambda: status.get("frames", 0) >= frames and status.get("queued") == 0, 600,
