@@ -70,6 +70,7 @@ const Command cmd{
         const nlohmann::json r = run_mapping(o, *open_map_dataset(a->map));
         view.reset();  // the run is over: `diskchungs view MAP` shows the finished map
         if (r.contains("interrupted")) {
+          if (a->json) std::printf("%s\n", r.dump(2).c_str());  // a script reads where the run stood
           const nlohmann::json& s = r["interrupted"];
           std::fprintf(stderr,
                        "interrupted %s: %s holds the map committed there (%zu keyframes, %llu Gaussians); "
