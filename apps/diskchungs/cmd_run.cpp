@@ -1,11 +1,13 @@
 // `diskchungs run`: map a dataset, on given poses or tracked ones, into a chunked Gaussian map folder.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include "chungs/common/log.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/pipeline/run_report.hpp"
 #include "chungs/serve/live_view.hpp"
+#include "chungs/store/manifest.hpp"
 #include "command.hpp"
 #include "dataset_spec.hpp"
 #include "flag_checks.hpp"
@@ -52,6 +54,13 @@ const Command cmd{
         // Given means typed, even empty: `--pacing ""` is refused by the check below, not ignored.
         if (given(app, "--pacing")) c.mapper.pacing = a->pacing;
         c.validate();
+        // A map keeps the chunk size it was made with: a typed other one would be ignored, not used.
+        if (o.resume && given(app, "--chunk-size") && std::filesystem::exists(o.out / "manifest.txt")) {
+          const double has = Manifest::read(o.out / "manifest.txt").chunk_size;
+          if (has != c.store.chunk_size)
+            fail("--chunk-size ", c.store.chunk_size, ": the map in ", o.out.string(), " has ", has,
+                 " m chunks, which it keeps; resume without --chunk-size, or start a new map");
+        }
         o.evaluate = !a->no_eval;
         std::unique_ptr<serve::LiveView> view;
         if (given(app, "--view")) {

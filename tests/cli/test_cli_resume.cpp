@@ -85,4 +85,33 @@ TEST(CliResume, AnIntactMapStillResumes) {
   EXPECT_NE(r.out.find("resuming"), std::string::npos) << r.out;
 }
 
+// A map keeps its chunk size: a different one typed with --resume was ignored without a word.
+TEST(CliResume, AnotherChunkSizeIsRefusedNamingTheMapsOwn) {
+  chungs::test::TempDir dir;
+  const fs::path map = small_map(dir.path());
+  const std::string before = listing(map);
+  auto r = run_cli("run --dataset " + kDataset + " --device cpu --no-eval --resume --chunk-size 5 --out " + map.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("--chunk-size 5: the map in " + map.string() + " has 10 m chunks"), std::string::npos) << r.out;
+  EXPECT_EQ(listing(map), before);
+  r = run_cli("run --dataset " + kDataset + " --device cpu --no-eval --resume --chunk-size 10 --out " + map.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
+// A stereo map resumed with one camera's depth: its new keyframes have no depth until their neighbours
+// give them some, and a step on one with chunks left out built a 0x0 pixel mask that the loss refused
+// ("mapping loss: pixel mask 0x0x1 does not match the 128x64 render").
+TEST(CliResume, AStereoMapGoesOnWithMultiviewDepth) {
+  chungs::test::TempDir dir;
+  const std::string street = "synth-street:length=40,width=128,height=64,seed=2";
+  const std::string run = "-q run --dataset " + street + " --poses gt --device cpu --iterations 2 --no-eval --out " +
+                          (dir / "map").string();
+  auto r = run_cli(run + " --max-frames 20");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run_cli(run + " --resume --depth multiview");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("pixel mask"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "map" / "report.json"));
+}
+
 }  // namespace

@@ -200,6 +200,9 @@ StepStats Mapper::step_keyframe(uint32_t keyframe, bool whole_view, bool revisit
       pixel_mask = coverage_of(kf).mask(trained, true);
     }
   }
+  // A keyframe without depth (one camera's, before its neighbours gave it some) has no coverage, so no
+  // mask can tell its left-out chunks' pixels: all are scored (its 0x0 mask failed the step's loss).
+  if (pixel_mask && pixel_mask->empty()) pixel_mask.reset();
   if (!shown_better.empty()) ++window_stats_.best_view_steps;
   const auto tp = clock::now();
   auto t2 = tp;
