@@ -98,6 +98,28 @@ TEST(CliResume, AnotherChunkSizeIsRefusedNamingTheMapsOwn) {
   EXPECT_EQ(r.code, 0) << r.out;
 }
 
+// --resume with other poses than the map's, or fewer frames than it covers, was taken: the first placed
+// the rest of the map on another trajectory, the second wrote the smaller count as where the map stood
+// (a later --resume mapped those frames again on top of their Gaussians).
+TEST(CliResume, OtherPosesOrFewerFramesThanTheMapCoversAreRefused) {
+  chungs::test::TempDir dir;
+  const fs::path map = small_map(dir.path());  // 12 frames on ground-truth poses
+  fs::copy_file(map / "trajectory.txt", dir / "poses.txt");
+  const std::string before = listing(map);
+  const std::string resume = "run --dataset " + kDataset + " --device cpu --no-eval --resume --out " + map.string();
+  auto r = run_cli(resume + " --poses " + (dir / "poses.txt").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("the map was made on --poses gt, not "), std::string::npos) << r.out;
+  EXPECT_EQ(listing(map), before);
+  r = run_cli(resume + " --max-frames 5");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("--max-frames 5: the map in " + map.string() + " already covers 12 frames"), std::string::npos)
+      << r.out;
+  EXPECT_EQ(listing(map), before);
+  r = run_cli(resume + " --max-frames 12");
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
 // A stereo map resumed with one camera's depth: its new keyframes have no depth until their neighbours
 // give them some, and a step on one with chunks left out built a 0x0 pixel mask that the loss refused
 // ("mapping loss: pixel mask 0x0x1 does not match the 128x64 render").

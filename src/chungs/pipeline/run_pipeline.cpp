@@ -140,7 +140,20 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (prev.value("dataset", std::string()) != o.dataset)
       fail(o.out.string(), ": the map was made from ", prev.value("dataset", std::string("?")), ", not ",
            o.dataset);
+    // The rest of the map on other poses than its start would not line up with it.
+    const std::string had = prev.value("poses", std::string());
+    std::error_code ec;
+    const bool same_poses = had.empty() || had == o.poses ||
+                            (had != "gt" && o.poses != "gt" && std::filesystem::equivalent(had, o.poses, ec));
+    if (!same_poses)
+      fail(o.out.string(), ": the map was made on --poses ", had, ", not ", o.poses,
+           "; --resume goes on with the poses it was made on");
     start = resume_frame(prev, o.out / "run_state.json", dataset->size());
+    // Fewer frames than the map covers would write that smaller count as where it stands: a later
+    // --resume would then map the frames between again, on top of their Gaussians.
+    if (start > n)
+      fail("--max-frames ", o.max_frames, ": the map in ", o.out.string(), " already covers ", start,
+           " frames; give at least ", start, " or leave it out");
     carried_seconds = prev.value("seconds", 0.0);
     try {
       if (prev.contains("timeline")) timeline = timeline_from_json(prev["timeline"]);
