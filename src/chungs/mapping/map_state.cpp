@@ -79,18 +79,17 @@ void require_folder_for_new_map(const std::filesystem::path& folder) {
   static const std::set<std::string> made_by_a_run = {
       "chunks",      "keyframes",  "lock",      "manifest.txt", "keyframes.txt", "sky.bin",
       "run_state.json", "report.json", "timeline.csv", "memory.png", "trajectory.txt", "renders"};
-  std::vector<std::string> other;
-  bool leftover = false;  // a run's chunk folder: the store makes it before anything else
-  size_t entries = 0;
+  std::vector<std::string> all, other;
   for (const fs::directory_entry& e : fs::directory_iterator(folder)) {
-    ++entries;
     const std::string name = e.path().filename().string();
-    leftover |= name == "chunks";
+    all.push_back(name);
     if (!made_by_a_run.count(name) && name.rfind("checkpoint-", 0) != 0 && name.find(".tmp-") == std::string::npos)
       other.push_back(name);
   }
-  if (entries == 0 || (leftover && other.empty())) return;
-  if (other.empty()) other.push_back(fs::directory_iterator(folder)->path().filename().string());
+  // A run's leftover has its chunk folder (the store makes it before anything else); without it, files
+  // of a run's names alone are the user's too.
+  if (other.empty() && std::find(all.begin(), all.end(), "chunks") == all.end()) other = all;
+  if (other.empty()) return;
   std::sort(other.begin(), other.end());
   std::string names;
   for (size_t i = 0; i < other.size() && i < 3; ++i) names += (i ? ", " : "") + other[i];

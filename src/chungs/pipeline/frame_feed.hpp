@@ -52,7 +52,7 @@ class FrameFeed {
   virtual std::vector<std::optional<SE3>> final_poses() = 0;
   virtual nlohmann::json report() const = 0;  // about the source (tracking: ATE, timings)
   // Why the source gave no frame a pose (the tracker never started), or ""; call after the last item.
-  virtual std::string why_no_pose() const { return {}; }
+  virtual std::string why_no_pose() { return {}; }
 };
 
 // Frames [start, n) with the given poses; keyframes by MapperConfig's keyframe rules,

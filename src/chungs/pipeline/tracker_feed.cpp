@@ -44,7 +44,10 @@ class TrackerFeed : public FrameFeed {
     return out;
   }
 
-  std::string why_no_pose() const override { return tracker_.why_not_started(); }
+  std::string why_no_pose() override {
+    if (thread_.joinable()) thread_.join();  // the tracker's state is read once its thread has ended
+    return tracker_.why_not_started();
+  }
 
   nlohmann::json report() const override {
     const auto& t = tracker_.timings();
