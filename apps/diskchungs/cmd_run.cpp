@@ -96,12 +96,22 @@ const Command cmd{
           std::printf("%s\n", r.dump(2).c_str());
           return 0;
         }
-        if (r.contains("tracking") && r["tracking"].contains("ate"))
+        if (r.contains("tracking") && r["tracking"].contains("ate")) {
+          const nlohmann::json& t = r["tracking"];
+          // No keyframe is made from a doubtful pose: a user comparing maps must see how many and where.
+          const size_t doubtful = t.value("doubtful_frames", size_t(0));
+          std::string where;
+          if (doubtful && t.contains("doubtful_frame_list")) {
+            const auto& list = t["doubtful_frame_list"];
+            for (size_t i = 0; i < list.size() && i < 5; ++i) where += cat(i ? ", " : " (frames ", list[i].get<size_t>());
+            where += list.size() > 5 ? cat(" and ", list.size() - 5, " more)") : ")";
+          }
           std::printf(
-              "tracking: ATE (%s alignment) rmse %.4f m over a %.1f m path, %zu loop closures, %zu lost frames\n",
-              r["tracking"]["ate"]["alignment"].get<std::string>().c_str(), r["tracking"]["ate"]["rmse"].get<double>(),
-              r["tracking"]["gt_path_length_m"].get<double>(),
-              r["tracking"]["loop_closures"].get<size_t>(), r["tracking"]["lost_frames"].get<size_t>());
+              "tracking: ATE (%s alignment) rmse %.4f m over a %.1f m path, %zu loop closures, %zu lost frames%s\n",
+              t["ate"]["alignment"].get<std::string>().c_str(), t["ate"]["rmse"].get<double>(),
+              t["gt_path_length_m"].get<double>(), t["loop_closures"].get<size_t>(), t["lost_frames"].get<size_t>(),
+              doubtful ? cat(", ", doubtful, " doubtful poses", where).c_str() : "");
+        }
         if (r.contains("held_out")) {
           const auto& h = r["held_out"];
           char lpips[32];

@@ -22,7 +22,7 @@ void add_map_flags(CLI::App& app, MapFlags& f) {
   app.add_option("--chunk-size", f.chunk_size, "chunk edge in metres (new maps)");
   app.add_option("--resolution", f.resolution, "image scale for mapping, (0, 1]");
   app.add_option("--final-iterations", f.final_iterations,
-                 "refinement steps after the last frame, spread over every keyframe (default: one a keyframe)");
+                 "refinement steps after the last frame, spread over every keyframe (default: one a keyframe; fixed pacing: at least 4 x --iterations)");
   app.add_option("--depth", f.depth, "auto | sensor | stereo | multiview (one camera: plane sweep against earlier keyframes; none means the same)");
   app.add_option("--fill-depth", f.fill_depth, "metres for sampled pixels without depth (sky); 0: skip them");
   app.add_option("--device", f.device, "auto | cuda | cpu: where the optimisation runs (auto: cuda when a GPU is usable)");

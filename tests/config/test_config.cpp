@@ -164,8 +164,13 @@ TEST(Config, RefinementStepsAreOneAKeyframeInEitherPacingOrAsGiven) {
   Config c;
   EXPECT_EQ(c.mapper.final_iterations, -1);
   EXPECT_EQ(c.mapper.refinement_steps(1034), 1034u);
+  // A map of few keyframes under fixed pacing: four keyframes' worth of steps at least.
+  EXPECT_EQ(c.mapper.refinement_steps(1), 120u);
+  EXPECT_EQ(c.mapper.refinement_steps(121), 121u);
+  EXPECT_EQ(config_from_yaml("mapper: {iterations_per_keyframe: 10}").mapper.refinement_steps(3), 40u);
   c = config_from_yaml("mapper: {pacing: anytime}");
   EXPECT_EQ(c.mapper.refinement_steps(1034), 1034u);
+  EXPECT_EQ(c.mapper.refinement_steps(1), 1u);
   c = config_from_yaml("mapper: {pacing: anytime, final_iterations: 7}");
   EXPECT_EQ(c.mapper.refinement_steps(1034), 7u);
   c = config_from_yaml("mapper: {final_iterations: 0}");

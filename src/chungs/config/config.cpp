@@ -117,7 +117,8 @@ void fields(V& v, MapperConfig& c) {
   v("pacing", c.pacing, "fixed (iterations per keyframe, deterministic) | anytime (real-time intake)");
   v("iterations_per_keyframe", c.iterations_per_keyframe, "fixed pacing: optimisation steps per keyframe");
   v("final_iterations", c.final_iterations,
-    "refinement steps after the last frame, spread over every keyframe (-1: one a keyframe)");
+    "refinement steps after the last frame, spread over every keyframe (-1: one a keyframe; under fixed pacing at least 4 x "
+    "iterations_per_keyframe)");
   v("refinement_rounds", c.refinement_rounds,
     "rounds over the refinement's groups of keyframes: more mix the places' views better, and load each "
     "group's chunks once a round");

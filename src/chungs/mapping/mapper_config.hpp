@@ -15,7 +15,8 @@ struct MapperConfig {
                                     // anytime: frames arrive in real time, the mapper trains in between
   int iterations_per_keyframe = 30;
   // Refinement steps after the last frame, spread over every keyframe (mapping/refinement_plan.hpp).
-  // -1: one a keyframe in either pacing (2 km street, GPU: +0.5-0.7 dB at every budget under fixed pacing
+  // -1: one a keyframe in either pacing, and under fixed pacing at least 4 x iterations_per_keyframe (a
+  // map of few keyframes: mapper_config.cpp) (2 km street, GPU: +0.5-0.7 dB at every budget under fixed pacing
   // for ~3-5 % of the run; under anytime pacing 300 k came from -0.93..-1.08 to -0.45..-0.49 dB of the
   // default budget for 1.8-15 s after a 100 s drive, bench/README.md). Under anytime pacing the steps come
   // after the intake has ended, so they never slow the rate that keeps up with it; they count in the run's time.

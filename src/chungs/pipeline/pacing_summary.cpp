@@ -15,6 +15,10 @@ PacingSummary pacing_summary(const std::vector<TimelineSample>& samples) {
       p.per_keyframe.emplace_back(prev->seconds, s.iterations - prev->iterations);
     if (!prev || s.keyframes != prev->keyframes) prev = &s;
   }
+  // A run of one keyframe from its first frame has no interval between two: its steps are those its
+  // own sample shows (under fixed pacing it is recorded after them), not none.
+  if (p.per_keyframe.empty() && samples.front().keyframes == 1)
+    p.per_keyframe.emplace_back(samples.front().seconds, samples.front().iterations);
   p.keyframes = p.per_keyframe.size();
   std::map<long, std::pair<double, uint64_t>> minutes;  // minute -> (steps, keyframes)
   double sum = 0;
