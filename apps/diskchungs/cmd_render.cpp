@@ -27,17 +27,21 @@ int run_render(const RenderArgs& a) {
   if (a.poses_file.empty() == a.dataset.empty())
     fail("render: give exactly one of --poses FILE and --dataset KIND:PATH");
   if (!a.out.empty()) refuse_inside_map(a.out, a.map, "--out");
-  Config c = a.config_file.empty() ? Config{} : load_config(a.config_file);
-  // The map's own budget unless told otherwise: renders then need no more memory than mapping did.
+  // The map's own budget unless told otherwise (a configuration file's residency.budget_gaussians, then
+  // --budget): renders then need no more memory than mapping did.
+  Config base;
   const size_t from_report = map_budget_from_report(a.map);
-  if (a.budget)
-    c.residency.budget_gaussians = size_t(a.budget);
-  else if (from_report)
-    c.residency.budget_gaussians = from_report;
+  if (from_report) base.residency.budget_gaussians = from_report;
+  Config c = a.config_file.empty() ? base : load_config(a.config_file, base);
+  const bool from_file = c.residency.budget_gaussians != base.residency.budget_gaussians;
+  if (a.budget) c.residency.budget_gaussians = size_t(a.budget);
   MapRenderer renderer(a.map, c);
   // A chunk alone above the budget can never be drawn: its views would come out with a hole.
   if (const auto [id, n] = renderer.largest_chunk(); n > renderer.budget())
-    fail(a.budget ? "--budget " : from_report ? "the map's budget (report.json) of " : "the budget of ",
+    fail(a.budget      ? "--budget "
+         : from_file   ? cat(a.config_file, "'s residency.budget_gaussians of ")
+         : from_report ? "the map's budget (report.json) of "
+                       : "the budget of ",
          renderer.budget(), ": ", chunk_name(id), " of ", a.map, " holds ", n,
          " Gaussians, more than the budget, so it could not be drawn; give a budget of at least ", n);
   const std::filesystem::path out =
@@ -116,7 +120,9 @@ const Command cmd{"render", "render a map along a trajectory file or a dataset's
                  "image scale in (0, 1]: of the map's camera with --poses (default 1), of the dataset's images with "
                  "--dataset (default the map's mapping resolution)");
   app.add_option("--stride", a->stride, "render every n-th pose")->capture_default_str();
-  app.add_option("--budget", a->budget, "resident Gaussians at most (default the map's, from report.json)");
+  app.add_option("--budget", a->budget,
+                 "resident Gaussians at most (default: --config's residency.budget_gaussians, else the map's from "
+                 "report.json)");
   app.add_option("--config", a->config_file, "YAML configuration (culling, raster, residency)");
   app.add_flag("--stack", a->stack, "with --dataset: write the render above the image");
   app.add_flag("--json", a->json, "print a JSON summary");

@@ -138,38 +138,58 @@ class Node {
 
   // Maps what is queued, refines and commits (the folder can then be reopened with ~resume).
   void finish() {
+    {
+      std::lock_guard lock(pending_mutex_);
+      if (!pending_.empty() || not_held_)
+        ROS_WARN("diskchungs: %zu frames were never mapped: no camera_info came for them", pending_.size() + not_held_);
+    }
     mapper_->finish();
     publish_status();
   }
 
  private:
   void set_info(const sensor_msgs::CameraInfoConstPtr& m, int which) {
-    std::lock_guard lock(info_mutex_);
-    (which == 0 ? info_ : right_info_) = m;
-  }
-
-  void frame(const sensor_msgs::ImageConstPtr& a, const sensor_msgs::ImageConstPtr& b) {
-    sensor_msgs::CameraInfoConstPtr info, right_info;
     {
       std::lock_guard lock(info_mutex_);
-      info = info_;
-      right_info = right_info_;
+      (which == 0 ? info_ : right_info_) = m;
     }
-    const bool stereo = mode_ == "stereo";
-    if (!info || (stereo && !right_info)) {
-      // camera_info comes on its own topic and may trail the first images: hold them, so that a
-      // recording's first frames are mapped and frame numbers (held-out frames) match the recording.
-      std::lock_guard lock(pending_mutex_);
-      if (pending_.size() < 100) pending_.emplace_back(a, b);
-      ROS_WARN_THROTTLE(5, "waiting for camera_info before mapping frames");
-      return;
-    }
+    // The frames held for it are mapped now, not when the next frame comes: a recording whose
+    // camera_info trails its last images would otherwise leave them unmapped. (The frame callback runs
+    // on the same queue, so the order of frames is kept.)
+    if (const auto [info, right_info] = known_infos(); info) map_held(info, right_info);
+  }
+
+  // Both camera_infos a frame needs (the right one only for stereo), or none while one is missing.
+  std::pair<sensor_msgs::CameraInfoConstPtr, sensor_msgs::CameraInfoConstPtr> known_infos() {
+    std::lock_guard lock(info_mutex_);
+    if (!info_ || (mode_ == "stereo" && !right_info_)) return {};
+    return {info_, right_info_};
+  }
+
+  void map_held(const sensor_msgs::CameraInfoConstPtr& info, const sensor_msgs::CameraInfoConstPtr& right_info) {
     std::vector<std::pair<sensor_msgs::ImageConstPtr, sensor_msgs::ImageConstPtr>> held;
     {
       std::lock_guard lock(pending_mutex_);
       held.swap(pending_);
     }
     for (const auto& [pa, pb] : held) map_pair(pa, pb, info, right_info);
+  }
+
+  void frame(const sensor_msgs::ImageConstPtr& a, const sensor_msgs::ImageConstPtr& b) {
+    const auto [info, right_info] = known_infos();
+    if (!info) {
+      // camera_info comes on its own topic and may trail the first images: hold them, so that a
+      // recording's first frames are mapped and frame numbers (held-out frames) match the recording.
+      std::lock_guard lock(pending_mutex_);
+      if (pending_.size() < kMaxHeld)
+        pending_.emplace_back(a, b);
+      else
+        ++not_held_;
+      ROS_WARN_THROTTLE(5, "waiting for camera_info before mapping frames (%zu held, %zu beyond %zu not kept)",
+                        pending_.size(), not_held_, kMaxHeld);
+      return;
+    }
+    map_held(info, right_info);
     map_pair(a, b, info, right_info);
   }
 
@@ -357,6 +377,8 @@ class Node {
   std::atomic<bool> stop_requested_{false};
   std::mutex pending_mutex_;
   std::vector<std::pair<sensor_msgs::ImageConstPtr, sensor_msgs::ImageConstPtr>> pending_;
+  static constexpr size_t kMaxHeld = 100;  // frames held for camera_info: seconds of images, not a recording
+  size_t not_held_ = 0;                    // frames beyond them, lost (guarded by pending_mutex_)
 };
 
 }  // namespace

@@ -170,6 +170,19 @@ TEST(CliRender, ABudgetBelowTheLargestChunkIsRefusedNamingTheLeastThatDrawsIt) {
                         std::to_string(least) + " --out " + out.string());
   ASSERT_EQ(enough.code, 0) << enough.out;
   EXPECT_LE(nlohmann::json::parse(enough.out)["gaussians"]["peak_resident"].get<uint64_t>(), least);
+  // A configuration file's budget is used too (the map's report.json budget took its place), and --budget
+  // still comes first.
+  const fs::path cfg = d.dir / "render_budget.yaml";
+  std::ofstream(cfg) << "residency:\n  budget_gaussians: " << least - 1 << "\n";
+  auto from_file = run_cli("render --map " + map + " --poses " + poses + " --stride 8 --config " + cfg.string() +
+                           " --out " + out.string());
+  EXPECT_NE(from_file.code, 0) << from_file.out;
+  EXPECT_NE(from_file.out.find("'s residency.budget_gaussians of " + std::to_string(least - 1)), std::string::npos)
+      << from_file.out;
+  auto typed = run_cli("-q render --json --map " + map + " --poses " + poses + " --stride 8 --config " + cfg.string() +
+                       " --budget " + std::to_string(least) + " --out " + out.string());
+  ASSERT_EQ(typed.code, 0) << typed.out;
+  EXPECT_EQ(nlohmann::json::parse(typed.out)["gaussians"]["budget"].get<uint64_t>(), least);
 }
 
 TEST(CliRender, AResolutionThatLeavesTooFewPixelsIsRefusedNamingIt) {

@@ -7,7 +7,8 @@ ros/launch/kitti_stereo.launch (or rgbd.launch) and plays a bag written from ../
 renders and point clouds are published, the export service writes a PLY, the node maps every frame,
 exits cleanly on SIGINT with the map committed, reopens it with resume:=true, and its map scores
 within --tolerance dB of `diskchungs run` on the same frames (both maps rendered at the bag's frames).
-A node killed while it refines after the last frame keeps every frame mapped.
+A node killed while it refines after the last frame keeps every frame mapped. Frames whose camera_info
+comes only after the last of them are mapped when it comes.
 
 Needs Debian's python3 (rospy, rosbag). Exit 77 (skipped) when the shared data is missing.
 """
@@ -380,6 +381,54 @@ def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
           f"{len(keyframe_poses(out))} keyframes")
 
 
+def check_camera_info_after_images(ros, tmp, bag, frames):
+    """camera_info may trail the images (another driver, a recording cut short): the node holds the
+    frames until it comes. Here it comes only after the last image: the held frames must be mapped
+    then, not when a next frame arrives (none does)."""
+    import rosbag
+    import rospy
+    from sensor_msgs.msg import CameraInfo
+    from std_msgs.msg import String
+    settings = os.path.join(tmp, "late_info_settings.yaml")
+    with open(settings, "w") as f:
+        json.dump(dict(MAPPER, device="cpu", tf_timeout=5.0), f)
+    out = os.path.join(tmp, "late_info_node_map")
+    node, log = launch(ros, os.path.join(ROOT, "ros/launch/rgbd.launch"), out, settings,
+                       extra=["depth:=/camera/depth/image_raw"])
+    status = {}
+    sub = rospy.Subscriber("/diskchungs/status", String, lambda m: status.update(json.loads(m.data)))
+    wait_service("/diskchungs/stop", node, log)
+    info_topic = "/camera/color/camera_info"
+    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", "--delay", "0.5", bag, "--topics",
+                           "/camera/color/image_raw", "/camera/depth/image_raw", "/tf", "/tf_static"],
+                          env=ros.env, capture_output=True, text=True, timeout=300)
+    if play.returncode != 0:
+        fail(f"rosbag play: {play.stderr[-1000:]}")
+    wait_for(lambda: "waiting for camera_info" in open(log.name).read(), 60, "the node to hold frames for camera_info")
+    time.sleep(1.0)  # the last images' callbacks
+    if status.get("frames", 0) != 0:
+        fail(f"late camera_info: frames were mapped without it (status {status})")
+    with rosbag.Bag(bag) as b:
+        info = next(m for _, m, _ in b.read_messages(topics=[info_topic]))
+    pub = rospy.Publisher(info_topic, CameraInfo, queue_size=1, latch=True)
+    pub.publish(info)
+    wait_for(lambda: status.get("frames", 0) >= frames and status.get("queued") == 0, 600,
+             f"late camera_info: the node to map the {frames} frames it held (status {status})")
+    sub.unregister()
+    os.killpg(node.pid, signal.SIGINT)
+    try:
+        node.wait(timeout=300)
+    except subprocess.TimeoutExpired:
+        fail("late camera_info: the node did not exit within 300 s of SIGINT")
+    pub.unregister()
+    with open(os.path.join(out, "run_state.json")) as f:
+        state = json.load(f)
+    if not state.get("finished") or state.get("next_frame") != frames:
+        fail(f"late camera_info: run_state.json is {state}")
+    print(f"late camera_info: the {frames} frames held for it were mapped when it came "
+          f"({len(keyframe_poses(out))} keyframes)")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--cli", required=True)
@@ -438,6 +487,7 @@ def main():
                   f"rosbag:{room_bag}?color=/camera/color/image_raw&depth=/camera/depth/image_raw", "tum:" + room, 30,
                   "indoor", ["/camera/color/image_raw", "/camera/color/camera_info", "/camera/depth/image_raw"] + tf,
                   extra=["depth:=/camera/depth/image_raw"])
+        check_camera_info_after_images(ros, tmp, room_bag, 30)
         # The robot's localisation as a nav_msgs/Odometry topic of base_link, the camera's mount from tf.
         node_case(a, ros, tmp, "kitti_odometry", os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag,
                   f"rosbag:{bag}?left=/stereo/left/image_rect&right=/stereo/right/image_rect", "kitti:" + kitti,
