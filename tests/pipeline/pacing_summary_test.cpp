@@ -74,24 +74,27 @@ TEST(PacingSummary, EmptyAndStillRuns) {
   EXPECT_EQ(p.sampled, 1000u);
 }
 
-TEST(PacingSummary, ARunOfOneKeyframeCountsTheStepsItsSampleShows) {
-  // A camera that stood still made one keyframe, trained 30 steps: "0 steps per keyframe" was reported.
-  std::vector<TimelineSample> s = run_with_steps({0, 0});
-  s.pop_back();
-  s[0].iterations = 30;
-  TimelineSample later = s[0];  // a frame that is no keyframe, then the refinement's step
-  later.seconds += 0.2, later.iterations = 31;
-  s.push_back(later);
-  const PacingSummary p = pacing_summary(s);
-  ASSERT_EQ(p.keyframes, 1u);
-  EXPECT_EQ(p.steps_mean, 30.0);
-  EXPECT_EQ(p.steps_lowest_minute, 30.0);
-  // The same after frames without a pose, whose sample shows no keyframe and no steps.
-  TimelineSample before = s[0];
-  before.keyframes = 0, before.iterations = 0, before.seconds = 0;
-  s.insert(s.begin(), before);
-  EXPECT_EQ(pacing_summary(s).keyframes, 1u);
-  EXPECT_EQ(pacing_summary(s).steps_mean, 30.0);
+TEST(PacingSummary, ARunOfOneKeyframeGotEveryStepButTheRefinements) {
+  // A camera that stood still made one keyframe: "0 steps per keyframe" was reported. Under fixed
+  // pacing its sample shows its 30 steps; in real time it shows none, and the steps come between frames.
+  for (const uint64_t at_keyframe : {30u, 0u}) {
+    std::vector<TimelineSample> s = run_with_steps({0});
+    s[0].iterations = at_keyframe;
+    TimelineSample later = s[0];  // the last frame, after 120 refinement steps
+    later.seconds += 4.0, later.iterations = 30 + 120;
+    s.push_back(later);
+    const PacingSummary p = pacing_summary(s, 120);
+    ASSERT_EQ(p.keyframes, 1u);
+    EXPECT_EQ(p.steps_mean, 30.0);
+    EXPECT_EQ(p.steps_lowest_minute, 30.0);
+    EXPECT_EQ(p.per_keyframe[0].first, s[0].seconds);
+    // The same after frames without a pose, whose sample shows no keyframe and no steps.
+    TimelineSample before = s[0];
+    before.keyframes = 0, before.iterations = 0, before.seconds = 0;
+    s.insert(s.begin(), before);
+    EXPECT_EQ(pacing_summary(s, 120).keyframes, 1u);
+    EXPECT_EQ(pacing_summary(s, 120).steps_mean, 30.0) << at_keyframe;
+  }
 }
 
 TEST(PacingSummary, NoRatesPer100mBelowAChunkOfTravelOnlyTotals) {

@@ -5,7 +5,7 @@
 
 namespace chungs {
 
-PacingSummary pacing_summary(const std::vector<TimelineSample>& samples) {
+PacingSummary pacing_summary(const std::vector<TimelineSample>& samples, uint64_t refinement_steps) {
   PacingSummary p;
   if (samples.empty()) return p;
   // A keyframe's sample is the first one showing its count; samples of pose updates repeat it.
@@ -15,10 +15,16 @@ PacingSummary pacing_summary(const std::vector<TimelineSample>& samples) {
       p.per_keyframe.emplace_back(prev->seconds, s.iterations - prev->iterations);
     if (!prev || s.keyframes != prev->keyframes) prev = &s;
   }
-  // A run of one keyframe from its first frame has no interval between two: its steps are those its
-  // own sample shows (under fixed pacing it is recorded after them), not none.
-  if (p.per_keyframe.empty() && samples.front().keyframes == 1)
-    p.per_keyframe.emplace_back(samples.front().seconds, samples.front().iterations);
+  // A run of one keyframe has no interval between two keyframes: it got every step of the mapping (a
+  // camera that stood still; "0 steps per keyframe" was reported).
+  if (samples.back().keyframes == 1 && samples.back().iterations >= refinement_steps) {
+    p.per_keyframe.clear();
+    for (const auto& s : samples)
+      if (s.keyframes == 1) {
+        p.per_keyframe.emplace_back(s.seconds, samples.back().iterations - refinement_steps);
+        break;
+      }
+  }
   p.keyframes = p.per_keyframe.size();
   std::map<long, std::pair<double, uint64_t>> minutes;  // minute -> (steps, keyframes)
   double sum = 0;

@@ -30,7 +30,8 @@ struct PacingSummary {
 };
 
 // Samples taken as keyframes are added (TimelineSample: keyframes, iterations); a keyframe's steps
-// are the iterations between its sample and the next keyframe's.
-PacingSummary pacing_summary(const std::vector<TimelineSample>& samples);
+// are the iterations between its sample and the next keyframe's. A run of one keyframe has no next:
+// it got every step but the `refinement_steps` after the last frame (counted in the last samples).
+PacingSummary pacing_summary(const std::vector<TimelineSample>& samples, uint64_t refinement_steps = 0);
 
 }  // namespace chungs

@@ -439,10 +439,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
          mapper.refused_gaussians(), ") was refused because its chunk could not hold it under the budget; a "
          "budget of at least ", mapper.largest_refusal(), " holds the largest of them, and a budget that holds "
          "whole views (several times that) maps well");
+  // An empty map scored as if it were one (4 dB held-out, exit 0) hid the cause behind a warning.
   if (multiview && mapper.total_gaussians() == 0)
-    log::warn("dataset ", o.dataset,
-              ": no keyframe got depth from its neighbours (one camera needs two keyframes "
-              "that see the same textured scene from places apart), so the map is empty");
+    fail("dataset ", o.dataset, ": no keyframe got depth from its neighbours (one camera needs two keyframes that "
+         "see the same textured scene from places apart; the camera moved ", std::round((base.path_m + path_m) * 1000) / 1000,
+         " m over its ", done, " frames), so the map is empty");
   nlohmann::json refinement;  // the steps after the last frame, when there were any
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
     const uint64_t refine_steps = mc.refinement_steps(mapper.keyframes().size());
@@ -527,7 +528,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["pose_updates"] = updates.report();
   report["keyframes"] = mapper.keyframes().size();
   report["keyframes_without_depth"] = mapper.keyframes_without_depth();
-  report["pacing"] = pacing_report(mapper, timeline, mc.min_steps_per_keyframe);
+  const uint64_t refined = refinement.is_null() ? 0 : refinement.value("steps", uint64_t(0));
+  report["pacing"] = pacing_report(mapper, timeline, mc.min_steps_per_keyframe, refined);
   if (!refinement.is_null()) report["refinement"] = refinement;
   report["iterations"] = mapper.iterations();
   if (mapper.step_times().steps) report["step_ms"] = step_report(mapper.step_times());
@@ -580,7 +582,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["keyframe_io"] = keyframe_io_report(mapper.keyframe_io_stats());
   if (o.evaluate) score_run(mapper, *dataset, poses, done, mc, o.out, lpips, report);
   write_text(o.out / "timeline.csv", timeline_csv(timeline));
-  write_timeline_plot(o.out / "memory.png", timeline, mapper.budget());
+  write_timeline_plot(o.out / "memory.png", timeline, mapper.budget(), refined);
   write_json(o.out / "report.json", report);
   log::info("map ", o.out.string(), ": ", mapper.total_gaussians(), " Gaussians in ", mapper.chunk_count(),
             " chunks, ", mapper.keyframes().size(), " keyframes, ", map_seconds, " s (", io.summary(), ")");

@@ -11,9 +11,9 @@
 namespace chungs {
 
 nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSample>& timeline,
-                             int min_steps_per_keyframe) {
+                             int min_steps_per_keyframe, uint64_t refinement_steps) {
   // Whether the optimiser kept up: the figures a starving run shows first.
-  nlohmann::json pj = pacing_summary(timeline).to_json();
+  nlohmann::json pj = pacing_summary(timeline, refinement_steps).to_json();
   pj["min_steps_per_keyframe"] = min_steps_per_keyframe;
   pj["views_over_budget"] = mapper.views_over_budget();
   if (mapper.views_over_budget()) pj["largest_view_gaussians"] = mapper.largest_view();

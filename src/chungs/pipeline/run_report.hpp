@@ -11,7 +11,7 @@
 namespace chungs {
 
 nlohmann::json pacing_report(const Mapper& mapper, const std::vector<TimelineSample>& timeline,
-                             int min_steps_per_keyframe);
+                             int min_steps_per_keyframe, uint64_t refinement_steps);
 // The run summary's pacing line from a whole report (its "pacing", "settings" and "time"): steps per
 // keyframe and what bounds them, drops, checkpoints, I/O wait, and Gaussians sampled and pruned (per
 // 100 m when pacing_summary gave rates, else totals over the path). No newline.

@@ -39,8 +39,9 @@ std::vector<TimelineSample> timeline_from_json(const nlohmann::json& j);
 // Gaussians (total, resident, on disk, budget), memory (host RSS, VRAM when sampled), chunk I/O
 // (cumulative loads and saves, map folder size on a right axis, the optimiser's I/O wait share) and
 // the steps each keyframe got (with the keyframes dropped and the checkpoints' share of the time).
+// refinement_steps: the steps after the last frame, in the last samples (pacing_summary).
 void write_timeline_plot(const std::filesystem::path& file, const std::vector<TimelineSample>& samples,
-                         uint64_t budget);
+                         uint64_t budget, uint64_t refinement_steps = 0);
 
 // Where write_timeline_plot puts its panels' plot areas (pixels, inclusive), so tests can look inside.
 struct TimelinePlotBox {

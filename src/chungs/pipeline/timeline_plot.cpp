@@ -132,7 +132,7 @@ TimelinePlotLayout timeline_plot_layout() {
 }
 
 void write_timeline_plot(const std::filesystem::path& file, const std::vector<TimelineSample>& samples,
-                         uint64_t budget) {
+                         uint64_t budget, uint64_t refinement_steps) {
   PlotCanvas cv{Image8(kW, kH, 3, 255)};
   const TimelinePlotLayout lay = timeline_plot_layout();
   double max_t = 0, max_g = 0, max_mem = 1, max_io = 0, max_disk = 0;
@@ -213,7 +213,7 @@ void write_timeline_plot(const std::filesystem::path& file, const std::vector<Ti
 
   // Steps per keyframe: whether the optimiser kept up with the intake. One point per keyframe (the
   // `iterations` field of these derived samples holds the steps it got).
-  const PacingSummary pace = pacing_summary(samples);
+  const PacingSummary pace = pacing_summary(samples, refinement_steps);
   std::vector<TimelineSample> per_kf;
   double max_steps = 1;
   for (const auto& [t, n] : pace.per_keyframe) {
