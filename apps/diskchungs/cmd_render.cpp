@@ -2,6 +2,7 @@
 // streamed under the budget; with a dataset, each render is also scored against its image.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
@@ -16,12 +17,33 @@
 namespace chungs::app {
 namespace {
 
+namespace fs = std::filesystem;
+
 struct RenderArgs {
-  std::string map, poses_file, dataset, dataset_poses = "gt", out, config_file;
+  std::string map, poses_file, dataset, dataset_poses, out, config_file;  // dataset_poses "": the map's
   double resolution = 0;             // 0: not given (the map's or the dataset's default)
   long long stride = 1, budget = 0;  // signed, so that a typed -1 is refused instead of wrapped
   bool stack = false, json = false;
 };
+
+// Where the dataset's frames are drawn from. A map made on tracked poses lies in a frame of its own (its
+// first camera's): drawn at the dataset's ground truth it showed nothing and scored 4 dB. So by default
+// the poses the map was made on (its trajectory.txt) unless it was made on ground truth.
+std::string dataset_poses(const RenderArgs& a) {
+  const std::string made_on = map_poses_source(a.map);
+  const fs::path own = fs::path(a.map) / "trajectory.txt";
+  if (a.dataset_poses.empty()) {
+    if (made_on.empty() || made_on == "gt" || !fs::exists(own)) return "gt";
+    log::info("the map was made on --poses ", made_on, ": drawing the dataset's frames at the poses it was made on (",
+              own.string(), "); --dataset-poses gt draws them at the dataset's ground truth");
+    return own.string();
+  }
+  if (a.dataset_poses == "gt" && made_on == "track")
+    log::warn("the map was made on --poses track, in the frame of its first camera, not the dataset's ground truth: "
+              "its renders at the ground-truth poses may show little of it (--dataset-poses ", own.string(),
+              " draws it at its own)");
+  return a.dataset_poses;
+}
 
 int run_render(const RenderArgs& a) {
   if (a.poses_file.empty() == a.dataset.empty())
@@ -80,7 +102,7 @@ int run_render(const RenderArgs& a) {
              dataset->info().camera.height, " images would be ", scaled.width, "x", scaled.height,
              ", below the ", kMinScoredSide, "x", kMinScoredSide, " that scoring them needs");
     }
-    const auto poses = frame_poses(*dataset, a.dataset_poses);
+    const auto poses = frame_poses(*dataset, dataset_poses(a));
     log::info("rendering ", a.dataset, " (", dataset->size(), " frames) at ", f, " of ",
               dataset->info().camera.width, "x", dataset->info().camera.height);
     s = render_dataset(renderer, *dataset, poses, f, out, size_t(a.stride), a.stack);
@@ -113,7 +135,9 @@ const Command cmd{"render", "render a map along a trajectory file or a dataset's
   app.add_option("--map", a->map, "map folder")->required();
   app.add_option("--poses", a->poses_file, "trajectory file (TUM, KITTI or 4x4 per line): render with the map's camera");
   app.add_option("--dataset", a->dataset, "dataset as kind:path: render its frames with its camera and score them");
-  app.add_option("--dataset-poses", a->dataset_poses, "with --dataset: gt or a TUM/KITTI trajectory file")->capture_default_str();
+  app.add_option("--dataset-poses", a->dataset_poses,
+                 "with --dataset: gt or a TUM/KITTI trajectory file (default: gt for a map made on ground truth, "
+                 "else the poses the map was made on, MAP/trajectory.txt)");
   app.add_option("--out", a->out,
                  "folder for the PNGs, outside the map folder (default MAP-renders beside it)");
   app.add_option("--resolution", a->resolution,

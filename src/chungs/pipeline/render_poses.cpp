@@ -10,6 +10,7 @@
 #include "chungs/image/image_io.hpp"
 #include "chungs/pipeline/evaluation.hpp"
 #include "chungs/pipeline/frame_source.hpp"
+#include "chungs/mapping/map_state.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "chungs/mapping/sky_file.hpp"
 #include "chungs/render/cpu/rasterizer.hpp"
@@ -128,6 +129,14 @@ RenderOutput<float> MapRenderer::render(const Camera& camera, const SE3& pose) {
   }
   ++views_;
   return out;
+}
+
+std::string map_poses_source(const fs::path& folder) {
+  const fs::path f = folder / "run_state.json";
+  if (!fs::exists(f)) return {};
+  const nlohmann::json j = read_json_file(f);
+  validate_run_state(j, f);
+  return j.value("poses", std::string());
 }
 
 size_t map_budget_from_report(const fs::path& folder) {

@@ -58,6 +58,9 @@ class MapRenderer {
 
 // The budget a map was made with, from its report.json (0 when the file or field is missing).
 size_t map_budget_from_report(const std::filesystem::path& folder);
+// The poses a map was made on (run --poses: gt, track or a file), from its run_state.json; empty when
+// the folder has none (a map written by other means).
+std::string map_poses_source(const std::filesystem::path& folder);
 
 struct RenderedView {
   size_t index = 0;                // pose index or dataset frame
