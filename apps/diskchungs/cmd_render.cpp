@@ -30,7 +30,13 @@ struct RenderArgs {
 // first camera's): drawn at the dataset's ground truth it showed nothing and scored 4 dB. So by default
 // the poses the map was made on (its trajectory.txt) unless it was made on ground truth.
 std::string dataset_poses(const RenderArgs& a) {
-  const std::string made_on = map_poses_source(a.map);
+  std::string made_on;
+  try {
+    made_on = map_poses_source(a.map);
+  } catch (const Error& e) {
+    // Only the default poses depend on it: the map itself still draws.
+    log::warn(e.what(), "; taking the map as made on ground truth");
+  }
   const fs::path own = fs::path(a.map) / "trajectory.txt";
   if (a.dataset_poses.empty()) {
     if (made_on.empty() || made_on == "gt" || !fs::exists(own)) return "gt";
