@@ -171,6 +171,28 @@ TEST(Euroc, GroundTruthIsInRectifiedCameraAndStill) {
   EXPECT_NEAR(b.z(), 0, 1e-4);
 }
 
+// Given mav0/ itself (as many tools are), the ground truth in the sequence folder above it is found;
+// given one camera's folder, the error says which folder to give.
+TEST(Euroc, TheMav0FolderFindsTheSequencesGroundTruthAndACameraFolderIsNamed) {
+  CHUNGS_REQUIRE_DATA("euroc_v101_micro");
+  const auto whole = open_dataset(euroc_spec());
+  for (const std::string tail : {"/mav0", "/mav0/"}) {
+    const auto mav = open_dataset(euroc_spec() + tail);
+    ASSERT_EQ(mav->size(), whole->size()) << tail;
+    for (size_t i : {size_t(0), whole->size() - 1}) {
+      ASSERT_TRUE(mav->gt_pose(i)) << tail << " frame " << i;
+      EXPECT_LT((mav->gt_pose(i)->t - whole->gt_pose(i)->t).norm(), 1e-12);
+    }
+  }
+  try {
+    open_dataset(euroc_spec() + "/mav0/cam0");
+    ADD_FAILURE() << "a camera folder was opened";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is one camera's folder: give the EuRoC sequence folder"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(EurocBadInput, MissingSensorYamlAndBrokenCsvNameFiles) {
   CHUNGS_REQUIRE_DATA("euroc_v101_micro");
   test::TempDir tmp;

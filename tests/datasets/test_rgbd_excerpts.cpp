@@ -12,7 +12,8 @@ namespace fs = std::filesystem;
 TEST(Replica, ReadsExcerptFromSequenceOrParentFolder) {
   CHUNGS_REQUIRE_DATA("replica_office0");
   fs::path root = test::shared_data("replica_office0");
-  for (const fs::path& p : {root, root / "office0"}) {
+  // Also from the images' folder itself (SEQ/results), with or without a trailing separator.
+  for (const fs::path& p : {root, root / "office0", root / "office0" / "results", root / "office0" / "results" / ""}) {
     auto ds = open_dataset("replica:" + p.string());
     const auto& in = ds->info();
     EXPECT_EQ(in.kind, "replica");

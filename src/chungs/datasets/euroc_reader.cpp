@@ -112,6 +112,9 @@ class EurocDataset : public SequenceDataset {
  public:
   explicit EurocDataset(const fs::path& root) {
     fs::path mav = fs::exists(root / "mav0") ? root / "mav0" : root;
+    const fs::path folder = named_folder(root);
+    if ((folder.filename() == "cam0" || folder.filename() == "cam1") && !fs::exists(root / "cam0"))
+      fail(root.string(), " is one camera's folder: give the EuRoC sequence folder that holds mav0/ (or mav0/ itself)");
     require_dir(mav / "cam0", "EuRoC cam0 folder");
     require_dir(mav / "cam1", "EuRoC cam1 folder");
     info_.kind = "euroc";
@@ -140,7 +143,9 @@ class EurocDataset : public SequenceDataset {
     info_.rate_hz = c0.rate_hz;
 
     std::vector<std::optional<SE3>> gt;
-    if (auto body = read_body_gt(root, mav)) {
+    // Given mav0/ itself, the sequence folder above it may hold groundtruth/.
+    const fs::path base = mav == root && folder.filename() == "mav0" ? folder.parent_path() : root;
+    if (auto body = read_body_gt(base, mav)) {
       // Body -> unrectified cam0 (T_BS) -> rectified cam0 (rotation R_rect applied to camera points).
       SE3 body_to_cam = c0.T_BS * SE3(R_rect.transpose(), Eigen::Vector3d::Zero());
       gt = poses_at(*body, stamps, kMaxGtDt);

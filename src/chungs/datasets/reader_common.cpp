@@ -73,10 +73,18 @@ std::vector<std::pair<long long, fs::path>> numbered_files(const fs::path& dir, 
   return out;
 }
 
+fs::path named_folder(const fs::path& p) {
+  fs::path n = p.lexically_normal();
+  return n.has_filename() ? n : n.parent_path();
+}
+
 fs::path folder_with(const fs::path& dir, const std::string& child, const std::string& what) {
   require_dir(dir, what);
   std::error_code ec;
   if (fs::exists(dir / child, ec)) return dir;
+  // Given the child folder itself (SEQ/results for SEQ): its parent is the sequence.
+  if (const fs::path named = named_folder(dir); named.filename() == child && named.has_parent_path())
+    return named.parent_path();
   std::vector<fs::path> hits;
   for (const auto& e : fs::directory_iterator(dir, ec))
     if (e.is_directory() && fs::exists(e.path() / child, ec)) hits.push_back(e.path());

@@ -44,8 +44,11 @@ class SequenceDataset : public Dataset {
 std::vector<std::pair<long long, fs::path>> numbered_files(const fs::path& dir, const std::string& prefix,
                                                            const std::string& suffix);
 
-// `dir` itself when dir/child exists, else the single subfolder of `dir` that has `child`.
+// `dir` itself when dir/child exists, its parent when `dir` is the child folder itself, else the single
+// subfolder of `dir` that has `child`.
 fs::path folder_with(const fs::path& dir, const std::string& child, const std::string& what);
+// The folder a path names, without a trailing separator ("a/mav0/" -> "a/mav0").
+fs::path named_folder(const fs::path& p);
 
 // First of `candidates` that exists as a file, or nullopt.
 std::optional<fs::path> first_existing(const std::vector<fs::path>& candidates);
