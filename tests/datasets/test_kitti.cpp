@@ -83,6 +83,18 @@ TEST(Kitti, ReadsExcerptFramesCalibrationAndPoses) {
   EXPECT_THROW(ds->gt_pose(51), Error);
 }
 
+// Given one of the image folders (as a file dialog or a tab completion leaves it), the sequence is read.
+TEST(Kitti, AnImageFolderOpensItsSequence) {
+  CHUNGS_REQUIRE_DATA("kitti_seq1");
+  const fs::path seq = test::shared_data("kitti_seq1");
+  for (const fs::path& p : {seq / "image_l", seq / "image_r" / ""}) {
+    auto ds = open_dataset("kitti:" + p.string());
+    EXPECT_EQ(ds->info().frames, 51u) << p;
+    EXPECT_TRUE(ds->info().has_right) << p;
+    EXPECT_TRUE(ds->gt_pose(50)) << p;
+  }
+}
+
 TEST(Kitti, FindsPosesInStandardLayoutAndReadsTimes) {
   test::TempDir tmp;
   fs::path seq = tmp / "sequences" / "07";

@@ -94,9 +94,19 @@ std::vector<double> read_times(const fs::path& file, size_t frames) {
   return t;
 }
 
+// The sequence folder, also when given one of its image folders (SEQ/image_0).
+fs::path kitti_sequence(const fs::path& given) {
+  const fs::path named = named_folder(given);
+  for (const char* images : {"image_0", "image_1", "image_2", "image_3", "image_l", "image_r"})
+    if (named.filename() == images && named.has_parent_path() && fs::exists(named.parent_path() / "calib.txt"))
+      return named.parent_path();
+  return given;
+}
+
 class KittiDataset : public SequenceDataset {
  public:
-  explicit KittiDataset(const fs::path& dir) {
+  explicit KittiDataset(const fs::path& given) {
+    const fs::path dir = kitti_sequence(given);
     info_.kind = "kitti";
     info_.path = dir;
     Layout layout = find_layout(dir);
