@@ -39,6 +39,9 @@ std::string dataset_poses(const RenderArgs& a) {
   }
   const fs::path own = fs::path(a.map) / "trajectory.txt";
   if (a.dataset_poses.empty()) {
+    if (made_on == "track" && !fs::exists(own))
+      log::warn("the map was made on --poses track, in the frame of its first camera, and ", own.string(),
+                " is missing: drawing the dataset's frames at its ground truth, which may show little of the map");
     if (made_on.empty() || made_on == "gt" || !fs::exists(own)) return "gt";
     log::info("the map was made on --poses ", made_on, ": drawing the dataset's frames at the poses it was made on (",
               own.string(), "); --dataset-poses gt draws them at the dataset's ground truth");

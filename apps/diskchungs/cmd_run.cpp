@@ -73,14 +73,22 @@ const Command cmd{
         }
         const StopSignal signal(
             "\ndiskchungs: stopping at the end of this frame (or refinement step) and committing the map there; "
-            "a run already scoring its finished map goes on to its report; Ctrl-C again quits at once, leaving "
-            "the map as last committed\n");
+            "a run scoring its finished map stops scoring and writes its report without the scores; Ctrl-C again "
+            "quits at once, leaving the map as last committed\n");
         o.stop = &signal.stop();
         const nlohmann::json r = run_mapping(o, *open_map_dataset(a->map));
         view.reset();  // the run is over: `diskchungs view MAP` shows the finished map
         if (r.contains("interrupted")) {
           if (a->json) std::printf("%s\n", r.dump(2).c_str());  // a script reads where the run stood
           const nlohmann::json& s = r["interrupted"];
+          if (s.value("scoring", false)) {
+            std::fprintf(stderr,
+                         "interrupted while scoring: %s holds the finished map (%zu keyframes, %llu Gaussians) and "
+                         "its report without scores; the same command with --resume scores it\n",
+                         o.out.string().c_str(), s["keyframes"].get<size_t>(),
+                         (unsigned long long)s["gaussians"].get<uint64_t>());
+            return 130;
+          }
           std::fprintf(stderr,
                        "interrupted %s: %s holds the map committed there (%zu keyframes, %llu Gaussians); "
                        "the same command with --resume %s\n",

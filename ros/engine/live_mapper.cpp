@@ -104,7 +104,8 @@ struct LiveMapper::Impl {
   }
 
   nlohmann::json state(bool done) const {
-    return {{"dataset", settings.source}, {"poses", "external"}, {"next_frame", next_frame},
+    // "track" as `run --poses track`: such a map lies in its first camera's frame (render says so).
+    return {{"dataset", settings.source}, {"poses", settings.track ? "track" : "external"}, {"next_frame", next_frame},
             {"frames", next_frame},       {"finished", done},    {"seconds", seconds()}};
   }
 

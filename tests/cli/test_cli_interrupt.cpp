@@ -102,4 +102,55 @@ TEST(CliInterrupt, CtrlCCommitsTheMapWhereTheRunStoodAndResumeFinishesIt) {
   EXPECT_TRUE(fs::exists(map / "report.json"));
 }
 
+// Ctrl-C while the finished map is scored: scoring a long drive takes minutes, and the first Ctrl-C
+// used to be ignored there. It now stops scoring; the report is written without scores (a mean over
+// the frames scored so far would read as the map's), and --resume scores the map.
+TEST(CliInterrupt, CtrlCWhileScoringWritesTheReportWithoutScoresAndResumeScores) {
+  chungs::test::TempDir dir;
+  const fs::path map = dir / "map", log = dir / "log.txt", cfg = dir / "c.yaml";
+  // Every other frame held out and every keyframe scored: seconds of scoring, caught by polling.
+  std::ofstream(cfg) << "mapper: {holdout_every: 2, eval_keyframe_stride: 1}\n";
+  const std::vector<std::string> common{"--dataset", "synth-street:length=200,width=96,height=48,seed=2", "--poses",
+                                        "gt", "--device", "cpu", "--iterations", "1", "--final-iterations", "0",
+                                        "--config", cfg.string(), "--out", map.string()};
+  auto args = [&](std::vector<std::string> more) {
+    std::vector<std::string> all = common;
+    all.insert(all.end(), more.begin(), more.end());
+    std::string line;
+    for (const std::string& a : all) line += a + " ";
+    return std::make_pair(all, line);
+  };
+  auto made = run_cli("-q run " + args({"--no-eval"}).second);
+  ASSERT_EQ(made.code, 0) << made.out;
+  const pid_t pid = spawn_cli([&] {
+    auto a = args({"--resume"}).first;
+    a.insert(a.begin(), "run");
+    return a;
+  }(), log);
+  ASSERT_GT(pid, 0);
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+  while (read_all(log).find("scoring heldout") == std::string::npos && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ASSERT_EQ(kill(pid, SIGINT), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  const std::string said = read_all(log);
+  ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status) << "\n" << said;
+  ASSERT_EQ(WEXITSTATUS(status), 130) << said;
+  EXPECT_NE(said.find("interrupted while scoring: "), std::string::npos) << said;
+  EXPECT_NE(said.find("with --resume scores it"), std::string::npos) << said;
+  const auto stopped = nlohmann::json::parse(read_all(map / "report.json"));
+  EXPECT_NE(stopped["held_out"].value("none", std::string()).find("scoring was stopped after "), std::string::npos)
+      << stopped["held_out"].dump();
+  EXPECT_FALSE(stopped["held_out"].contains("mean_psnr"));
+  EXPECT_TRUE(stopped["interrupted"]["scoring"].get<bool>());
+  EXPECT_TRUE(nlohmann::json::parse(read_all(map / "run_state.json"))["finished"].get<bool>());
+
+  auto scored = run_cli("-q run " + args({"--resume"}).second);
+  ASSERT_EQ(scored.code, 0) << scored.out;
+  const auto report = nlohmann::json::parse(read_all(map / "report.json"));
+  EXPECT_GT(report["held_out"]["mean_psnr"].get<double>(), 5.0) << report["held_out"].dump();
+  EXPECT_FALSE(report.contains("interrupted"));
+}
+
 }  // namespace

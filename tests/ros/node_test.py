@@ -83,7 +83,9 @@ def cli_run(cli, dataset, out, frames, preset, config, poses):
 
 
 def score(cli, map_dir, bag_spec, out):
-    r = subprocess.run([cli, "render", "--map", map_dir, "--dataset", bag_spec, "--out", out, "--json"],
+    # Both maps at the bag's ground truth: KITTI's first pose is the identity, so tracked maps lie in its frame.
+    r = subprocess.run([cli, "render", "--map", map_dir, "--dataset", bag_spec, "--dataset-poses", "gt", "--out", out,
+                        "--json"],
                        capture_output=True, text=True)
     if r.returncode != 0:
         fail(f"diskchungs render --map {map_dir}: {r.stderr.strip()[-1500:]}")

@@ -29,9 +29,9 @@ nlohmann::json ViewSetScore::to_json(bool per_view) const {
   return j;
 }
 
-void score_run(Mapper& mapper, const Dataset& dataset, const std::vector<std::optional<SE3>>& poses, size_t frames,
+bool score_run(Mapper& mapper, const Dataset& dataset, const std::vector<std::optional<SE3>>& poses, size_t frames,
                const MapperConfig& mc, const std::filesystem::path& out, const LpipsSetting& lpips,
-               nlohmann::json& report) {
+               nlohmann::json& report, const std::function<bool()>& stop) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<size_t> held, kfs;
   for (size_t i = 0; i < frames; ++i)
@@ -41,12 +41,22 @@ void score_run(Mapper& mapper, const Dataset& dataset, const std::vector<std::op
       kfs.push_back(mapper.keyframes()[k].frame);
   const std::filesystem::path rd = out / "renders";
   const ViewSetScore h =
-      score_views(mapper, dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders, &lpips);
-  const ViewSetScore k = score_views(mapper, dataset, poses, kfs, mc.resolution, rd, "keyframe", 4, &lpips);
-  report["held_out"] = h.to_json(true);
-  report["keyframes_eval"] = k.to_json(false);
+      score_views(mapper, dataset, poses, held, mc.resolution, rd, "heldout", mc.max_saved_renders, &lpips, stop);
+  ViewSetScore k;
+  if (!h.stopped) k = score_views(mapper, dataset, poses, kfs, mc.resolution, rd, "keyframe", 4, &lpips, stop);
   report["time"]["evaluation_s"] =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (h.stopped || k.stopped) {
+    // A mean over the frames scored so far would read as the map's score.
+    const std::string why = cat("scoring was stopped after ", h.views.size(), " of ", held.size(),
+                                " held-out frames and ", k.views.size(), " of ", kfs.size(), " keyframes");
+    report["held_out"] = {{"none", why}};
+    report["keyframes_eval"] = {{"none", why}};
+    log::info(why);
+    return false;
+  }
+  report["held_out"] = h.to_json(true);
+  report["keyframes_eval"] = k.to_json(false);
   if (held.empty()) {
     const std::string why = mc.holdout_every > 0
                                 ? cat("every ", mc.holdout_every, "th frame is held out and the run has ", frames,
@@ -59,6 +69,7 @@ void score_run(Mapper& mapper, const Dataset& dataset, const std::vector<std::op
               h.mean_lpips ? cat("LPIPS ", *h.mean_lpips) : "LPIPS not available (" + h.lpips_unavailable + ")",
               " over ", h.views.size(), " frames; keyframes PSNR ", k.mean_psnr, " dB, SSIM ", k.mean_ssim);
   }
+  return true;
 }
 
 Image8 stack_vertically(const ImageF& top, const ImageF& bottom) {
@@ -77,13 +88,17 @@ Image8 stack_vertically(const ImageF& top, const ImageF& bottom) {
 ViewSetScore score_views(Mapper& mapper, const Dataset& dataset, const std::vector<std::optional<SE3>>& poses,
                          const std::vector<size_t>& frames, double resolution,
                          const std::filesystem::path& render_dir, const std::string& prefix, int max_saved,
-                         const LpipsSetting* lpips) {
+                         const LpipsSetting* lpips, const std::function<bool()>& stop) {
   ViewSetScore s;
   const Lpips* metric = lpips && lpips->metric ? &*lpips->metric : nullptr;
   s.lpips_unavailable = metric ? "" : lpips ? lpips->unavailable : "LPIPS not requested";
   Progress progress("scoring " + prefix, (long long)frames.size());
   int saved = 0;
   for (size_t i : frames) {
+    if (stop && stop()) {
+      s.stopped = true;
+      break;
+    }
     progress.step();
     if (i >= poses.size() || !poses[i]) continue;
     const MappingFrame m = load_mapping_frame(dataset, i, resolution, DepthMode::None, {}, false);

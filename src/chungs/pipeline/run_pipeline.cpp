@@ -443,7 +443,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   if (multiview && mapper.total_gaussians() == 0)
     fail("dataset ", o.dataset, ": no keyframe got depth from its neighbours (one camera needs two keyframes that "
          "see the same textured scene from places apart; the camera moved ", std::round((base.path_m + path_m) * 1000) / 1000,
-         " m over its ", done, " frames), so the map is empty");
+         " m over its ", done, done == 1 ? " frame" : " frames", "), so the map is empty");
   nlohmann::json refinement;  // the steps after the last frame, when there were any
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
     const uint64_t refine_steps = mc.refinement_steps(mapper.keyframes().size());
@@ -580,7 +580,15 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["memory"] = memory_report(mapper, timeline);
   report["chunk_io"] = chunk_io_report(io, map_seconds);
   report["keyframe_io"] = keyframe_io_report(mapper.keyframe_io_stats());
-  if (o.evaluate) score_run(mapper, *dataset, poses, done, mc, o.out, lpips, report);
+  // Stopped while scoring: the map is finished and committed; the report says so instead of a score,
+  // and --resume scores the map again.
+  if (o.evaluate && !score_run(mapper, *dataset, poses, done, mc, o.out, lpips, report, stop_asked))
+    report["interrupted"] = {{"next_frame", done},
+                             {"frames", n},
+                             {"keyframes", mapper.keyframes().size()},
+                             {"gaussians", mapper.total_gaussians()},
+                             {"refining", false},
+                             {"scoring", true}};
   write_text(o.out / "timeline.csv", timeline_csv(timeline));
   write_timeline_plot(o.out / "memory.png", timeline, mapper.budget(), refined);
   write_json(o.out / "report.json", report);
