@@ -24,6 +24,13 @@ int run_inspect(const Options& opt) {
   for (size_t i = 0; i < ds->size(); ++i) gt_frames += ds->gt_pose(i).has_value();
   double t0 = ds->timestamp(0), t1 = ds->timestamp(ds->size() - 1);
   double path_length = gt_path_length(*ds);
+  // Frames missing between two stamps (an excerpt of chosen frames, dropped frames): the tracker coasts
+  // over such a gap and flags the frames after it, so say where it is.
+  double gap = 0;
+  size_t gap_after = 0;
+  for (size_t i = 1; i < ds->size(); ++i)
+    if (const double d = ds->timestamp(i) - ds->timestamp(i - 1); d > gap) gap = d, gap_after = i - 1;
+  const bool gaps = in.rate_hz > 0 && gap > 3.0 / in.rate_hz;
 
   if (opt.json) {
     nlohmann::json j;
@@ -43,6 +50,8 @@ int run_inspect(const Options& opt) {
     j["rate_hz"] = in.rate_hz;
     j["first_timestamp_s"] = t0;
     j["duration_s"] = t1 - t0;
+    j["largest_gap_s"] = gap;
+    j["largest_gap_after_frame"] = gap_after;
     j["gt_path_length_m"] = path_length;
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
@@ -66,6 +75,9 @@ int run_inspect(const Options& opt) {
   std::printf("ground truth:    %s (%zu of %zu frames)\n", yes_no[in.has_gt], gt_frames, in.frames);
   std::printf("rate:            %g Hz\n", in.rate_hz);
   std::printf("duration:        %.3f s (first stamp %.6f s)\n", t1 - t0, t0);
+  if (gaps)
+    std::printf("gaps:            the largest %.3f s, between frames %zu and %zu (about %.0f frames at %g Hz missing)\n",
+                gap, gap_after, gap_after + 1, gap * in.rate_hz - 1, in.rate_hz);
   if (in.has_gt)
     std::printf("gt path length:  %.3f m\n", path_length);
   else

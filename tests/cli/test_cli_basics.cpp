@@ -36,6 +36,19 @@ TEST(Cli, InspectsRealKitti) {
   EXPECT_NE(r.out.find("\"frames\": 51"), std::string::npos) << r.out;
 }
 
+// 3DMatch's excerpt holds frames 0, 1, 2, 116 and 422: inspect says where frames are missing (the tracker
+// coasts over such a gap), and says nothing of gaps for a sequence without them.
+TEST(Cli, InspectNamesTheLargestGapBetweenFrames) {
+  CHUNGS_REQUIRE_DATA("3dmatch_seq01");
+  CHUNGS_REQUIRE_DATA("kitti_seq1");
+  auto r = run_cli("inspect 3dmatch:" + chungs::test::shared_data("3dmatch_seq01").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("the largest 10.200 s, between frames 3 and 4"), std::string::npos) << r.out;
+  auto k = run_cli("inspect kitti:" + chungs::test::shared_data("kitti_seq1").string());
+  ASSERT_EQ(k.code, 0) << k.out;
+  EXPECT_EQ(k.out.find("gaps:"), std::string::npos) << k.out;
+}
+
 TEST(Cli, AnUnknownCommandIsNamedWithTheCommandsThereAre) {
   for (const std::string args : {"frobnicate", "-q frobnicate --out x"}) {
     auto r = run_cli(args);
