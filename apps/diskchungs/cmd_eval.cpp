@@ -178,7 +178,7 @@ int run_ate(const EvalArgs& a) {
 }
 
 int run_images(const EvalArgs& a) {
-  const auto pairs = match_image_pairs(a.ref, a.test);
+  const auto pairs = match_image_pairs(a.ref, a.test, ImageRole::Colour);
   Image8 mask;
   if (!a.mask.empty()) mask = read_mask(a.mask);
   const LpipsSetting lpips = lpips_setting(a.lpips_weights, "--lpips-weights");
@@ -206,7 +206,7 @@ nlohmann::json depth_json(const DepthMetrics& m) {
 }
 
 int run_depth(const EvalArgs& a) {
-  const DepthSetResult r = evaluate_depth_pairs(match_image_pairs(a.gt, a.est), a.gt_scale, a.est_scale);
+  const DepthSetResult r = evaluate_depth_pairs(match_image_pairs(a.gt, a.est, ImageRole::Depth), a.gt_scale, a.est_scale);
   if (a.json) {
     nlohmann::json j = {{"gt", a.gt}, {"est", a.est}, {"gt_scale", a.gt_scale}, {"est_scale", a.est_scale},
                         {"pooled", depth_json(r.pooled)}};

@@ -66,6 +66,29 @@ TEST(ImageSet, PairsFoldersByStemAndScoresEachPair) {
   EXPECT_EQ(r.infinite_psnr, 0u);
 }
 
+// A sequence folder with colour and depth side by side (3DMatch: frame-N.color.png, frame-N.depth.png):
+// `eval depth` takes the images named "depth", `eval images` the others; a folder of one kind is
+// taken whole, whatever the role.
+TEST(ImageSet, AFolderOfColourAndDepthGivesEachRoleItsOwnImages) {
+  std::mt19937 rng(5);
+  test::TempDir dir;
+  for (const char* n : {"frame-000000", "frame-000001"}) {
+    write_png(dir / "seq" / (std::string(n) + ".color.png"), random_image8(24, 16, 3, rng));
+    write_png(dir / "seq" / (std::string(n) + ".depth.png"), random_image8(24, 16, 1, rng));
+    write_png(dir / "renders" / (std::string(n) + ".color.png"), random_image8(24, 16, 3, rng));
+  }
+  auto depth = match_image_pairs(dir / "seq", dir / "seq", ImageRole::Depth);
+  ASSERT_EQ(depth.size(), 2u);
+  for (const ImagePair& p : depth) EXPECT_NE(p.name.find(".depth"), std::string::npos) << p.name;
+  auto colour = match_image_pairs(dir / "seq", dir / "renders", ImageRole::Colour);
+  ASSERT_EQ(colour.size(), 2u);
+  for (const ImagePair& p : colour) EXPECT_NE(p.name.find(".color"), std::string::npos) << p.name;
+  EXPECT_EQ(match_image_pairs(dir / "seq", dir / "seq").size(), 4u);  // Any: every image
+  // Against renders without depth images, the colour role pairs; Any names the depth images missing.
+  EXPECT_NE(message_of([&] { match_image_pairs(dir / "seq", dir / "renders"); }).find("missing"), std::string::npos);
+  EXPECT_EQ(match_image_pairs(dir / "renders", dir / "renders", ImageRole::Depth).size(), 2u);
+}
+
 TEST(ImageSet, SingleFilesAndIdenticalPairReportNullPsnr) {
   std::mt19937 rng(32);
   test::TempDir dir;

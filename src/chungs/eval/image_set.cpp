@@ -36,6 +36,29 @@ std::map<std::string, fs::path> images_by_stem(const fs::path& dir) {
   return out;
 }
 
+bool named_depth(const std::string& stem) {
+  std::string s = stem;
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return s.find("depth") != std::string::npos;
+}
+
+// A sequence folder holding colour and depth side by side (3DMatch's frame-N.color.png and
+// frame-N.depth.png, Replica's frameN.jpg and depthN.png): the role's files only, by their names.
+std::map<std::string, fs::path> images_for(const fs::path& dir, ImageRole role) {
+  std::map<std::string, fs::path> all = images_by_stem(dir);
+  if (role == ImageRole::Any) return all;
+  size_t depth = 0;
+  for (const auto& [stem, path] : all) depth += named_depth(stem);
+  if (depth == 0 || depth == all.size()) return all;
+  std::map<std::string, fs::path> kept;
+  for (const auto& [stem, path] : all)
+    if (named_depth(stem) == (role == ImageRole::Depth)) kept.emplace(stem, path);
+  log::info(dir.string(), ": ", kept.size(), role == ImageRole::Depth ? " depth images" : " colour images",
+            " (named", role == ImageRole::Depth ? "" : " without", " 'depth'); ", all.size() - kept.size(),
+            " others left out");
+  return kept;
+}
+
 // Keeps colour channels only: an alpha channel is not part of the photometric comparison.
 Image8 drop_alpha(Image8 img) {
   if (img.channels() == 4 || img.channels() == 2) {
@@ -50,7 +73,7 @@ Image8 drop_alpha(Image8 img) {
 
 }  // namespace
 
-std::vector<ImagePair> match_image_pairs(const fs::path& ref, const fs::path& test) {
+std::vector<ImagePair> match_image_pairs(const fs::path& ref, const fs::path& test, ImageRole role) {
   if (!fs::exists(ref)) fail(ref.string(), ": does not exist");
   if (!fs::exists(test)) fail(test.string(), ": does not exist");
   const bool ref_dir = fs::is_directory(ref), test_dir = fs::is_directory(test);
@@ -59,7 +82,7 @@ std::vector<ImagePair> match_image_pairs(const fs::path& ref, const fs::path& te
          " is a folder (give two files or two folders)");
   if (!ref_dir) return {ImagePair{test.stem().string(), ref, test}};
 
-  const auto refs = images_by_stem(ref), tests = images_by_stem(test);
+  const auto refs = images_for(ref, role), tests = images_for(test, role);
   std::vector<ImagePair> pairs;
   for (const auto& [stem, path] : refs) {
     auto it = tests.find(stem);

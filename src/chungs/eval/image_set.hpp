@@ -16,10 +16,15 @@ struct ImagePair {
   std::filesystem::path ref, test;
 };
 
-// Two files: one pair. Two folders: the PNG / JPEG files of each (not recursive) paired by stem,
-// so frame000.jpg matches a render frame000.png. A stem present on one side only, two files with
-// one stem in a folder, an empty folder, or a file against a folder is an Error naming the path.
-std::vector<ImagePair> match_image_pairs(const std::filesystem::path& ref, const std::filesystem::path& test);
+// Which images of a folder a pairing wants: where a folder holds both, depth images are told by
+// "depth" in their names (3DMatch, Replica); Any takes every image.
+enum class ImageRole { Any, Colour, Depth };
+
+// Two files: one pair. Two folders: the PNG / JPEG files of each (not recursive) of the role, paired
+// by stem, so frame000.jpg matches a render frame000.png. A stem present on one side only, two files
+// with one stem in a folder, an empty folder, or a file against a folder is an Error naming the path.
+std::vector<ImagePair> match_image_pairs(const std::filesystem::path& ref, const std::filesystem::path& test,
+                                         ImageRole role = ImageRole::Any);
 
 // A mask file (PNG / JPEG): a pixel is kept when any of its channels is non-zero.
 Image8 read_mask(const std::filesystem::path& file);
