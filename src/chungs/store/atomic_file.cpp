@@ -1,6 +1,7 @@
 #include "chungs/store/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/uio.h>
 #include <unistd.h>
@@ -22,6 +23,7 @@ constexpr const char* kTmpTag = ".tmp-";
 std::atomic<uint64_t> tmp_counter{0};
 std::atomic<FileEventHook> event_hook{nullptr};
 constexpr size_t kSyncThreads = 4;
+constexpr size_t kSyncBatch = 256;  // files open at once while flushing
 
 void notify(const fs::path& file, FileEvent e) {
   if (FileEventHook h = event_hook.load()) h(file, e);
@@ -159,6 +161,17 @@ void sync_file(const fs::path& file) {
 }
 
 void sync_files(std::span<const fs::path> files) {
+  // A batch at a time: every file open at once failed a checkpoint of thousands of chunks with "Too many
+  // open files" (1024 descriptors is a common limit), and a batch still folds its journal commits. A
+  // quarter of the process's limit at most, the rest being the map's other files and the threads'.
+  rlimit limit{};
+  const size_t allowed = ::getrlimit(RLIMIT_NOFILE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY
+                             ? std::max<size_t>(size_t(limit.rlim_cur) / 4, 1)
+                             : kSyncBatch;
+  if (const size_t batch = std::min(kSyncBatch, allowed); files.size() > batch) {
+    for (size_t at = 0; at < files.size(); at += batch) sync_files(files.subspan(at, std::min(batch, files.size() - at)));
+    return;
+  }
   std::vector<FileDescriptor> fds;
   fds.reserve(files.size());
   for (const fs::path& f : files) {
