@@ -18,12 +18,8 @@ PacingSummary pacing_summary(const std::vector<TimelineSample>& samples, uint64_
   // A run of one keyframe has no interval between two keyframes: it got every step of the mapping (a
   // camera that stood still; "0 steps per keyframe" was reported).
   if (samples.back().keyframes == 1 && samples.back().iterations >= refinement_steps) {
-    p.per_keyframe.clear();
-    for (const auto& s : samples)
-      if (s.keyframes == 1) {
-        p.per_keyframe.emplace_back(s.seconds, samples.back().iterations - refinement_steps);
-        break;
-      }
+    const auto first = std::find_if(samples.begin(), samples.end(), [](const auto& s) { return s.keyframes == 1; });
+    p.per_keyframe = {{first->seconds, samples.back().iterations - refinement_steps}};
   }
   p.keyframes = p.per_keyframe.size();
   std::map<long, std::pair<double, uint64_t>> minutes;  // minute -> (steps, keyframes)

@@ -419,14 +419,16 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   progress.finish();
   // Stopped by the user (Ctrl-C): the map as it stands is committed where --resume picks it up; nothing
   // is refined, scored or reported (the tracker's feed is left unfinished: its poses are not all known).
+  const auto where_stopped = [&](size_t next, bool refining) {
+    return nlohmann::json{{"next_frame", next},
+                          {"frames", n},
+                          {"keyframes", mapper.keyframes().size()},
+                          {"gaussians", mapper.total_gaussians()},
+                          {"refining", refining}};
+  };
   const auto commit_interrupted = [&](size_t next, bool refining) {
     mapper.checkpoint(state(next, false), /*behind=*/false, timeline_member());
-    return nlohmann::json{{"interrupted",
-                           {{"next_frame", next},
-                            {"frames", n},
-                            {"keyframes", mapper.keyframes().size()},
-                            {"gaussians", mapper.total_gaussians()},
-                            {"refining", refining}}}};
+    return nlohmann::json{{"interrupted", where_stopped(next, refining)}};
   };
   if (interrupted) return commit_interrupted(next_frame, false);
   const size_t done = stopped_at ? *stopped_at + 1 : n;  // frames the map covers
@@ -582,13 +584,10 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   report["keyframe_io"] = keyframe_io_report(mapper.keyframe_io_stats());
   // Stopped while scoring: the map is finished and committed; the report says so instead of a score,
   // and --resume scores the map again.
-  if (o.evaluate && !score_run(mapper, *dataset, poses, done, mc, o.out, lpips, report, stop_asked))
-    report["interrupted"] = {{"next_frame", done},
-                             {"frames", n},
-                             {"keyframes", mapper.keyframes().size()},
-                             {"gaussians", mapper.total_gaussians()},
-                             {"refining", false},
-                             {"scoring", true}};
+  if (o.evaluate && !score_run(mapper, *dataset, poses, done, mc, o.out, lpips, report, stop_asked)) {
+    report["interrupted"] = where_stopped(done, false);
+    report["interrupted"]["scoring"] = true;
+  }
   write_text(o.out / "timeline.csv", timeline_csv(timeline));
   write_timeline_plot(o.out / "memory.png", timeline, mapper.budget(), refined);
   write_json(o.out / "report.json", report);

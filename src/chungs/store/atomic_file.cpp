@@ -160,18 +160,9 @@ void sync_file(const fs::path& file) {
   notify(file, FileEvent::Synced);
 }
 
-void sync_files(std::span<const fs::path> files) {
-  // A batch at a time: every file open at once failed a checkpoint of thousands of chunks with "Too many
-  // open files" (1024 descriptors is a common limit), and a batch still folds its journal commits. A
-  // quarter of the process's limit at most, the rest being the map's other files and the threads'.
-  rlimit limit{};
-  const size_t allowed = ::getrlimit(RLIMIT_NOFILE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY
-                             ? std::max<size_t>(size_t(limit.rlim_cur) / 4, 1)
-                             : kSyncBatch;
-  if (const size_t batch = std::min(kSyncBatch, allowed); files.size() > batch) {
-    for (size_t at = 0; at < files.size(); at += batch) sync_files(files.subspan(at, std::min(batch, files.size() - at)));
-    return;
-  }
+namespace {
+
+void sync_batch(std::span<const fs::path> files) {
   std::vector<FileDescriptor> fds;
   fds.reserve(files.size());
   for (const fs::path& f : files) {
@@ -196,6 +187,20 @@ void sync_files(std::span<const fs::path> files) {
   for (size_t i = 0; i < files.size(); ++i)
     if (errors[i]) fail(files[i].string(), ": flush failed: ", std::strerror(errors[i]));
   for (const fs::path& f : files) notify(f, FileEvent::Synced);
+}
+
+}  // namespace
+
+void sync_files(std::span<const fs::path> files) {
+  // A batch at a time: every file open at once failed a checkpoint of thousands of chunks with "Too many
+  // open files" (1024 descriptors is a common limit), and a batch still folds its journal commits. A
+  // quarter of the process's limit at most, the rest being the map's other files and the threads'.
+  rlimit limit{};
+  const size_t allowed = ::getrlimit(RLIMIT_NOFILE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY
+                             ? std::max<size_t>(size_t(limit.rlim_cur) / 4, 1)
+                             : kSyncBatch;
+  const size_t batch = std::min(kSyncBatch, allowed);
+  for (size_t at = 0; at < files.size(); at += batch) sync_batch(files.subspan(at, std::min(batch, files.size() - at)));
 }
 
 void set_file_event_hook(FileEventHook hook) { event_hook.store(hook); }
