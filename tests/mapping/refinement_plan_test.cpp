@@ -182,10 +182,21 @@ TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {
   std::mt19937_64 rng(5);
   for (int trial = 0; trial < 200; ++trial) {
     std::vector<RefinementGroup> groups(std::uniform_int_distribution<size_t>(1, 30)(rng));
-    for (RefinementGroup& g : groups) g.steps = std::uniform_int_distribution<uint64_t>(0, 200)(rng);
+    for (RefinementGroup& g : groups) {
+      g.steps = std::uniform_int_distribution<uint64_t>(0, 200)(rng);
+      g.keyframes.resize(std::uniform_int_distribution<size_t>(1, 60)(rng));
+    }
     const size_t rounds = std::uniform_int_distribution<size_t>(1, 12)(rng);
     const uint64_t min_visit = trial % 2 ? 1 : std::uniform_int_distribution<uint64_t>(1, 40)(rng);
     const std::vector<RefinementVisit> visits = refinement_visits(groups, rounds, min_visit);
+    // A group's visits: as many as its steps allow at min_visit each (one at least, at most rounds),
+    // but enough that none trains its keyframes more than once each (ceil(steps / keyframes)).
+    const auto visits_of = [&](const RefinementGroup& g) {
+      const uint64_t s = g.steps, n = g.keyframes.size();
+      return std::max(std::clamp<uint64_t>(s / min_visit, 1, rounds), (s + n - 1) / n);
+    };
+    uint64_t all_rounds = rounds;
+    for (const RefinementGroup& g : groups) all_rounds = std::max(all_rounds, visits_of(g));
     std::vector<uint64_t> got(groups.size(), 0);
     std::vector<size_t> seen(groups.size(), 0);
     size_t round = 0, last = 0;
@@ -195,22 +206,22 @@ TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {
       EXPECT_GT(v.steps, 0u) << "trial " << trial << ", visit " << i;
       if (i > 0 && v.group <= last) ++round;  // the groups in turn: a new round starts at a lower group
       last = v.group;
-      // The group's visits: as many as its steps allow at min_visit each (one at least), at most rounds.
-      const uint64_t s = groups[v.group].steps;
-      const double want = double(std::clamp<uint64_t>(s / min_visit, 1, rounds));
+      const uint64_t s = groups[v.group].steps, n = groups[v.group].keyframes.size();
+      const double want = double(visits_of(groups[v.group]));
       EXPECT_LE(std::abs(double(v.steps) - double(s) / want), 1.0) << "trial " << trial << ", visit " << i;
-      if (s >= min_visit) {
+      EXPECT_LE(v.steps, std::max<uint64_t>(n, 1) + 1) << "trial " << trial << ", visit " << i;
+      // Visits no shorter than min_visit, unless that would train the group's keyframes more than once.
+      if (s >= min_visit && visits_of(groups[v.group]) == std::clamp<uint64_t>(s / min_visit, 1, rounds)) {
         EXPECT_GE(v.steps + 1, min_visit) << "trial " << trial << ", visit " << i;
       }
       got[v.group] += v.steps;
       ++seen[v.group];
     }
-    EXPECT_LE(round + 1, rounds) << "trial " << trial;
+    EXPECT_LE(round + 1, all_rounds) << "trial " << trial;
     for (size_t g = 0; g < groups.size(); ++g) {
       const uint64_t s = groups[g].steps;
       EXPECT_EQ(got[g], s) << "trial " << trial << ", group " << g;
-      EXPECT_EQ(seen[g], std::min<uint64_t>(std::clamp<uint64_t>(s / min_visit, 1, rounds), s))
-          << "trial " << trial << ", group " << g;
+      EXPECT_EQ(seen[g], std::min<uint64_t>(visits_of(groups[g]), s)) << "trial " << trial << ", group " << g;
     }
     // Spread over the rounds, not bunched in the first ones: before group a's j-th visit (from 0) come
     // about (j + 1) v_b / v_a of group b's, whatever their counts of visits v.
@@ -224,10 +235,13 @@ TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {
       }
     }
   }
+  // Steps beyond what passes of one step a keyframe can list: the visits are held to 2^20, and longer.
   const std::vector<RefinementGroup> huge{{{0}, (uint64_t(1) << 63) + 7}, {{1}, 3}};
   uint64_t total = 0;
-  for (const RefinementVisit& v : refinement_visits(huge, 5, 1)) total += v.steps;
+  const std::vector<RefinementVisit> few = refinement_visits(huge, 5, 1);
+  for (const RefinementVisit& v : few) total += v.steps;
   EXPECT_EQ(total, (uint64_t(1) << 63) + 10);
+  EXPECT_LE(few.size(), (size_t(1) << 20) + 3);
   EXPECT_THROW(refinement_visits(huge, 0, 1), Error);
   EXPECT_THROW(refinement_visits(huge, 3, 0), Error);
   EXPECT_TRUE(refinement_visits({}, 3, 1).empty());
@@ -237,8 +251,12 @@ TEST(RefinementPlan, RoundsVisitTheGroupsInTurnEachWithItsShareOfItsSteps) {
 // would load a whole group for each step; a visit of at least four steps keeps each group to one.
 TEST(RefinementPlan, GroupsWithFewStepsAreVisitedOnceNotOnceARound) {
   std::vector<RefinementGroup> groups(500);
-  for (RefinementGroup& g : groups) g.steps = 2;
+  for (RefinementGroup& g : groups) {
+    g.steps = 2;
+    g.keyframes = {0, 1};
+  }
   groups[7].steps = 64;  // a place with many views: 16 visits of 4
+  groups[7].keyframes.resize(16);
   const std::vector<RefinementVisit> visits = refinement_visits(groups, 16, 4);
   EXPECT_EQ(visits.size(), 499u + 16u);
   size_t of7 = 0;
@@ -251,6 +269,30 @@ TEST(RefinementPlan, GroupsWithFewStepsAreVisitedOnceNotOnceARound) {
     }
   }
   EXPECT_EQ(of7, 16u);
+}
+
+// More refinement steps under a budget of less than a view (groups of one to three views): visits of a
+// few steps each trained one view several times in a row and lowered the map (bench/README.md, issue
+// 19). However many the steps, a visit is at most one pass over its group.
+TEST(RefinementPlan, MoreStepsMakeMoreVisitsNotVisitsThatTrainAViewTwice) {
+  std::mt19937_64 rng(11);
+  for (uint64_t per_keyframe : {1, 2, 7, 30}) {
+    std::vector<RefinementGroup> groups(std::uniform_int_distribution<size_t>(50, 120)(rng));
+    for (RefinementGroup& g : groups) {
+      g.keyframes.resize(std::uniform_int_distribution<size_t>(1, 3)(rng));
+      g.steps = per_keyframe * g.keyframes.size();
+    }
+    groups[3].keyframes.resize(40);  // a place seen by many views
+    groups[3].steps = per_keyframe * 40;
+    std::vector<uint64_t> visits(groups.size(), 0);
+    for (const RefinementVisit& v : refinement_visits(groups, 16, 4)) {
+      EXPECT_LE(v.steps, std::max<uint64_t>(groups[v.group].keyframes.size(), 4))
+          << per_keyframe << " steps a keyframe, group " << v.group;
+      ++visits[v.group];
+    }
+    for (size_t g = 0; g < groups.size(); ++g)
+      EXPECT_GE(visits[g], std::min<uint64_t>(per_keyframe, groups[g].steps)) << per_keyframe << " a keyframe, group " << g;
+  }
 }
 
 TEST(MapperRefine, EveryKeyframeIsTrainedInGroupsUnderTheBudgetInRoundsInARandomOrder) {

@@ -26,6 +26,14 @@ size_t pool_capacity(const ResidencyConfig& rc) {
   return rc.budget_gaussians + size_t(double(rc.budget_gaussians) * rc.pool_headroom);
 }
 
+// A warning repeated at every keyframe would bury the rest: said the first time, and again only
+// when what is needed grows by a quarter over the largest need seen so far.
+bool worth_saying_again(uint64_t needed, uint64_t& largest) {
+  const bool say = needed > largest * 5 / 4;
+  largest = std::max(largest, needed);
+  return say;
+}
+
 }  // namespace
 
 Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
@@ -157,27 +165,21 @@ std::vector<ChunkId> Mapper::visible_chunks(const Camera& camera, const SE3& pos
 
 void Mapper::note_view_over_budget(uint64_t needed) {
   ++views_over_budget_;
-  // Said once, and again whenever a view needs a quarter more than any before it.
-  if (needed > largest_view_ * 5 / 4) {
+  if (worth_saying_again(needed, largest_view_))
     log::warn("the budget of ", residency_->budget(), " Gaussians is below what one view needs (", needed,
               " in its visible chunks): the farthest chunks are left out of its training steps (renders draw it "
               "in passes); a budget of at least ", needed, " (--budget) keeps whole views");
-    largest_view_ = needed;
-  }
-  largest_view_ = std::max(largest_view_, needed);
 }
 
 void Mapper::note_refused(uint32_t keyframe, ChunkId chunk, uint64_t gaussians, const PinResult& why) {
   refused_gaussians_ += gaussians;
   const uint64_t needed = why.budget + why.over_budget;
-  // Said once, and again whenever a chunk needs a quarter more than any before it: a budget this
-  // small refuses new Gaussians at every keyframe.
-  if (needed > largest_refusal_ * 5 / 4)
+  // A budget this small refuses new Gaussians at every keyframe.
+  if (worth_saying_again(needed, largest_refusal_))
     log::warn("keyframe ", keyframe, ": its ", gaussians, " new Gaussians in ", chunk_name(chunk),
               " do not fit the budget of ", why.budget, " Gaussians beside the chunk's ", needed - gaussians -
               why.pinned_gaussians, " and ", why.pinned_gaussians, " pinned ones, so they are left out of the map; "
               "a budget of at least ", needed, " (--budget) keeps them");
-  largest_refusal_ = std::max(largest_refusal_, needed);
 }
 
 RenderOutput<float> Mapper::render(const Camera& camera, const SE3& pose) {

@@ -26,7 +26,8 @@ struct MapperConfig {
   // random, which scored as if the map were resident. GPU, 2 km street under 300 k: 1 / 4 / 16 / 1000
   // rounds 27.17 / 27.21 / 27.43 / 27.41 dB against 27.68 without a budget, I/O wait 1.27 / 1.29 / 1.65 /
   // 3.11 % side by side; 16 rounds alone 4.5 %, bound by the disk's write bandwidth (bench/README.md, issue 19). A group is visited at most once per refinement_min_visit_steps
-  // of its steps, so that a visit's loads stay a share of a view per step.
+  // of its steps, so that a visit's loads stay a share of a view per step, but at least once per step of
+  // each of its keyframes, so that more steps never train one view several times in a row (refinement_plan.hpp).
   int refinement_rounds = 16;
   int refinement_min_visit_steps = 4;
   double speed = 1.0;               // anytime: frames arrive at the dataset rate times this (>= kMinSpeed)

@@ -121,13 +121,24 @@ std::vector<RefinementVisit> refinement_visits(const std::vector<RefinementGroup
                                               uint64_t min_visit_steps) {
   if (rounds == 0) fail("refinement plan: the number of rounds over the groups is 0");
   if (min_visit_steps == 0) fail("refinement plan: the fewest steps of a visit is 0");
+  // The visits are listed whole, so their count is held to kMaxVisits: past it (a refinement of
+  // millions of steps) visits grow longer than a pass over their group instead.
+  constexpr uint64_t kMaxVisits = uint64_t(1) << 20;
+  const uint64_t most_rounds = std::max<uint64_t>(rounds, kMaxVisits / std::max<size_t>(1, groups.size()));
+  const auto wanted = [&](const RefinementGroup& g) {
+    const uint64_t s = g.steps, pass = std::max<size_t>(1, g.keyframes.size());
+    const uint64_t passes = s / pass + (s % pass != 0);
+    return std::min(std::max(std::clamp<uint64_t>(s / min_visit_steps, 1, rounds), passes), most_rounds);
+  };
+  uint64_t all_rounds = rounds;
+  for (const RefinementGroup& g : groups) all_rounds = std::max(all_rounds, wanted(g));
   std::vector<RefinementVisit> visits;
-  for (size_t r = 0; r < rounds; ++r)
+  for (uint64_t r = 0; r < all_rounds; ++r)
     for (size_t g = 0; g < groups.size(); ++g) {
       const uint64_t s = groups[g].steps;
-      const uint64_t visits_g = std::clamp<uint64_t>(s / min_visit_steps, 1, rounds);
-      const uint64_t j = share(visits_g, r, rounds);
-      if (share(visits_g, r + 1, rounds) == j) continue;  // not visited in this round
+      const uint64_t visits_g = wanted(groups[g]);
+      const uint64_t j = share(visits_g, r, all_rounds);
+      if (share(visits_g, r + 1, all_rounds) == j) continue;  // not visited in this round
       const uint64_t steps = share(s, j + 1, visits_g) - share(s, j, visits_g);
       if (steps > 0) visits.push_back({g, steps});
     }
