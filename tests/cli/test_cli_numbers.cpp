@@ -83,6 +83,14 @@ TEST(CliNumbers, ATrackerThatNeverStartsSaysWhyAndWritesNoTrajectory) {
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("no frame with a pose became a keyframe; the tracker never started"), std::string::npos)
       << r.out;
+  EXPECT_NE(r.out.find("map is left with that empty map: remove it, or choose another --out"), std::string::npos)
+      << r.out;
+  // As it says: the same command into the folder is refused until it is removed.
+  r = run_cli("-q run --dataset " + street + " --poses track --out " + (dir / "map").string());
+  EXPECT_NE(r.out.find("already holds a map"), std::string::npos) << r.out;
+  std::filesystem::remove_all(dir / "map");
+  r = run_cli("-q run --dataset " + street + " --poses track --out " + (dir / "map").string());
+  EXPECT_NE(r.out.find("no frame with a pose became a keyframe"), std::string::npos) << r.out;
 }
 
 TEST(CliNumbers, DemoRefusesOutOfRangeValuesNamingTheFlag) {
