@@ -72,7 +72,7 @@ std::vector<RefinementGroup> plan_refinement(const PackedViews& views, uint64_t 
 // step at a time would load a whole group per step. But a visit never trains its keyframes more than
 // about once each: a group of two views given 15 steps in 3 visits of 5 trained each view 2-3 times in a
 // row, and 4x the refinement steps lowered the map under a budget of 40 % of a view by 0.45 dB (where
-// without a budget they raised it by 0.8 dB); as passes of one step a keyframe they raised it by 1.1 dB
+// without a budget they raised it by 0.8 dB); as passes of one step a keyframe they raise it by 1.0 dB
 // (bench/README.md, issue 19). r_g is held to 2^20 / (number of groups) at most (the list's size).
 // Visits of no step are left out. Throws Error when rounds or min_visit_steps is 0.
 struct RefinementVisit {
