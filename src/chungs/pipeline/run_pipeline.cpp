@@ -20,6 +20,7 @@
 #include "chungs/pipeline/multiview_keyframes.hpp"
 #include "chungs/pipeline/multiview_mapping.hpp"
 #include "chungs/pipeline/pose_updates.hpp"
+#include "chungs/pipeline/resume_point.hpp"
 #include "chungs/pipeline/run_report.hpp"
 #include "chungs/pipeline/timeline.hpp"
 #include "chungs/pipeline/tracker_feed.hpp"
@@ -133,36 +134,13 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   if (mode == DepthMode::Multiview) mapper_cfg.adam.lr_position *= cfg.adam.multiview_position_factor;
   Mapper mapper(o.out, mapper_cfg, o.resume);
   const nlohmann::json& prev = mapper.resumed_state();
-  size_t start = 0;
-  double carried_seconds = 0;
-  std::vector<TimelineSample> timeline;
-  if (o.resume && !prev.is_null()) {
-    if (prev.value("dataset", std::string()) != o.dataset)
-      fail(o.out.string(), ": the map was made from ", prev.value("dataset", std::string("?")), ", not ",
-           o.dataset);
-    // The rest of the map on other poses than its start would not line up with it.
-    const std::string had = prev.value("poses", std::string());
-    std::error_code ec;
-    const bool same_poses = had.empty() || had == o.poses ||
-                            (had != "gt" && o.poses != "gt" && std::filesystem::equivalent(had, o.poses, ec));
-    if (!same_poses)
-      fail(o.out.string(), ": the map was made on --poses ", had, ", not ", o.poses,
-           "; --resume goes on with the poses it was made on");
-    start = resume_frame(prev, o.out / "run_state.json", dataset->size());
-    // Fewer frames than the map covers would write that smaller count as where it stands: a later
-    // --resume would then map the frames between again, on top of their Gaussians.
-    if (start > n)
-      fail("--max-frames ", o.max_frames, ": the map in ", o.out.string(), " already covers ", start,
-           " frames; give at least ", start, " or leave it out");
-    carried_seconds = prev.value("seconds", 0.0);
-    try {
-      if (prev.contains("timeline")) timeline = timeline_from_json(prev["timeline"]);
-    } catch (const std::exception& e) {
-      fail(o.out.string(), "/run_state.json: 'timeline' is damaged (", e.what(), ")");
-    }
+  ResumePoint resumed = resume_point(o, prev, dataset->size(), n);
+  const size_t start = resumed.start;
+  const double carried_seconds = resumed.seconds;
+  std::vector<TimelineSample>& timeline = resumed.timeline;
+  if (o.resume && !prev.is_null())
     log::info("resuming ", o.out.string(), " at frame ", start, " with ", mapper.keyframes().size(),
               " keyframes and ", mapper.total_gaussians(), " Gaussians");
-  }
   // The memory for chunks in flight at their limits, made resident now: host RSS stays level once
   // the budget is reached instead of rising each time a queue reaches a new high
   // (residency/host_block_pool.hpp). Only where the map can outgrow the budget (a keyframe adds at

@@ -1,0 +1,40 @@
+#include "chungs/pipeline/resume_point.hpp"
+
+#include <filesystem>
+#include <string>
+#include <system_error>
+
+#include "chungs/common/error.hpp"
+#include "chungs/mapping/map_state.hpp"
+
+namespace chungs {
+
+ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_t frames, size_t mapped) {
+  ResumePoint p;
+  if (!o.resume || state.is_null()) return p;
+  if (state.value("dataset", std::string()) != o.dataset)
+    fail(o.out.string(), ": the map was made from ", state.value("dataset", std::string("?")), ", not ", o.dataset);
+  // The rest of the map on other poses than its start would not line up with it.
+  const std::string had = state.value("poses", std::string());
+  std::error_code ec;
+  const bool same_poses = had.empty() || had == o.poses ||
+                          (had != "gt" && o.poses != "gt" && std::filesystem::equivalent(had, o.poses, ec));
+  if (!same_poses)
+    fail(o.out.string(), ": the map was made on --poses ", had, ", not ", o.poses,
+         "; --resume goes on with the poses it was made on");
+  p.start = resume_frame(state, o.out / "run_state.json", frames);
+  // Fewer frames than the map covers would write that smaller count as where it stands: a later
+  // --resume would then map the frames between again, on top of their Gaussians.
+  if (p.start > mapped)
+    fail("--max-frames ", o.max_frames, ": the map in ", o.out.string(), " already covers ", p.start,
+         " frames; give at least ", p.start, " or leave it out");
+  p.seconds = state.value("seconds", 0.0);
+  try {
+    if (state.contains("timeline")) p.timeline = timeline_from_json(state["timeline"]);
+  } catch (const std::exception& e) {
+    fail(o.out.string(), "/run_state.json: 'timeline' is damaged (", e.what(), ")");
+  }
+  return p;
+}
+
+}  // namespace chungs
