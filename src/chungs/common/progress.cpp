@@ -8,12 +8,29 @@
 #include "chungs/common/log.hpp"
 
 namespace chungs {
+namespace {
 
-Progress::Progress(std::string label, long long total)
+// "42s", "7m05s", "75h10m": an estimate of days read as seconds means nothing to a person.
+std::string duration_words(double seconds) {
+  const long long s = seconds < 0 || !(seconds < 1e15) ? 0 : (long long)(seconds + 0.5);
+  char buf[64];
+  if (s < 60)
+    std::snprintf(buf, sizeof buf, "%llds", s);
+  else if (s < 3600)
+    std::snprintf(buf, sizeof buf, "%lldm%02llds", s / 60, s % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%lldh%02lldm", s / 3600, s % 3600 / 60);
+  return buf;
+}
+
+}  // namespace
+
+Progress::Progress(std::string label, long long total, std::chrono::milliseconds quiet_gap)
     : label_(std::move(label)),
       total_(std::max(total, 1LL)),
       tty_(isatty(STDERR_FILENO)),
       enabled_(log::enabled(log::Level::Info)),
+      quiet_gap_(quiet_gap),
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_) {}
 
@@ -36,6 +53,7 @@ void Progress::draw(bool final) {
   double elapsed = std::chrono::duration<double>(now - start_).count();
   double frac = double(done_) / double(total_);
   int decile = int(frac * 10);
+  double eta = frac > 0 ? elapsed * (1 - frac) / frac : 0;
   if (tty_) {
     if (!final && now - last_draw_ < std::chrono::milliseconds(100)) return;
     last_draw_ = now;
@@ -43,15 +61,19 @@ void Progress::draw(bool final) {
     int filled = int(frac * width);
     std::string bar(filled, '#');
     bar.resize(width, '.');
-    double eta = frac > 0 ? elapsed * (1 - frac) / frac : 0;
-    std::fprintf(stderr, "\r%s [%s] %lld/%lld %.0fs eta %.0fs ", label_.c_str(), bar.c_str(), done_,
-                 total_, elapsed, eta);
+    std::fprintf(stderr, "\r%s [%s] %lld/%lld %.0fs eta %s ", label_.c_str(), bar.c_str(), done_,
+                 total_, elapsed, duration_words(eta).c_str());
     if (final) std::fprintf(stderr, "\n");
   } else {
-    if (decile == last_decile_) return;  // this state was printed already
+    if (decile == last_decile_ && now - last_draw_ < quiet_gap_) return;  // printed lately
     last_decile_ = decile;
-    std::fprintf(stderr, "[info] %s: %lld/%lld (%d%%) %.1fs\n", label_.c_str(), done_, total_,
-                 int(frac * 100), elapsed);
+    last_draw_ = now;
+    if (final || done_ == 0 || done_ == total_)
+      std::fprintf(stderr, "[info] %s: %lld/%lld (%d%%) %.1fs\n", label_.c_str(), done_, total_,
+                   int(frac * 100), elapsed);
+    else
+      std::fprintf(stderr, "[info] %s: %lld/%lld (%d%%) %.1fs, eta %s\n", label_.c_str(), done_, total_,
+                   int(frac * 100), elapsed, duration_words(eta).c_str());
   }
   std::fflush(stderr);
 }
