@@ -5,6 +5,7 @@
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/progress.hpp"
 #include "chungs/store/atomic_file.hpp"
 
 namespace chungs {
@@ -100,11 +101,14 @@ uint64_t export_ply(const ChunkStore& store, const std::filesystem::path& file, 
       ids.push_back(id);
     }
   }
+  // A 10 km map is thousands of chunk files read and converted: say how far the export is.
+  Progress progress("exporting chunks", (long long)ids.size());
   return write_ply(file, [&](const AddRow& add) {
     for (ChunkId id : ids) {
       const GaussianBlock b = store.load(id);
       for (size_t i = 0; i < b.size(); ++i)
         if (in_box(b.params, i, select)) add(b.params, i);
+      progress.step();
     }
   });
 }
