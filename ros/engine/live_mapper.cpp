@@ -21,6 +21,7 @@
 #include "chungs/depth/depth_source.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "chungs/mapping/optim_backend.hpp"
+#include "chungs/pipeline/checkpoint_cadence.hpp"
 #include "chungs/pipeline/frame_feed.hpp"
 #include "chungs/pipeline/frame_source.hpp"
 #include "chungs/pipeline/ply_export.hpp"
@@ -175,8 +176,16 @@ struct LiveMapper::Impl {
     if (mc.pacing == "fixed")
       for (int k = 0; k < mc.iterations_per_keyframe; ++k) step();
     const double since_checkpoint = std::chrono::duration<double>(Clock::now() - last_checkpoint).count();
-    if ((mc.checkpoint_seconds > 0 && since_checkpoint >= mc.checkpoint_seconds) ||
-        (mc.checkpoint_every > 0 && keyframes_since_checkpoint >= size_t(mc.checkpoint_every)))
+    IoStats io;
+    {
+      std::lock_guard lock(map_mutex);
+      io = mapper->io_stats();
+    }
+    // The same cadence as `run`, so checkpoint_max_share bounds a live map's checkpoints too.
+    const CheckpointClock clock{since_checkpoint, keyframes_since_checkpoint,
+                                std::chrono::duration<double>(Clock::now() - started).count(), io.checkpoint_ms,
+                                final_checkpoint_estimate_ms(io.checkpoint_behind_ms, io.checkpoints_behind)};
+    if (checkpoint_due({mc.checkpoint_seconds, mc.checkpoint_every, mc.checkpoint_max_share}, clock))
       commit(false, true);
   }
 

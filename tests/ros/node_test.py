@@ -31,7 +31,7 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 # the keyframes of the frames it reads ahead of the first keyframe's depth on motion alone (the
 # keyframe_parallax rule has no scale yet), the node frame by frame as they come.
 MAPPER = {"mapper": {"resolution": 0.25, "iterations_per_keyframe": 5, "final_iterations": 20, "pacing": "fixed",
-                     "checkpoint_every": 4, "frame_lookahead": 0}}
+                     "checkpoint_every": 4, "checkpoint_max_share": 0, "frame_lookahead": 0}}
 CLI_ARGS = ["--device", "cpu"]
 
 

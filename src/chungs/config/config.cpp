@@ -142,7 +142,7 @@ void fields(V& v, MapperConfig& c) {
   v("checkpoint_seconds", c.checkpoint_seconds, "seconds between checkpoints (resume points; 0: off) ...");
   v("checkpoint_every", c.checkpoint_every, "... or keyframes between them (0: off) ...");
   v("checkpoint_max_share", c.checkpoint_max_share,
-    "... but the optimiser time checkpoints cost stays below this share of the run (0: no bound)");
+    "... but the optimiser time checkpoints cost, the final one included, stays below this share of the run (0: no bound)");
   v("seed", c.seed, "random seed (sampling, keyframe picks)");
   v("eval_keyframe_stride", c.eval_keyframe_stride, "score every n-th keyframe at the end (paper protocol); 0: off");
   v("max_saved_renders", c.max_saved_renders, "held-out renders written as PNG at most");

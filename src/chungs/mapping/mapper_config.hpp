@@ -48,10 +48,10 @@ struct MapperConfig {
   double resolution = 1.0;          // images (and intrinsics) scaled by this before mapping
   std::string depth = "auto";       // auto | sensor | stereo | multiview | none (run: as multiview)
   // A checkpoint (the resume point) is due every checkpoint_seconds, or every checkpoint_every
-  // keyframes (0: off), but never before the optimiser time the last one cost is at most
-  // checkpoint_max_share of the time since it began (0: no such bound): its cost grows with the
-  // chunks modified meanwhile, so the cadence adapts to the map and the disk. Each writes only
-  // what changed since the last, so a short cadence also keeps the final one (which waits) short.
+  // keyframes (0: off), but only while the optimiser time checkpoints have cost so far, plus the
+  // expected cost of the final one (which the run waits for), is at most checkpoint_max_share of the
+  // run (0: no such bound; pipeline/checkpoint_cadence.hpp): their cost grows with the chunks modified
+  // meanwhile, so the cadence adapts to the map and the disk. Each writes only what changed since the last.
   int checkpoint_every = 0;
   double checkpoint_seconds = 30;
   double checkpoint_max_share = 0.01;

@@ -13,6 +13,7 @@
 #include "chungs/depth/learned_prior.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/mapping/optim_backend.hpp"
+#include "chungs/pipeline/checkpoint_cadence.hpp"
 #include "chungs/pipeline/evaluation.hpp"
 #include "chungs/pipeline/frame_feed.hpp"
 #include "chungs/pipeline/frame_lookahead.hpp"
@@ -213,7 +214,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   std::optional<size_t> stopped_at;  // in-core comparison: the frame at which the map outgrew memory
   Progress progress("mapping", (long long)(n - std::min(start, n)));
   size_t keyframes_since_checkpoint = 0;
-  double last_checkpoint = seconds(), checkpoint_ms_at_last = 0;
+  double last_checkpoint = seconds();
   // From the tracker's feed only the frames it has tracked are pulled ahead (their dense stereo for
   // the map then runs side by side, where one keyframe at a time had held tracked runs below 10 Hz).
   // When each keyframe's load ran (seconds of the run), for the debug log's account of its lag.
@@ -284,13 +285,11 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       });
   const bool anytime = mc.pacing == "anytime";
   std::optional<SE3> last_pose;
-  auto checkpoint_due = [&] {
-    const double elapsed = seconds() - last_checkpoint;
-    const bool due = (mc.checkpoint_seconds > 0 && elapsed >= mc.checkpoint_seconds) ||
-                     (mc.checkpoint_every > 0 && keyframes_since_checkpoint >= size_t(mc.checkpoint_every));
-    // The last checkpoint's cost to the optimiser (its copies continue after it began) bounds the cadence.
-    const double cost_s = (mapper.io_stats().checkpoint_ms - checkpoint_ms_at_last) / 1000.0;
-    return due && !(mc.checkpoint_max_share > 0 && cost_s > mc.checkpoint_max_share * elapsed);
+  const CheckpointCadence cadence{mc.checkpoint_seconds, mc.checkpoint_every, mc.checkpoint_max_share};
+  auto checkpoint_now = [&] {
+    const IoStats io = mapper.io_stats();
+    return checkpoint_due(cadence, {seconds() - last_checkpoint, keyframes_since_checkpoint, since(t0), io.checkpoint_ms,
+                                    final_checkpoint_estimate_ms(io.checkpoint_behind_ms, io.checkpoints_behind)});
   };
   // The optimiser thread's time outside the steps and keyframes (report.json time.optimiser_ms).
   double frames_wait_ms = 0, record_ms = 0, checkpoint_call_ms = 0, updates_ms = 0;
@@ -379,8 +378,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (!added && !applied.keyframes_moved) continue;
     timed(record_ms, [&] { record(i); });
     if (added) ++keyframes_since_checkpoint;
-    if (checkpoint_due() || applied.loop) {
-      checkpoint_ms_at_last = mapper.io_stats().checkpoint_ms;
+    if (checkpoint_now() || applied.loop) {
       timed(checkpoint_call_ms,
             [&] { mapper.checkpoint(state(i + 1, false), /*behind=*/true, timeline_member()); });
       keyframes_since_checkpoint = 0;
