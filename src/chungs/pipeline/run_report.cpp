@@ -136,6 +136,10 @@ nlohmann::json chunk_io_report(const IoStats& io, double map_seconds) {
           {"checkpoint_ms", io.checkpoint_ms},
           {"checkpoints_behind", io.checkpoints_behind},
           {"checkpoint_behind_ms", io.checkpoint_behind_ms},
+          // Of the checkpoints the run waits for (the final one): gathering out of the pool and the
+          // commit; what is left of their time is writing the files.
+          {"flush_gather_ms", io.flush_gather_ms},
+          {"flush_commit_ms", io.flush_commit_ms},
           {"barrier_ms", io.barrier_ms},
           {"bytes_read", io.bytes_read},
           {"bytes_written", io.bytes_written},

@@ -508,6 +508,7 @@ void Residency::flush() {
         size_t n = 0;
         for (portion_begin = k; portion_end < dirty.size() && (portion_end == k || n < portion_limit); ++portion_end)
           n += resident_.at(dirty[portion_end]).slots.size();
+        ScopedTimer gathering(store_.counters().flush_gather_ns);
         portion = gather_chunks(std::span(dirty).subspan(portion_begin, portion_end - portion_begin));
       }
       const HostBlock& h = *portion[k - portion_begin];
@@ -527,6 +528,7 @@ void Residency::flush() {
     }
     io_->drain();
   }
+  ScopedTimer committing(store_.counters().flush_commit_ns);
   store_.commit();
 }
 

@@ -20,6 +20,7 @@ IoStats IoCounters::snapshot() const {
   s.barriers = barriers, s.synced_files = synced_files, s.barrier_ms = double(barrier_ns) * 1e-6;
   s.checkpoints = checkpoints, s.checkpoint_ms = double(checkpoint_ns) * 1e-6;
   s.checkpoints_behind = checkpoints_behind, s.checkpoint_behind_ms = double(checkpoint_behind_ns) * 1e-6;
+  s.flush_gather_ms = double(flush_gather_ns) * 1e-6, s.flush_commit_ms = double(flush_commit_ns) * 1e-6;
   return s;
 }
 
@@ -30,7 +31,7 @@ void IoCounters::reset() {
         &waits,       &evictions_clean, &evictions_dirty, &barriers,      &synced_files,      &barrier_ns,
         &checkpoints, &checkpoint_ns,   &checkpoints_behind, &checkpoint_behind_ns, &write_waits, &write_wait_ns,
         &evict_copy_ns, &upload_ns, &evicting_ns, &loading_ns, &take_ns, &take_lock_ns,
-        &read_ahead_full, &read_ahead_no_room, &reader_writes})
+        &read_ahead_full, &read_ahead_no_room, &reader_writes, &flush_gather_ns, &flush_commit_ns})
     c->store(0);
 }
 
@@ -45,7 +46,8 @@ IoStats operator-(const IoStats& a, const IoStats& b) {
     diff(f);
   for (auto f : {&IoStats::load_ms, &IoStats::save_ms, &IoStats::wait_ms, &IoStats::write_wait_ms,
                  &IoStats::evict_copy_ms, &IoStats::upload_ms, &IoStats::barrier_ms, &IoStats::checkpoint_ms,
-                 &IoStats::checkpoint_behind_ms, &IoStats::evicting_ms, &IoStats::loading_ms, &IoStats::take_ms, &IoStats::take_lock_ms})
+                 &IoStats::checkpoint_behind_ms, &IoStats::evicting_ms, &IoStats::loading_ms, &IoStats::take_ms, &IoStats::take_lock_ms,
+                 &IoStats::flush_gather_ms, &IoStats::flush_commit_ms})
     diff(f);
   return d;
 }

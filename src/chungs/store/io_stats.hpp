@@ -50,6 +50,10 @@ struct IoStats {
   // behind_ms on the writer threads.
   uint64_t checkpoints_behind = 0;
   double checkpoint_behind_ms = 0;
+  // Of checkpoint_ms, inside the checkpoints the caller waits for (Residency::flush, the final one):
+  // gathering dirty chunks out of the pool, and the commit (barrier and manifest); the rest is
+  // writing the files and waiting for queued writes.
+  double flush_gather_ms = 0, flush_commit_ms = 0;
 
   double mean_load_ms() const { return loads ? load_ms / double(loads) : 0; }
   double mean_save_ms() const { return saves ? save_ms / double(saves) : 0; }
@@ -71,7 +75,7 @@ class IoCounters {
   std::atomic<uint64_t> evictions_clean{0}, evictions_dirty{0}, evict_copy_ns{0}, upload_ns{0};
   std::atomic<uint64_t> evicting_ns{0}, loading_ns{0}, take_ns{0}, take_lock_ns{0}, read_ahead_full{0}, read_ahead_no_room{0}, reader_writes{0};
   std::atomic<uint64_t> barriers{0}, synced_files{0}, barrier_ns{0}, checkpoints{0}, checkpoint_ns{0};
-  std::atomic<uint64_t> checkpoints_behind{0}, checkpoint_behind_ns{0};
+  std::atomic<uint64_t> checkpoints_behind{0}, checkpoint_behind_ns{0}, flush_gather_ns{0}, flush_commit_ns{0};
 
   IoStats snapshot() const;
   void reset();
