@@ -182,10 +182,8 @@ struct LiveMapper::Impl {
       io = mapper->io_stats();
     }
     // The same cadence as `run`, so checkpoint_max_share bounds a live map's checkpoints too.
-    const CheckpointClock clock{since_checkpoint, keyframes_since_checkpoint,
-                                std::chrono::duration<double>(Clock::now() - started).count(), io.checkpoint_ms,
-                                final_checkpoint_estimate_ms(io.checkpoint_behind_ms, io.checkpoints_behind)};
-    if (checkpoint_due({mc.checkpoint_seconds, mc.checkpoint_every, mc.checkpoint_max_share}, clock))
+    if (checkpoint_due(mc, since_checkpoint, keyframes_since_checkpoint,
+                       std::chrono::duration<double>(Clock::now() - started).count(), io))
       commit(false, true);
   }
 

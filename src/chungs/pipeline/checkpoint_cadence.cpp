@@ -13,4 +13,11 @@ double final_checkpoint_estimate_ms(double behind_ms_total, size_t behind_count)
   return behind_count > 0 && behind_ms_total > 0 ? behind_ms_total / double(behind_count) : 0;
 }
 
+bool checkpoint_due(const MapperConfig& mc, double seconds_since_last, size_t keyframes_since_last,
+                    double run_seconds, const IoStats& io) {
+  return checkpoint_due({mc.checkpoint_seconds, mc.checkpoint_every, mc.checkpoint_max_share},
+                        {seconds_since_last, keyframes_since_last, run_seconds, io.checkpoint_ms,
+                         final_checkpoint_estimate_ms(io.checkpoint_behind_ms, io.checkpoints_behind)});
+}
+
 }  // namespace chungs

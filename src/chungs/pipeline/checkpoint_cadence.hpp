@@ -2,6 +2,9 @@
 #pragma once
 #include <cstddef>
 
+#include "chungs/mapping/mapper_config.hpp"
+#include "chungs/store/io_stats.hpp"
+
 namespace chungs {
 
 struct CheckpointCadence {
@@ -26,5 +29,9 @@ bool checkpoint_due(const CheckpointCadence& c, const CheckpointClock& t);
 // The final checkpoint writes what changed since the last one, about what a checkpoint behind the
 // optimiser writes from its start to its commit: their mean duration (0 before any has finished).
 double final_checkpoint_estimate_ms(double behind_ms_total, size_t behind_count);
+
+// The rule as `run` and the ROS node ask it: the settings' cadence, this process's checkpoint costs.
+bool checkpoint_due(const MapperConfig& mc, double seconds_since_last, size_t keyframes_since_last,
+                    double run_seconds, const IoStats& io);
 
 }  // namespace chungs

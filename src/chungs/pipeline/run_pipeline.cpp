@@ -285,11 +285,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
       });
   const bool anytime = mc.pacing == "anytime";
   std::optional<SE3> last_pose;
-  const CheckpointCadence cadence{mc.checkpoint_seconds, mc.checkpoint_every, mc.checkpoint_max_share};
   auto checkpoint_now = [&] {
-    const IoStats io = mapper.io_stats();
-    return checkpoint_due(cadence, {seconds() - last_checkpoint, keyframes_since_checkpoint, since(t0), io.checkpoint_ms,
-                                    final_checkpoint_estimate_ms(io.checkpoint_behind_ms, io.checkpoints_behind)});
+    return checkpoint_due(mc, seconds() - last_checkpoint, keyframes_since_checkpoint, since(t0), mapper.io_stats());
   };
   // The optimiser thread's time outside the steps and keyframes (report.json time.optimiser_ms).
   double frames_wait_ms = 0, record_ms = 0, checkpoint_call_ms = 0, updates_ms = 0;
