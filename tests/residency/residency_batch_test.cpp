@@ -4,6 +4,7 @@
 
 #include <cstring>
 
+#include "chungs/common/error.hpp"
 #include "chungs/residency/residency.hpp"
 #include "store/random_block.hpp"
 #include "test_support.hpp"
@@ -112,4 +113,115 @@ TEST(ResidencyBatches, ManyChunksLoadInOneUploadAndLeaveInOneGatherExactly) {
     EXPECT_TRUE(test::same_bits(now, store.load(second[size_t(i)]))) << "chunk " << 100 + i;
   }
   res.unpin(second);
+}
+
+namespace {
+// A map of 10 chunks on disk (ids 0..9, 20..29 Gaussians), and residency over it with `budget`.
+struct AddRig {
+  test::TempDir dir;
+  ChunkStore store;
+  CountingPool pool;
+  Residency res;
+  static ChunkStoreConfig exact() {
+    ChunkStoreConfig sc;
+    sc.half_moments = sc.half_sh_rest = false;
+    sc.durable = false;
+    return sc;
+  }
+  static ResidencyConfig config(size_t budget) {
+    ResidencyConfig rc;
+    rc.budget_gaussians = budget;
+    rc.async_io = false;
+    return rc;
+  }
+  explicit AddRig(size_t budget) : store(dir.path(), exact()), pool(budget), res((seed(store), store), pool, config(budget)) {}
+  static void seed(ChunkStore& s) {
+    for (int i = 0; i < 10; ++i) s.save(cid(i), test::random_block(size_t(20 + i), uint64_t(50 + i)));
+  }
+};
+
+// Additions to on-disk, resident, new and twice-named chunks, with the first five chunks resident and
+// modified beforehand.
+std::vector<std::pair<ChunkId, GaussianBlock>> additions(Residency& res, GaussianPool& pool) {
+  std::vector<ChunkId> warm = {cid(0), cid(1), cid(2), cid(3), cid(4)};
+  EXPECT_TRUE(res.pin(warm).ok);
+  for (size_t i = 0; i < warm.size(); ++i)
+    pool.scatter(test::random_block(res.slots(warm[i]).size(), 300 + i), res.slots(warm[i]));
+  res.mark_dirty(warm);
+  res.unpin(warm);
+  std::vector<std::pair<ChunkId, GaussianBlock>> out;
+  const int targets[] = {1, 3, 6, 8, 9, 40, 41, 6, 42};  // resident, on disk, new, 6 twice
+  for (int k = 0; k < 9; ++k) out.emplace_back(cid(targets[k]), test::random_block(size_t(3 + 2 * k), uint64_t(700 + k)));
+  return out;
+}
+
+std::vector<ChunkAddition> view(const std::vector<std::pair<ChunkId, GaussianBlock>>& adds) {
+  std::vector<ChunkAddition> out;
+  for (const auto& [id, b] : adds) out.push_back({id, &b});
+  return out;
+}
+}  // namespace
+
+TEST(ResidencyBatches, AKeyframesAdditionsMoveInOneUploadAndLeaveTheMapOneByOneAddsWould) {
+  for (const size_t budget : {size_t(1000), size_t(260)}) {  // all of it; about half the map, so chunks go
+    AddRig one(budget), many(budget);
+    const auto adds_one = additions(one.res, one.pool), adds_many = additions(many.res, many.pool);
+    for (const auto& [id, b] : adds_one) ASSERT_TRUE(one.res.add(id, b).ok);
+    const int scatters = many.pool.scatters, gathers = many.pool.gathers;
+    const std::vector<PinResult> r = many.res.add_many(view(adds_many));
+    ASSERT_EQ(r.size(), adds_many.size());
+    for (const PinResult& p : r) EXPECT_TRUE(p.ok) << p.message;
+    // One upload of the chunks read back, one of the new Gaussians, at most one gather of the evicted.
+    EXPECT_LE(many.pool.scatters - scatters, 2) << "budget " << budget;
+    EXPECT_LE(many.pool.gathers - gathers, 1) << "budget " << budget;
+    EXPECT_EQ(many.res.catalogue(), one.res.catalogue()) << "budget " << budget;
+    EXPECT_LE(many.res.resident_gaussians(), budget);
+    if (budget < 300) EXPECT_GT(many.res.stats().evictions_dirty, 0u) << "the small budget must evict";
+    one.res.flush();
+    many.res.flush();
+    for (const auto& [id, n] : one.res.catalogue()) {
+      const GaussianBlock a = one.store.load(id), b = many.store.load(id);
+      EXPECT_EQ(a.size(), n);
+      EXPECT_TRUE(test::same_bits(a, b)) << chunk_name(id) << ", budget " << budget;
+    }
+  }
+}
+
+TEST(ResidencyBatches, AdditionsThatDoNotFitTogetherAreKeptOrRefusedEachAsAddWould) {
+  AddRig one(60), many(60);
+  const ChunkId pinned[] = {cid(0), cid(1)};  // 41 Gaussians pinned, 19 left
+  ASSERT_TRUE(one.res.pin(pinned).ok);
+  ASSERT_TRUE(many.res.pin(pinned).ok);
+  std::vector<std::pair<ChunkId, GaussianBlock>> adds;
+  adds.emplace_back(cid(50), test::random_block(12, 1));  // fits alone
+  adds.emplace_back(cid(51), test::random_block(15, 2));  // fits alone, not beside the first
+  adds.emplace_back(cid(2), test::random_block(3, 3));    // 22 on disk + 3: never fits
+  adds.emplace_back(cid(0), test::random_block(4, 4));    // pinned: its own Gaussians already count
+  std::vector<PinResult> expected;
+  for (const auto& [id, b] : adds) expected.push_back(one.res.add(id, b));
+  const std::vector<PinResult> got = many.res.add_many(view(adds));
+  ASSERT_EQ(got.size(), expected.size());
+  for (size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i].ok, expected[i].ok) << "addition " << i;
+    EXPECT_EQ(got[i].over_budget, expected[i].over_budget) << "addition " << i;
+    EXPECT_EQ(got[i].message, expected[i].message) << "addition " << i;
+  }
+  EXPECT_FALSE(got[2].ok);
+  EXPECT_NE(got[2].message.find("would exceed the budget of 60"), std::string::npos) << got[2].message;
+  EXPECT_EQ(many.res.catalogue(), one.res.catalogue());
+  EXPECT_EQ(many.res.pinned_gaussians(), one.res.pinned_gaussians());
+  many.res.unpin(pinned);
+  one.res.unpin(pinned);
+}
+
+TEST(ResidencyBatches, AnAdditionWithAnInvalidBlockChangesNothing) {
+  AddRig rig(1000);
+  std::vector<std::pair<ChunkId, GaussianBlock>> adds;
+  adds.emplace_back(cid(60), test::random_block(5, 1));
+  adds.emplace_back(cid(61), test::random_block(5, 2));
+  adds[1].second.adam_steps.pop_back();  // one array shorter than the rest
+  const auto before = rig.res.catalogue();
+  EXPECT_THROW(rig.res.add_many(view(adds)), chungs::Error);
+  EXPECT_EQ(rig.res.catalogue(), before);
+  EXPECT_EQ(rig.res.resident_gaussians(), 0u);
 }

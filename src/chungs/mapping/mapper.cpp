@@ -271,11 +271,14 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
     for (const ChunkBatch& b : batches) stats.kept += b.block.size();
     stats.chunks = batches.size();
   }
-  for (auto& b : batches) {
-    const PinResult res = residency_->add(b.id, b.block);
-    if (!res.ok) {
+  std::vector<ChunkAddition> additions;
+  for (const ChunkBatch& b : batches) additions.push_back({b.id, &b.block});
+  const std::vector<PinResult> added = residency_->add_many(additions);
+  for (size_t i = 0; i < batches.size(); ++i) {
+    const ChunkBatch& b = batches[i];
+    if (!added[i].ok) {
       stats.kept -= b.block.size();
-      note_refused(id, b.id, b.block.size(), res);
+      note_refused(id, b.id, b.block.size(), added[i]);
     } else {
       keyframe_chunks_.add(id, b.id);
     }

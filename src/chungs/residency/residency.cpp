@@ -324,59 +324,6 @@ void Residency::evict_one(ChunkId id, std::shared_ptr<const HostBlock> block) {
   }
 }
 
-PinResult Residency::add(ChunkId id, const GaussianBlock& block) {
-  PinResult r;
-  r.budget = budget_;
-  r.pinned_gaussians = pinned_gaussians_;
-  if (block.size() == 0) return r;
-  block.validate("residency add");
-  chunk_coord(id);  // rejects ids no coordinate produces
-  const bool known = contains(id), resident = is_resident(id), pinned = is_pinned(id);
-  // The least this needs resident: everything pinned, this chunk, and the new Gaussians.
-  const uint64_t floor = pinned_gaussians_ + (pinned ? 0 : count(id)) + block.size();
-  if (floor > budget_) {
-    r.ok = false;
-    r.over_budget = floor - budget_;
-    r.message = cat("residency: adding ", block.size(), " Gaussians to ", chunk_name(id), " (", count(id),
-                    " already) beside ", pinned_gaussians_, " pinned ones would exceed the budget of ", budget_,
-                    " by ", r.over_budget, "; nothing was added.");
-    return r;
-  }
-  const uint64_t extra = (resident ? 0 : count(id)) + block.size();
-  const ChunkId keep[] = {id};
-  if (!make_room(extra, keep, &r.evicted))
-    fail("residency: internal error: no room for ", extra, " Gaussians although they fit the budget");
-  if (!known) {
-    catalogue_[id] = 0;
-    ++catalogue_version_;
-  }
-  if (!resident) {
-    const ChunkId one[] = {id};
-    load_many(one);
-    ++r.loaded;
-  }
-  copy_out(id);
-  Resident& e = resident_.at(id);
-  std::vector<uint32_t> fresh = pool_.allocate(block.size());
-  try {
-    pool_.scatter(block, fresh);
-  } catch (...) {
-    pool_.release(fresh);
-    throw;
-  }
-  e.slots.insert(e.slots.end(), fresh.begin(), fresh.end());
-  e.dirty = true;
-  checkpoint_clean_.erase(id);
-  touch(e, id);
-  resident_gaussians_ += block.size();
-  peak_resident_ = std::max(peak_resident_, resident_gaussians_);
-  catalogue_[id] += block.size();
-  if (e.pins > 0) pinned_gaussians_ += block.size();
-  r.pinned_gaussians = pinned_gaussians_;
-  check_budget_invariant();
-  return r;
-}
-
 void Residency::remove_slots(ChunkId id, std::span<const uint32_t> slots) {
   Resident& e = resident_entry(id, "remove_slots");
   copy_out(id);

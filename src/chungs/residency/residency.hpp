@@ -83,6 +83,12 @@ struct PinResult {
   std::string message;            // why !ok, in words
 };
 
+// One chunk's new Gaussians for Residency::add_many (the block must outlive the call).
+struct ChunkAddition {
+  ChunkId id = 0;
+  const GaussianBlock* block = nullptr;
+};
+
 class Residency {
  public:
   // The pool must hold at least the budget; the pool is used only through this object.
@@ -102,6 +108,10 @@ class Residency {
   // When they cannot fit beside the pinned chunks nothing is added and the result says why (the
   // caller decides whether that is worth a warning: a mapper's log would repeat it every keyframe).
   PinResult add(ChunkId id, const GaussianBlock& block);
+  // add() of several chunks, one result each in their order. When they fit together they are made
+  // room for, read and uploaded at once (the eviction count on the first result); otherwise each
+  // is added or refused on its own, in order, as add() would.
+  std::vector<PinResult> add_many(std::span<const ChunkAddition> adds);
   // Deletes Gaussians (by pool slot) from a resident chunk, e.g. after pruning.
   void remove_slots(ChunkId id, std::span<const uint32_t> slots);
   // The same for the entries at `positions` (strictly ascending) of the list write_slots(ids) wrote, e.g.
