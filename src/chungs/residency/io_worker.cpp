@@ -81,6 +81,7 @@ void IoWorker::write_behind(ChunkId id, Block data) {
 
 void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks) {
   if (!background_) return;
+  bool queued = false;
   {
     std::lock_guard lock(mutex_);
     prefetch_queue_.clear();
@@ -89,8 +90,12 @@ void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks)
       wanted_.insert(c.first);
       if (!staged_.count(c.first) && !pending_.count(c.first) && !reading_.count(c.first)) prefetch_queue_.push_back(c);
     }
+    queued = !prefetch_queue_.empty();
   }
-  work_cv_.notify_all();  // all: a thread busy writing may take the notice
+  // All: a thread busy writing may take the notice. None when nothing is to be read: this comes every
+  // step, and woke every I/O thread (one per core) to find nothing, each taking the lock the step's own
+  // chunk reads need.
+  if (queued) work_cv_.notify_all();
 }
 
 IoWorker::Block IoWorker::take(ChunkId id, Source* source) {
