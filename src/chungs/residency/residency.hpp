@@ -108,9 +108,9 @@ class Residency {
   // When they cannot fit beside the pinned chunks nothing is added and the result says why (the
   // caller decides whether that is worth a warning: a mapper's log would repeat it every keyframe).
   PinResult add(ChunkId id, const GaussianBlock& block);
-  // add() of several chunks, one result each in their order. When they fit together they are made
-  // room for, read and uploaded at once (the eviction count on the first result); otherwise each
-  // is added or refused on its own, in order, as add() would.
+  // add() of several chunks, one result each in their order (a chunk named twice gets both blocks).
+  // When they fit together they are made room for, read and uploaded at once (the eviction count on
+  // the first result); otherwise each is added or refused on its own, in order, as add() would.
   std::vector<PinResult> add_many(std::span<const ChunkAddition> adds);
   // Deletes Gaussians (by pool slot) from a resident chunk, e.g. after pruning.
   void remove_slots(ChunkId id, std::span<const uint32_t> slots);
