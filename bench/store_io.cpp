@@ -379,7 +379,7 @@ BENCHMARK(BM_ResidencyStream)
 
 BENCHMARK(BM_RefinementVisits)
     ->ArgNames({"writers", "rounds"})
-    ->Args({1, 1})->Args({4, 1})->Args({1, 8})->Args({4, 8})->Args({1, 16})->Args({4, 16})
+    ->Args({1, 1})->Args({4, 1})->Args({1, 8})->Args({4, 8})->Args({1, 16})->Args({4, 16})->Args({16, 16})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 BENCHMARK_MAIN();

@@ -76,7 +76,10 @@ void IoWorker::write_behind(ChunkId id, Block data) {
     std::erase(staged_order_, id);
   }
   lock.unlock();
-  work_cv_.notify_all();
+  // One write, one thread: waking all of them (one per core) for every eviction cost the evicting
+  // caller twice its time with 16 of them (bench_store_io, BM_RefinementVisits). A thread that is busy
+  // finds the write when it looks for its next work.
+  work_cv_.notify_one();
 }
 
 void IoWorker::prefetch(const std::vector<std::pair<ChunkId, uint64_t>>& chunks) {
@@ -223,8 +226,9 @@ bool IoWorker::write_one(std::unique_lock<std::mutex>& lock) {
     pending_gaussians_ -= data->size();
     pending_.erase(it);  // only now may loads go to disk: the file holds this content
   }
+  // Those waiting for a write (a full queue, a drain, a read of this chunk). No I/O thread needs
+  // waking: this one looks for its next work now, a chunk queued again meanwhile included.
   done_cv_.notify_all();
-  work_cv_.notify_all();  // a chunk queued again meanwhile can be written now
   return true;
 }
 
