@@ -28,7 +28,8 @@ std::vector<PinResult> Residency::add_many(std::span<const ChunkAddition> adds) 
 
   // The least they need resident together: everything pinned, their chunks, and the new Gaussians.
   std::unordered_set<ChunkId> seen;
-  std::vector<ChunkId> ids;  // each chunk once, in the order first named
+  std::vector<ChunkId> ids, absent;  // each chunk once, in the order first named; those not resident
+  std::vector<size_t> absent_at;     // the addition that first names each absent chunk
   uint64_t floor = pinned_gaussians_, extra = 0, fresh = 0;
   for (size_t i : todo) {
     const ChunkId id = adds[i].id;
@@ -36,7 +37,11 @@ std::vector<PinResult> Residency::add_many(std::span<const ChunkAddition> adds) 
     if (seen.insert(id).second) {
       ids.push_back(id);
       floor += is_pinned(id) ? 0 : count(id);
-      extra += is_resident(id) ? 0 : count(id);
+      if (!is_resident(id)) {
+        extra += count(id);
+        absent.push_back(id);
+        absent_at.push_back(i);
+      }
     }
     floor += n, extra += n, fresh += n;
   }
@@ -62,19 +67,14 @@ std::vector<PinResult> Residency::add_many(std::span<const ChunkAddition> adds) 
   // round trip per keyframe instead of one per chunk it adds to.
   if (!make_room(extra, ids, &results[todo.front()].evicted))
     fail("residency: internal error: no room for ", extra, " Gaussians although they fit the budget");
-  std::vector<ChunkId> absent;
-  for (size_t i : todo) {
-    const ChunkId id = adds[i].id;
+  // make_room keeps `ids`, so what was absent above still is.
+  for (ChunkId id : ids)
     if (!contains(id)) {
       catalogue_[id] = 0;
       ++catalogue_version_;
     }
-    if (!is_resident(id) && std::find(absent.begin(), absent.end(), id) == absent.end()) {
-      absent.push_back(id);
-      results[i].loaded = 1;
-    }
-  }
   load_many(absent);
+  for (size_t i : absent_at) results[i].loaded = 1;
   copy_out_many(ids);
   std::vector<ConstBlockArrays> arrays;
   for (size_t i : todo) arrays.push_back(block_arrays(*adds[i].block));
