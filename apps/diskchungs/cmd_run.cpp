@@ -54,6 +54,11 @@ const Command cmd{
         // Given means typed, even empty: `--pacing ""` is refused by the check below, not ignored.
         if (given(app, "--pacing")) c.mapper.pacing = a->pacing;
         c.validate();
+        // The intake rate exists only under anytime pacing: a user timing a run at twice the rate would
+        // otherwise get a fixed-pacing map and no sign that the flag did nothing.
+        if (given(app, "--speed") && c.mapper.pacing == "fixed")
+          log::warn("--speed ", a->speed, " sets the intake rate of anytime pacing and changes nothing under fixed "
+                    "pacing (the default); add --pacing anytime to map at that rate");
         // A map keeps the chunk size it was made with: a typed other one would be ignored, not used.
         if (o.resume && given(app, "--chunk-size") && std::filesystem::exists(o.out / "manifest.txt")) {
           const double has = Manifest::read(o.out / "manifest.txt").chunk_size;

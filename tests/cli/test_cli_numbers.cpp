@@ -46,6 +46,21 @@ TEST(CliNumbers, RunRefusesOutOfRangeValuesNamingTheFlag) {
     expect_refused(run + args, flag, out);
 }
 
+// --speed is the intake rate of anytime pacing: under fixed pacing it did nothing, without a word.
+TEST(CliNumbers, ASpeedUnderFixedPacingIsSaidToChangeNothing) {
+  chungs::test::TempDir dir;
+  const std::string run = "run --dataset synth-street:length=12,width=160,height=48,seed=2 --device cpu --no-eval "
+                          "--iterations 2 --final-iterations 0 --speed 2 --out ";
+  auto r = run_cli(run + (dir / "fixed").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("[warning] --speed 2 sets the intake rate of anytime pacing and changes nothing under fixed"),
+            std::string::npos)
+      << r.out;
+  r = run_cli(run + (dir / "anytime").string() + " --pacing anytime");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("--speed 2 sets the intake rate"), std::string::npos) << r.out;
+}
+
 TEST(CliNumbers, RunRefusesImagesTooSmallToMapBeforeWritingAnything) {
   chungs::test::TempDir dir;
   const auto out = dir / "map";
