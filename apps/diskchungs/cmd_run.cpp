@@ -77,7 +77,7 @@ const Command cmd{
           std::fflush(stdout);
         }
         const StopSignal signal(
-            "\ndiskchungs: stopping at the end of this frame (or refinement step) and committing the map there; "
+            "\ndiskchungs: stopping after the step under way (a frame being added is finished first) and committing the map there; "
             "a run scoring its finished map stops scoring and writes its report without the scores; Ctrl-C again "
             "quits at once, leaving the map as last committed\n");
         o.stop = &signal.stop();

@@ -82,7 +82,7 @@ TEST(CliInterrupt, CtrlCCommitsTheMapWhereTheRunStoodAndResumeFinishesIt) {
   const std::string said = read_all(log);
   ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status) << "\n" << said;
   EXPECT_EQ(WEXITSTATUS(status), 130) << said;
-  EXPECT_NE(said.find("stopping at the end of this frame"), std::string::npos) << said;
+  EXPECT_NE(said.find("stopping after the step under way"), std::string::npos) << said;
   EXPECT_NE(said.find("interrupted at frame "), std::string::npos) << said;
   EXPECT_NE(said.find("with --resume maps the rest"), std::string::npos) << said;
   EXPECT_FALSE(fs::exists(map / "report.json")) << "an interrupted run is not reported as finished";
@@ -100,6 +100,47 @@ TEST(CliInterrupt, CtrlCCommitsTheMapWhereTheRunStoodAndResumeFinishesIt) {
   EXPECT_EQ(done["next_frame"].get<size_t>(), 301u);
   EXPECT_TRUE(done["finished"].get<bool>());
   EXPECT_TRUE(fs::exists(map / "report.json"));
+}
+
+// A keyframe's steps are cut short by a stop: with 10^9 steps a keyframe (fixed pacing) or a floor of 10^9
+// (anytime), Ctrl-C and SIGTERM used to wait for all of them, so the run could only be killed.
+TEST(CliInterrupt, AStopCutsAKeyframesStepsShort) {
+  chungs::test::TempDir dir;
+  const fs::path cfg = dir / "floor.yaml";
+  std::ofstream(cfg) << "mapper: {pacing: anytime, min_steps_per_keyframe: 1000000000}\n";
+  const std::vector<std::vector<std::string>> kinds{{"--iterations", "1000000000"}, {"--config", cfg.string()}};
+  for (size_t k = 0; k < kinds.size(); ++k) {
+    const fs::path map = dir / ("map" + std::to_string(k)), log = dir / ("log" + std::to_string(k) + ".txt");
+    std::vector<std::string> args{"run", "--dataset", "synth-street:length=40,width=64,height=48,seed=2", "--poses",
+                                  "gt", "--device", "cpu", "--no-eval", "--out", map.string()};
+    args.insert(args.end(), kinds[k].begin(), kinds[k].end());
+    const pid_t pid = spawn_cli(args, log);
+    ASSERT_GT(pid, 0);
+    // In the first keyframe's steps once its image is stored.
+    auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+    while (files_in(map / "keyframes") < 1 && std::chrono::steady_clock::now() < give_up)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_GE(files_in(map / "keyframes"), 1u) << read_all(log);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    ASSERT_EQ(kill(pid, SIGTERM), 0);
+    int status = 0;
+    pid_t got = 0;
+    give_up = std::chrono::steady_clock::now() + std::chrono::minutes(2);
+    while ((got = waitpid(pid, &status, WNOHANG)) == 0 && std::chrono::steady_clock::now() < give_up)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (got == 0) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      FAIL() << kinds[k][0] << ": still stepping 2 minutes after SIGTERM\n" << read_all(log);
+    }
+    const std::string said = read_all(log);
+    ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status) << "\n" << said;
+    EXPECT_EQ(WEXITSTATUS(status), 130) << said;
+    EXPECT_NE(said.find("interrupted at frame "), std::string::npos) << said;
+    const auto state = nlohmann::json::parse(read_all(map / "run_state.json"));
+    EXPECT_FALSE(state["finished"].get<bool>());
+    EXPECT_GE(state["next_frame"].get<size_t>(), 1u) << state.dump();  // the first keyframe is in the map
+  }
 }
 
 // Ctrl-C while the finished map is scored: scoring a long drive takes minutes, and the first Ctrl-C

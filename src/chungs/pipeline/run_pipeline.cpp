@@ -321,8 +321,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
     if (entry->has_frame()) {
       bool drop = false;
       if (anytime && !mapper.keyframes().empty()) {
-        // Real time: the latest keyframe gets its floor of steps whatever the intake does ...
-        while (mapper.steps_since_keyframe() < uint64_t(mc.min_steps_per_keyframe)) mapper.step();
+        // Real time: the latest keyframe gets its floor of steps whatever the intake does (a stop cuts
+        // them short: with a floor of 10^9 steps, Ctrl-C and SIGTERM waited for all of them) ...
+        while (mapper.steps_since_keyframe() < uint64_t(mc.min_steps_per_keyframe) && !stop_asked()) mapper.step();
         // ... and a keyframe that a later loaded one supersedes is dropped, not queued behind.
         drop = ahead.later_keyframe_ready();
         // Otherwise the map trains until the frame has arrived and its depth is computed.
@@ -367,7 +368,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
                      " s, added at ", seconds(), " s");
         }
         if (mc.pacing == "fixed")
-          for (int k = 0; k < mc.iterations_per_keyframe; ++k) mapper.step();
+          for (int k = 0; k < mc.iterations_per_keyframe && !stop_asked(); ++k) mapper.step();
       }
     }
     PoseUpdateApplier::Applied applied;
