@@ -124,6 +124,8 @@ TEST(Config, CullingAndKeyframeValuesOutOfRangeAreRefusedNamingTheKey) {
            {"culling: {near: -1}", "t.yaml: culling: near must be"},
            {"culling: {far: .nan}", "culling: far must be"},
            {"culling: {near: 10, far: 1}", "culling: far must be"},
+           {"culling: {far: 1e30}", "culling: far must be at most 1e12 times near"},
+           {"culling: {near: 1e-300}", "culling: far must be at most 1e12 times near"},
            {"culling: {max_distance: 0}", "culling: max_distance must be"},
            {"culling: {cache_translation: .inf}", "culling: cache_translation must be"},
            {"culling: {cache_rotation_rad: -1}", "culling: cache_rotation_rad must be"},
@@ -148,6 +150,7 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
            {"mapper: {refinement_rounds: 0}", "mapper: refinement_rounds must be in [1, 1000], got 0"},
            {"mapper: {refinement_rounds: 1001}", "mapper: refinement_rounds must be in [1, 1000], got 1001"},
            {"mapper: {refinement_min_visit_steps: 0}", "mapper: refinement_min_visit_steps must be in [1, 1000000], got 0"},
+           {"mapper: {max_saved_renders: -1}", "mapper: max_saved_renders must be >= 0, got -1"},
            {"adam: {beta1: 1.5}", "beta1 must be in [0, 1), got 1.5"},
            {"adam: {beta2: -0.5}", "beta2 must be in [0, 1), got -0.5"},
            {"stereo: {num_disparities: 1000}", "num_disparities must be in [16, 256], got 1000"}}) {

@@ -411,6 +411,10 @@ void validate_sections_without_checks(const Config& c) {
     fail("culling: near must be a positive number of metres, got ", k.near);
   if (!(std::isfinite(k.far) && k.far > k.near))
     fail("culling: far must be a finite number of metres beyond near (", k.near, "), got ", k.far);
+  // Beyond that the frustum's far plane is at infinity in double precision: `far: 1e30` failed mid-run
+  // with "degenerate view-projection matrix", naming no key.
+  if (k.far > k.near * 1e12)
+    fail("culling: far must be at most 1e12 times near (", k.near, " m), got ", k.far);
   if (!(k.max_distance > 0)) fail("culling: max_distance must be positive, got ", k.max_distance);
   if (!(std::isfinite(k.cache_translation) && k.cache_translation >= 0))
     fail("culling: cache_translation must be 0 or more, got ", k.cache_translation);

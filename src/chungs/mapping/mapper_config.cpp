@@ -62,6 +62,8 @@ void MapperConfig::validate() const {
   if (!(pose_update_min_translation >= 0) || !(pose_update_min_rotation_deg >= 0))
     fail("mapper: pose update thresholds must be >= 0");
   if (eval_keyframe_stride < 0) fail("mapper: eval_keyframe_stride must be >= 0");
+  // -1 saved nothing, as 0 does, instead of being refused.
+  if (max_saved_renders < 0) fail("mapper: max_saved_renders must be >= 0, got ", max_saved_renders);
 }
 
 }  // namespace chungs
