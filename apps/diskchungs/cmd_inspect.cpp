@@ -1,5 +1,6 @@
-// `diskchungs inspect KIND:PATH`: what a dataset reader makes of a folder, without loading images
-// beyond what opening it needs. --json prints the same as one JSON object.
+// `diskchungs inspect KIND:PATH`: what a dataset reader makes of a folder (or of a synth-street spec, as
+// every other command takes it), without loading images beyond what opening it needs. --json prints
+// the same as one JSON object.
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <memory>
@@ -7,6 +8,7 @@
 
 #include "chungs/datasets/dataset.hpp"
 #include "command.hpp"
+#include "dataset_spec.hpp"
 
 namespace chungs::app {
 namespace {
@@ -17,8 +19,10 @@ struct Options {
 };
 
 int run_inspect(const Options& opt) {
-  auto ds = open_dataset(opt.dataset);
+  auto ds = open_dataset_spec(opt.dataset);
   const DatasetInfo& in = ds->info();
+  // A generated dataset has no folder: the spec it was made from says where it comes from.
+  const std::string path = in.path.empty() ? "generated from " + opt.dataset : in.path.string();
   const Camera& c = in.camera;
   size_t gt_frames = 0;
   for (size_t i = 0; i < ds->size(); ++i) gt_frames += ds->gt_pose(i).has_value();
@@ -35,7 +39,7 @@ int run_inspect(const Options& opt) {
   if (opt.json) {
     nlohmann::json j;
     j["kind"] = in.kind;
-    j["path"] = in.path.string();
+    j["path"] = path;
     j["frames"] = in.frames;
     j["width"] = c.width;
     j["height"] = c.height;
@@ -58,7 +62,7 @@ int run_inspect(const Options& opt) {
   }
   const char* yes_no[] = {"no", "yes"};
   std::printf("kind:            %s\n", in.kind.c_str());
-  std::printf("path:            %s\n", in.path.string().c_str());
+  std::printf("path:            %s\n", path.c_str());
   std::printf("frames:          %zu\n", in.frames);
   std::printf("resolution:      %dx%d %s\n", c.width, c.height, in.color ? "colour" : "gray");
   std::printf("intrinsics:      fx %.4f  fy %.4f  cx %.4f  cy %.4f\n", c.fx, c.fy, c.cx, c.cy);
@@ -88,7 +92,7 @@ int run_inspect(const Options& opt) {
 const Command inspect_cmd("inspect", "what a dataset reader finds in KIND:PATH (kitti, tum, replica, euroc, 3dmatch)",
                           [](CLI::App& app) -> Action {
                             auto opt = std::make_shared<Options>();
-                            app.add_option("dataset", opt->dataset, "KIND:PATH, e.g. kitti:/data/sequences/00")
+                            app.add_option("dataset", opt->dataset, "KIND:PATH, e.g. kitti:/data/sequences/00, or synth-street:key=value,...")
                                 ->required();
                             app.add_flag("--json", opt->json, "print one JSON object");
                             return [opt] { return run_inspect(*opt); };

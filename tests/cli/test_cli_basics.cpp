@@ -38,6 +38,20 @@ TEST(Cli, InspectsRealKitti) {
 
 // 3DMatch's excerpt holds frames 0, 1, 2, 116 and 422: inspect says where frames are missing (the tracker
 // coasts over such a gap), and says nothing of gaps for a sequence without them.
+// inspect took folders only: the synthetic street every other command takes was an "unknown kind".
+TEST(Cli, InspectsTheSyntheticStreetAsOtherCommandsTakeIt) {
+  const std::string spec = "synth-street:length=300,width=160,height=48,seed=1";
+  auto r = run_cli("inspect " + spec);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("kind:            synth-street"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("path:            generated from " + spec), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("frames:          301"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("gt path length:  299.9"), std::string::npos) << r.out;
+  r = run_cli("inspect synth-street:length=30,width=0,height=48");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("image size 0x48 is out of range"), std::string::npos) << r.out;
+}
+
 TEST(Cli, InspectNamesTheLargestGapBetweenFrames) {
   CHUNGS_REQUIRE_DATA("3dmatch_seq01");
   CHUNGS_REQUIRE_DATA("kitti_seq1");
