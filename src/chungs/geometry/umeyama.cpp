@@ -19,18 +19,25 @@ Sim3 umeyama_align(const std::vector<Eigen::Vector3d>& src, const std::vector<Ei
   ms /= double(n);
   md /= double(n);
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  double var_src = 0;
+  double var_src = 0, var_dst = 0;
   for (size_t i = 0; i < n; ++i) {
     Eigen::Vector3d a = src[i] - ms, b = dst[i] - md;
     cov += b * a.transpose();
     var_src += a.squaredNorm();
+    var_dst += b.squaredNorm();
   }
   cov /= double(n);
   var_src /= double(n);
+  var_dst /= double(n);
   if (!(var_src > 1e-20)) fail("alignment: source points are all at one place");
+  if (!(var_dst > 1e-20)) fail("alignment: target points are all at one place");
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Vector3d sv = svd.singularValues();
-  if (!(sv(1) > 1e-12 * std::max(1.0, sv(0)))) fail("alignment: points are collinear, rotation is undetermined");
+  // Points on a line (a straight drive) leave the rotation about that line free, but no point moves
+  // with it: every rotation the SVD may give is optimal and gives the same errors, so it is taken.
+  // Only points that do not vary together at all leave nothing to align.
+  if (!(sv(0) > 1e-12 * std::sqrt(var_src * var_dst)))
+    fail("alignment: the two point sets do not vary together; rotation and scale are undetermined");
   Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
   if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0) S(2, 2) = -1;
   Eigen::Matrix3d R = svd.matrixU() * S * svd.matrixV().transpose();

@@ -8,7 +8,8 @@
 namespace chungs {
 
 // with_scale = false gives the SE3 solution (s = 1). Throws Error with fewer than 3 pairs, unequal
-// sizes, or a degenerate (collinear) configuration.
+// sizes, a set all at one place, or sets that do not vary together. Collinear points (a straight
+// drive) are aligned: the rotation about their line is free and changes no aligned point.
 Sim3 umeyama_align(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst,
                    bool with_scale);
 
