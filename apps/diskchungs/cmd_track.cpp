@@ -53,6 +53,8 @@ void check_flags(const CLI::App& app, const TrackArgs& a) {
 
 int run_track(const TrackArgs& a) {
   auto ds = with_input_mode(open_dataset_spec(a.dataset), parse_input_mode(a.input));
+  // Before tracking, not after it: `--out FILE/x.txt` failed only once every frame was tracked.
+  prepare_output_file(a.out, "trajectory");
   // One camera measures no scale: the map's unit is set at initialisation and ATE aligns with a similarity.
   const bool mono = !ds->info().has_right && !ds->info().has_depth;
   const TrajectoryFormat format = parse_trajectory_format(a.format);

@@ -38,6 +38,23 @@ TEST(Cli, InspectsRealKitti) {
 
 // 3DMatch's excerpt holds frames 0, 1, 2, 116 and 422: inspect says where frames are missing (the tracker
 // coasts over such a gap), and says nothing of gaps for a sequence without them.
+// A trajectory that cannot be written is refused before the tracking, not after every frame of it.
+TEST(Cli, TrackRefusesAnOutputItCannotWriteBeforeTracking) {
+  chungs::test::TempDir dir;
+  std::ofstream(dir / "afile") << "x\n";
+  const std::string street = "track --dataset synth-street:length=30,width=160,height=48 --out ";
+  auto r = run_cli(street + (dir / "afile" / "t.txt").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("t.txt: cannot make the folder " + (dir / "afile").string() + " for the trajectory"),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(r.out.find("tracking:"), std::string::npos) << "it tracked first\n" << r.out;
+  std::filesystem::create_directories(dir / "folder");
+  r = run_cli(street + (dir / "folder").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("folder: is a folder, not a trajectory to write"), std::string::npos) << r.out;
+}
+
 // inspect took folders only: the synthetic street every other command takes was an "unknown kind".
 TEST(Cli, InspectsTheSyntheticStreetAsOtherCommandsTakeIt) {
   const std::string spec = "synth-street:length=300,width=160,height=48,seed=1";

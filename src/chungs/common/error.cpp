@@ -12,6 +12,13 @@ void require_file(const std::filesystem::path& p, const std::string& what) {
     fail(p.string(), ": expected a ", what, ", found a FIFO, socket or device (not a regular file)");
 }
 
+void prepare_output_file(const std::filesystem::path& p, const std::string& what) {
+  std::error_code ec;
+  if (p.has_parent_path() && !std::filesystem::create_directories(p.parent_path(), ec) && ec)
+    fail(p.string(), ": cannot make the folder ", p.parent_path().string(), " for the ", what, ": ", ec.message());
+  if (std::filesystem::is_directory(p, ec)) fail(p.string(), ": is a folder, not a ", what, " to write");
+}
+
 void require_dir(const std::filesystem::path& p, const std::string& what) {
   std::error_code ec;
   if (!std::filesystem::exists(p, ec)) fail(p.string(), ": ", what, " does not exist");

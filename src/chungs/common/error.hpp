@@ -29,5 +29,9 @@ template <typename... Args>
 // Throws "PATH: does not exist" (or "is not a directory") when a required input is missing.
 void require_file(const std::filesystem::path& p, const std::string& what = "file");
 void require_dir(const std::filesystem::path& p, const std::string& what = "folder");
+// Makes the folders an output file goes into; throws naming the file and the folder when they cannot be
+// made (a file where a folder should be) or when the file's path is a folder. Commands call it before
+// their work, so that a bad --out does not cost a run's minutes.
+void prepare_output_file(const std::filesystem::path& p, const std::string& what = "file");
 
 }  // namespace chungs

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <fstream>
 
+#include "chungs/common/error.hpp"
+
 namespace chungs {
 
 using nlohmann::json;
@@ -62,7 +64,7 @@ json to_json(const ImageSetResult& r) {
 }
 
 void write_json(const std::filesystem::path& file, const json& j) {
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+  prepare_output_file(file, "JSON file");
   const std::filesystem::path tmp = file.string() + ".tmp";
   {
     std::ofstream out(tmp);

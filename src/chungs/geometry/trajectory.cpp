@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iomanip>
 
+#include "chungs/common/error.hpp"
 #include "chungs/common/text_file.hpp"
 
 namespace chungs {
@@ -81,7 +82,7 @@ Trajectory read_trajectory(const std::filesystem::path& file, double rate_hz) {
 }
 
 void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& tr, bool monocular) {
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+  prepare_output_file(file, "trajectory");
   std::ofstream out(file);
   if (!out) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
   if (monocular) out << kMonocularTrajectoryComment << '\n';
@@ -96,7 +97,7 @@ void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& t
 }
 
 void write_kitti_trajectory(const std::filesystem::path& file, const Trajectory& tr, bool monocular) {
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+  prepare_output_file(file, "trajectory");
   std::ofstream out(file);
   if (!out) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
   if (monocular) out << kMonocularTrajectoryComment << '\n';

@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "chungs/common/error.hpp"
 #include "chungs/common/text_file.hpp"
 
 namespace chungs {
@@ -214,7 +215,7 @@ Image16 read_png16(const std::filesystem::path& file) {
 namespace {
 
 void prepare_parent(const std::filesystem::path& file) {
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+  prepare_output_file(file, "image");
 }
 
 struct FileCloser {

@@ -54,7 +54,7 @@ bool in_box(const GaussianParams& p, size_t i, const PlySelection& s) {
 // `blocks(add)` calls add(params, i) for every Gaussian in order.
 using AddRow = std::function<void(const GaussianParams&, size_t)>;
 uint64_t write_ply(const std::filesystem::path& file, const std::function<void(const AddRow&)>& blocks) {
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+  prepare_output_file(file, "PLY file");
   std::string head = header(0);  // its length; the text is written over once the count is known
   uint64_t n = 0;
   write_file_atomically(
