@@ -77,6 +77,28 @@ TEST(CliResume, DamagedRunStateValuesAreRefusedNamingTheKey) {
   }
 }
 
+// --resume skipped the check that keeps a new map out of a folder of the user's files: with no map there
+// to resume, `run --out ~/notes --resume` wrote a map among them.
+TEST(CliResume, AFolderOfOtherFilesIsRefusedWithResumeAsWithout) {
+  chungs::test::TempDir dir;
+  const auto folder = dir / "notes";
+  std::filesystem::create_directories(folder);
+  std::ofstream(folder / "a.txt") << "keep";
+  const std::string run = "run --dataset synth-street:length=12,width=64,height=48,seed=2 --poses gt --device cpu "
+                          "--no-eval --out " + folder.string();
+  for (const std::string& more : {"", " --resume"}) {
+    auto r = run_cli(run + more);
+    EXPECT_EQ(r.code, 1) << more << "\n" << r.out;
+    EXPECT_NE(r.out.find("holds files and no map (a.txt)"), std::string::npos) << more << "\n" << r.out;
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(folder)) names.push_back(e.path().filename().string());
+    EXPECT_EQ(names, std::vector<std::string>{"a.txt"}) << more;
+  }
+  // A new or empty folder still takes --resume (a script may always pass it).
+  auto r = run_cli(run.substr(0, run.size() - folder.string().size()) + (dir / "fresh").string() + " --resume");
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
 TEST(CliResume, AnIntactMapStillResumes) {
   chungs::test::TempDir dir;
   const fs::path map = small_map(dir.path());

@@ -42,7 +42,8 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   const bool existing = fs::exists(folder / "manifest.txt") || fs::exists(folder / "keyframes.txt");
   if (existing && !resume)
     fail(folder.string(), " already holds a map: pass --resume to continue it, or choose another folder");
-  if (!existing && !resume) require_folder_for_new_map(folder);
+  // With --resume too: there is no map to resume, so a map would be new among the user's files.
+  if (!existing) require_folder_for_new_map(folder);
   // The map rolls back to the last checkpoint after a crash, so it always matches the keyframe list
   // and run state committed with it (no Gaussians of frames that a resumed run processes again).
   ChunkStoreConfig store_config = config_.store;
