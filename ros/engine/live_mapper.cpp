@@ -5,6 +5,7 @@
 #include "ros/engine/live_mapper.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -69,6 +70,17 @@ class OneFrame : public Dataset {
   DatasetInfo info_;
 };
 
+// Settings::max_queue resolved: a live source under anytime pacing with given poses waits no longer
+// than `run` reads ahead (mapper.frame_lookahead, at least one frame), so the map follows the robot
+// and memory stays bounded; fixed pacing maps every frame, and the tracker needs every frame.
+size_t queue_bound(const Settings& s, const MapperConfig& mc) {
+  if (s.max_queue < -1)
+    fail("max_queue must be -1 (automatic), 0 (no bound) or a count of frames, got ", s.max_queue);
+  if (s.max_queue >= 0) return size_t(s.max_queue);
+  if (mc.pacing != "anytime" || s.track) return 0;
+  return size_t(std::max(mc.frame_lookahead, 1));
+}
+
 }  // namespace
 
 struct LiveMapper::Impl {
@@ -89,7 +101,15 @@ struct LiveMapper::Impl {
   std::thread worker;
   std::string error;
 
-  uint64_t next_frame = 0, dropped = 0, corrected = 0, without_pose = 0;
+  // The next frame's number. Taken with queue_mutex held (a frame taken off the queue, or dropped from
+  // it), read without it by commits: atomic.
+  std::atomic<uint64_t> next_frame{0};
+  uint64_t dropped = 0, corrected = 0, without_pose = 0;
+  size_t queue_bound = 0;  // frames waiting at most, the oldest dropped beyond it (0: no bound)
+  // Steps when the latest keyframe came, and the fewest any earlier keyframe got before its successor
+  // (guarded by map_mutex).
+  uint64_t steps_at_keyframe = 0;
+  std::optional<uint64_t> least_steps;
   std::optional<SE3> last_keyframe;
   size_t since_keyframe = 0;
   double scene_depth = 0;
@@ -106,8 +126,12 @@ struct LiveMapper::Impl {
 
   nlohmann::json state(bool done) const {
     // "track" as `run --poses track`: such a map lies in its first camera's frame (render says so).
-    return {{"dataset", settings.source}, {"poses", settings.track ? "track" : "external"}, {"next_frame", next_frame},
-            {"frames", next_frame},       {"finished", done},    {"seconds", seconds()}};
+    return {{"dataset", settings.source},
+            {"poses", settings.track ? "track" : "external"},
+            {"next_frame", next_frame.load()},
+            {"frames", next_frame.load()},
+            {"finished", done},
+            {"seconds", seconds()}};
   }
 
   // The given-pose run's keyframe rule (pipeline/frame_feed.cpp), on frames as they come.
@@ -130,9 +154,9 @@ struct LiveMapper::Impl {
     return key;
   }
 
-  void map_frame(const LiveFrame& in) {
-    const uint64_t i = next_frame++;
-    if (in.left.width == 0) return;  // skip(): a frame without a pose, counted in order
+  // Maps frame number i; true when it became a keyframe.
+  bool map_frame(const LiveFrame& in, uint64_t i) {
+    if (in.left.width == 0) return false;  // skip(): a frame without a pose, counted in order
     Frame f;
     f.index = i;
     f.timestamp = in.stamp;
@@ -157,7 +181,7 @@ struct LiveMapper::Impl {
       for (const tracking::MapOperation& op : tracker->take_map_operations())
         if (op.kind != tracking::MapOperation::Kind::NewKeyframe) pending.push_back(pose_update_of(op));
     } else {
-      if (held_out) return;
+      if (held_out) return false;
       if (!in.pose) fail(settings.source, " frame ", i, ": no pose");
       pose = to_se3(*in.pose);
       key = is_keyframe(pose);
@@ -171,10 +195,13 @@ struct LiveMapper::Impl {
       }
       if (applied.loop) commit(false, true);
     }
-    if (!key) return;
+    if (!key) return false;
     const MapperConfig& mc = config.mapper;
-    if (mc.pacing == "fixed")
-      for (int k = 0; k < mc.iterations_per_keyframe; ++k) step();
+    // Fixed pacing: its steps. Anytime: the floor, as `run` keeps it; without it a node behind its
+    // intake mapped frame after frame with no step between them, and the map filled with Gaussians
+    // never trained (issue 19's starvation).
+    const int steps = mc.pacing == "fixed" ? mc.iterations_per_keyframe : mc.min_steps_per_keyframe;
+    for (int k = 0; k < steps; ++k) step();
     const double since_checkpoint = std::chrono::duration<double>(Clock::now() - last_checkpoint).count();
     IoStats io;
     {
@@ -185,6 +212,7 @@ struct LiveMapper::Impl {
     if (checkpoint_due(mc, since_checkpoint, keyframes_since_checkpoint,
                        std::chrono::duration<double>(Clock::now() - started).count(), io))
       commit(false, true);
+    return true;
   }
 
   // Loads the keyframe at the mapping resolution with `run`'s depth source and adds it to the map.
@@ -199,6 +227,11 @@ struct LiveMapper::Impl {
     if (m.median_depth > 0 && std::isfinite(m.median_depth)) scene_depth = m.median_depth;
     {
       std::lock_guard lock(map_mutex);
+      // The steps the previous keyframe got before this one came (the floor, or starvation, in numbers).
+      const uint64_t now = mapper->iterations();
+      if (!mapper->keyframes().empty())
+        least_steps = std::min(least_steps.value_or(now - steps_at_keyframe), now - steps_at_keyframe);
+      steps_at_keyframe = now;
       mapper->add_keyframe(i, stamp, m.frame.left, m.depth, m.frame.camera, pose);
       if (updates) updates->added(source_id, mapper->keyframes().back().id);
     }
@@ -217,6 +250,11 @@ struct LiveMapper::Impl {
     last_checkpoint = Clock::now();
   }
 
+  std::string dropped_note() {
+    std::lock_guard lock(queue_mutex);
+    return dropped ? cat(" (", dropped, " dropped: the mapper was behind its intake)") : std::string();
+  }
+
   size_t keyframe_count() {
     std::lock_guard lock(map_mutex);
     return mapper->keyframes().size();
@@ -227,6 +265,7 @@ struct LiveMapper::Impl {
     try {
       while (true) {
         std::optional<LiveFrame> frame;
+        uint64_t index = 0;
         {
           std::unique_lock lock(queue_mutex);
           // Anytime pacing trains while no frame waits; fixed pacing trains only per keyframe.
@@ -235,12 +274,13 @@ struct LiveMapper::Impl {
           if (!queue.empty()) {
             frame = std::move(queue.front());
             queue.pop_front();
+            index = next_frame++;
           } else if (finishing) {
             break;
           }
         }
         if (frame) {
-          map_frame(*frame);
+          map_frame(*frame, index);
         } else if (has_keyframes()) {
           step();
         } else {
@@ -255,7 +295,8 @@ struct LiveMapper::Impl {
           // (roslaunch: SIGTERM 15 s after SIGINT): every frame mapped is committed before it starts,
           // so such a kill costs the refinement only. Whoever stopped the node sees why it still runs.
           commit(false, false);
-          log::info("refining the map: ", steps, " steps over ", keyframes, " keyframes (every frame is committed)");
+          log::info("refining the map: ", steps, " steps over ", keyframes,
+                    " keyframes (every frame is committed)");
         }
         {
           // The node's queries get their turns between steps, as during mapping.
@@ -267,7 +308,8 @@ struct LiveMapper::Impl {
         }
         commit(true, false);
         log::info("map ", settings.out, ": ", mapper->total_gaussians(), " Gaussians, ",
-                  mapper->keyframes().size(), " keyframes from ", next_frame, " frames");
+                  mapper->keyframes().size(), " keyframes from ", next_frame.load(), " frames",
+                  dropped_note());
       } else {
         log::warn("map ", settings.out, ": no keyframe arrived; nothing was mapped");
       }
@@ -288,6 +330,7 @@ LiveMapper::LiveMapper(const Settings& s) : impl_(std::make_unique<Impl>()) {
   if (!s.config_yaml.empty()) m.config = config_from_yaml(s.config_yaml, "ROS parameters", m.config);
   m.config.mapper.device = s.device;
   m.config.mapper.validate();
+  m.queue_bound = queue_bound(s, m.config.mapper);  // before the folder is made: a bad value leaves none
   resolve_device(m.config.mapper.device);
   m.mapper = std::make_unique<Mapper>(s.out, m.config, s.resume);
   if (s.track) {
@@ -317,10 +360,12 @@ void LiveMapper::push(LiveFrame frame) {
   {
     std::lock_guard lock(m.queue_mutex);
     if (m.finishing) return;
-    if (m.settings.max_queue > 0 && m.queue.size() >= m.settings.max_queue) {
+    if (m.queue_bound > 0 && m.queue.size() >= m.queue_bound) {
       m.queue.pop_front();
-      ++m.dropped;
       ++m.next_frame;  // the dropped frame keeps its index: held-out frames stay where they were
+      if (m.dropped++ == 0)
+        log::warn("the mapper is behind its intake: frames beyond the ", m.queue_bound,
+                  " waiting are dropped, the oldest first (~max_queue; the status counts them)");
     }
     m.queue.push_back(std::move(frame));
   }
@@ -432,6 +477,7 @@ Status LiveMapper::status() {
   s.budget = mp.budget();
   s.chunks = mp.chunk_count();
   s.io_wait_ms = mp.optimiser_io_wait_ms();
+  s.least_steps_per_keyframe = m.least_steps ? int64_t(*m.least_steps) : -1;
   s.seconds = m.seconds();
   const double dt = std::chrono::duration<double>(Clock::now() - m.rate_at).count();
   if (dt >= 1.0) {

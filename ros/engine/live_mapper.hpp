@@ -2,6 +2,7 @@
 // structs: the node is C++17 (ROS 1 headers), the library C++20, and this header is all they share.
 // One thread maps; the node's callbacks only queue frames and ask for renders, clouds and status.
 #pragma once
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -18,8 +19,10 @@ struct Settings {
   std::string config_yaml;        // mapper settings as YAML, the keys of `diskchungs info --config`
   std::string device = "auto";    // auto | cuda | cpu, as `diskchungs run --device`
   std::string source = "ros";     // names the input in the map's run state
-  size_t max_queue = 0;           // frames waiting to be mapped at most (0: no limit); the oldest go first
-  bool track = false;             // poses from the project's visual tracker (as `run --poses track`)
+  // Frames waiting to be mapped at most, the oldest dropped first; 0: no bound; -1: automatic (anytime
+  // pacing with given poses: mapper.frame_lookahead, at least 1; fixed pacing or the tracker: no bound).
+  long max_queue = -1;
+  bool track = false;  // poses from the project's visual tracker (as `run --poses track`)
 };
 
 struct LiveFrame {
@@ -37,6 +40,9 @@ struct Status {
   uint64_t queued = 0, dropped = 0, corrected = 0;  // corrected: keyframes moved by correct()
   uint64_t without_pose = 0;                        // frames skip() counted
   double io_wait_ms = 0, steps_per_s = 0, seconds = 0;
+  // The fewest steps a keyframe got before the next one came (-1 until a second keyframe): under anytime
+  // pacing at least mapper.min_steps_per_keyframe.
+  int64_t least_steps_per_keyframe = -1;
   std::string error;  // the mapping thread's failure, if it stopped on one
 };
 

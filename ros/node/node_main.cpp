@@ -62,9 +62,9 @@ class Node {
     pnh_.param("resume", s.resume, false);
     pnh_.param<std::string>("device", s.device, "auto");
     pnh_.param<std::string>("preset", s.preset, mode_ == "stereo" ? "outdoor" : "indoor");
-    int max_queue = 0;
-    pnh_.param("max_queue", max_queue, 0);
-    s.max_queue = size_t(std::max(0, max_queue));
+    int max_queue = -1;  // a negative count other than -1 is refused by the engine, not clamped
+    pnh_.param("max_queue", max_queue, -1);
+    s.max_queue = max_queue;
     s.config_yaml = settings_yaml(pnh_);
     std::string pose_source;
     pnh_.param<std::string>("pose_source", pose_source, "tf");
@@ -345,7 +345,8 @@ class Node {
        << ", \"resident\": " << s.resident << ", \"budget\": " << s.budget << ", \"chunks\": " << s.chunks
        << ", \"queued\": " << s.queued << ", \"dropped\": " << s.dropped << ", \"corrected\": " << s.corrected
        << ", \"without_pose\": " << s.without_pose << ", \"io_wait_ms\": " << s.io_wait_ms
-       << ", \"steps_per_s\": " << s.steps_per_s << ", \"seconds\": " << s.seconds << ", \"error\": \"";
+       << ", \"steps_per_s\": " << s.steps_per_s << ", \"least_steps_per_keyframe\": " << s.least_steps_per_keyframe
+       << ", \"seconds\": " << s.seconds << ", \"error\": \"";
     for (char c : s.error) {
       if (c == '"' || c == '\\') os << '\\';
       os << (c == '\n' ? ' ' : c);

@@ -125,13 +125,22 @@ def wait_service(service, process, log, seconds=120):
     fail(f"{service} did not appear within {seconds} s; log {log.name}: {open(log.name).read()[-2000:]}")
 
 
-def wait_for(predicate, seconds, what):
+def wait_for(predicate, seconds, what, process=None, log=None):
+    """Until predicate() holds. With the roslaunch process and its log: a launch that ended (the node is
+    required, so its death ends roslaunch) fails at once, and every failure shows the log's end, where a
+    crash or a stuck node says what happened (a bare timeout told nothing)."""
+    def log_tail():
+        return f"; log {log.name}: {open(log.name, errors='replace').read()[-3000:]}" if log else ""
     deadline = time.time() + seconds
     while time.time() < deadline:
         if predicate():
             return
+        if process is not None and process.poll() is not None:
+            if predicate():  # it came true as the launch ended
+                return
+            fail(f"roslaunch exited ({process.returncode}) while waiting for {what}{log_tail()}")
         time.sleep(0.2)
-    fail(f"timed out after {seconds} s waiting for {what}")
+    fail(f"timed out after {seconds} s waiting for {what}{log_tail()}")
 
 
 def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, preset, topics, extra=(), resume=True,
@@ -169,12 +178,12 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
         fail(f"rosbag play: {play.stderr[-1000:]}")
     # Generous: on a loaded 2-core machine (ctest -j 2 beside other tests) mapping is many times slower.
     wait_for(lambda: got["status"] and got["status"]["frames"] >= frames and got["status"]["queued"] == 0, 600,
-             f"{name}: the node to map all {frames} frames (status {got['status']})")
+             f"{name}: the node to map all {frames} frames (status {got['status']})", node, log)
     if got["status"].get("without_pose"):
         fail(f"{name}: {got['status']['without_pose']} frames had no pose")
     wait_for(lambda: got["render"] > 0 and got["cloud_points"] > 0, 60,
              f"{name}: a render and a non-empty point cloud (got {got['render']} renders, "
-             f"{got['cloud_points']} points)")
+             f"{got['cloud_points']} points)", node, log)
     ply = os.path.join(tmp, name + "_export.ply")
     rospy.set_param("/diskchungs/export_path", ply)
     res = rospy.ServiceProxy("/diskchungs/export", Trigger)()
@@ -278,7 +287,7 @@ def check_resume(ros, launch_file, out, settings, extra, name, cli, tmp):
     status = {}
     sub = rospy.Subscriber("/diskchungs/status", String, lambda m: status.update(json.loads(m.data)))
     pub = rospy.Publisher("/corrections", Path, queue_size=1, latch=True)
-    wait_for(lambda: pub.get_num_connections() > 0, 30, "the node to subscribe /corrections")
+    wait_for(lambda: pub.get_num_connections() > 0, 30, "the node to subscribe /corrections", again, log2)
     path = Path()
     path.header.frame_id = "world"
     for stamp, v in before:
@@ -289,7 +298,7 @@ def check_resume(ros, launch_file, out, settings, extra, name, cli, tmp):
         path.poses.append(p)
     pub.publish(path)
     wait_for(lambda: status.get("corrected", 0) >= len(before), 60,
-             f"{name}: the correction of {len(before)} keyframes (status {status})")
+             f"{name}: the correction of {len(before)} keyframes (status {status})", again, log2)
     sub.unregister()
     pub.unregister()
     rospy.ServiceProxy("/diskchungs/stop", Trigger)()
@@ -361,10 +370,10 @@ def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
     if play.returncode != 0:
         fail(f"rosbag play: {play.stderr[-1000:]}")
     wait_for(lambda: status.get("frames", 0) >= frames and status.get("queued") == 0, 600,
-             f"refining: the node to map all {frames} frames (status {status})")
+             f"refining: the node to map all {frames} frames (status {status})", node, log)
     sub.unregister()
     os.killpg(node.pid, signal.SIGINT)
-    wait_for(lambda: "refining the map" in open(log.name).read(), 120, "the node to start refining")
+    wait_for(lambda: "refining the map" in open(log.name).read(), 120, "the node to start refining", node, log)
     # roslaunch starts the node in a session of its own: killing roslaunch's group would leave it refining.
     nodes = [pid for pid in child_pids(node.pid) if "diskchungs_node" in cmdline(pid)]
     if not nodes:
@@ -381,6 +390,53 @@ def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
              f"{state.get('finished')}; expected all {frames} frames, unfinished")
     print(f"killed while refining: the committed map holds all {frames} frames, "
           f"{len(keyframe_poses(out))} keyframes")
+
+
+def check_anytime_behind(ros, tmp, bag, frames, topics):
+    """Anytime pacing, as the launch files set it, fed faster than the node maps (the bag at 20 times its
+    rate): the node keeps a bounded queue (mapper.frame_lookahead frames, 4), drops the oldest and counts
+    them, and every keyframe still gets the floor of steps (mapper.min_steps_per_keyframe) before the next
+    frame is taken. Before, its queue had no bound and a node behind its intake mapped frame after frame
+    with no step between them."""
+    import rospy
+    from std_msgs.msg import String
+    settings = os.path.join(tmp, "behind_settings.yaml")
+    floor = 10
+    with open(settings, "w") as f:
+        json.dump({"mapper": dict(MAPPER["mapper"], pacing="anytime", min_steps_per_keyframe=floor, frame_lookahead=4),
+                   "device": "cpu", "tf_timeout": 5.0}, f)
+    out = os.path.join(tmp, "behind_node_map")
+    node, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), out, settings)
+    seen = []
+    sub = rospy.Subscriber("/diskchungs/status", String, lambda m: seen.append(json.loads(m.data)))
+    wait_service("/diskchungs/stop", node, log)
+    play = subprocess.run(["rosbag", "play", "--quiet", "--wait-for-subscribers", "--delay", "0.5", "-r", "20", bag,
+                           "--topics"] + list(topics), env=ros.env, capture_output=True, text=True, timeout=300)
+    if play.returncode != 0:
+        fail(f"rosbag play: {play.stderr[-1000:]}")
+    wait_for(lambda: seen and seen[-1]["frames"] >= frames and seen[-1]["queued"] == 0, 600,
+             f"behind its intake: the node to take all {frames} frames (status {seen[-1] if seen else None})",
+             node, log)
+    last = seen[-1]
+    sub.unregister()
+    most_queued = max(st["queued"] for st in seen)
+    if most_queued > 4:
+        fail(f"behind its intake: {most_queued} frames waited, beyond the bound of 4")
+    if last["dropped"] == 0:
+        fail(f"behind its intake: no frame was dropped at 20 times the bag's rate (status {last})")
+    if last["keyframes"] < 2 or last["least_steps_per_keyframe"] < floor:
+        fail(f"behind its intake: a keyframe got {last['least_steps_per_keyframe']} steps before the next came, "
+             f"below the floor of {floor} (status {last})")
+    os.killpg(node.pid, signal.SIGINT)
+    try:
+        node.wait(timeout=300)
+    except subprocess.TimeoutExpired:
+        fail("behind its intake: the node did not exit within 300 s of SIGINT")
+    text = open(log.name).read()
+    if "map committed" not in text or "frames beyond the 4 waiting are dropped" not in text:
+        fail(f"behind its intake: no committed map or no word of the dropped frames; log {log.name}: {text[-2000:]}")
+    print(f"behind its intake: {last['dropped']} of {frames} frames dropped, at most {most_queued} waiting, "
+          f"{last['keyframes']} keyframes, each {last['least_steps_per_keyframe']} steps or more before the next (floor {floor})")
 
 
 def check_camera_info_after_images(ros, tmp, bag, frames):
@@ -406,7 +462,8 @@ def check_camera_info_after_images(ros, tmp, bag, frames):
                           env=ros.env, capture_output=True, text=True, timeout=300)
     if play.returncode != 0:
         fail(f"rosbag play: {play.stderr[-1000:]}")
-    wait_for(lambda: "waiting for camera_info" in open(log.name).read(), 60, "the node to hold frames for camera_info")
+    wait_for(lambda: "waiting for camera_info" in open(log.name).read(), 60, "the node to hold frames for camera_info",
+             node, log)
     time.sleep(1.0)  # the last images' callbacks
     if status.get("frames", 0) != 0:
         fail(f"late camera_info: frames were mapped without it (status {status})")
@@ -415,7 +472,7 @@ def check_camera_info_after_images(ros, tmp, bag, frames):
     pub = rospy.Publisher(info_topic, CameraInfo, queue_size=1, latch=True)
     pub.publish(info)
     wait_for(lambda: status.get("frames", 0) >= frames and status.get("queued") == 0, 600,
-             f"late camera_info: the node to map the {frames} frames it held (status {status})")
+             f"late camera_info: the node to map the {frames} frames it held (status {status})", node, log)
     sub.unregister()
     os.killpg(node.pid, signal.SIGINT)
     try:
@@ -467,6 +524,21 @@ def main():
         print("unknown setting: refused (" + next(l for l in text.splitlines() if "error:" in l).strip() + ")")
         # Parameters outlive a launch on the master: the next node must not inherit the bad one.
         subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
+        # A negative queue bound is refused by name, not taken as "no bound" (it was clamped to 0).
+        with open(bad, "w") as f:
+            json.dump({"max_queue": -5}, f)
+        p, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), os.path.join(tmp, "bad_queue_map"), bad)
+        try:
+            p.wait(timeout=120)
+        except subprocess.TimeoutExpired:
+            fail("the node kept running on max_queue -5")
+        text = open(log.name).read()
+        if "max_queue must be -1 (automatic), 0 (no bound) or a count of frames, got -5" not in text:
+            fail(f"max_queue -5 was not refused by name; log {log.name}: {text[-1500:]}")
+        if os.path.exists(os.path.join(tmp, "bad_queue_map")):
+            fail("max_queue -5 was refused, but only after the map folder was made")
+        print("max_queue -5: refused")
+        subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
 
         bag = os.path.join(tmp, "kitti.bag")
         subprocess.run([a.to_bag, "kitti:" + kitti, bag, "--max-frames", str(a.frames)], check=True,
@@ -479,6 +551,7 @@ def main():
                   a.frames, "outdoor", stereo + tf)
         check_killed_while_refining(ros, tmp, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag, a.frames,
                                     stereo + tf)
+        check_anytime_behind(ros, tmp, bag, a.frames, stereo + tf)
 
         room = os.path.join(tmp, "room")
         subprocess.run([a.cli, "synth", "room", "--out", room, "--frames", "30", "--width", "320", "--height", "240"],
