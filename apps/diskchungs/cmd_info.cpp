@@ -1,7 +1,7 @@
 // `diskchungs info`: version, build options, CUDA devices, and (--config) every config default.
 #include <cstdio>
 
-#include "allocator.hpp"
+#include "chungs/common/process_defaults.hpp"
 #include "chungs/config/config.hpp"
 #include "command.hpp"
 #ifdef CHUNGS_WITH_CUDA

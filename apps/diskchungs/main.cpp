@@ -7,8 +7,8 @@
 #include <new>
 #include <string>
 
-#include "allocator.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/common/process_defaults.hpp"
 #include "command.hpp"
 #include "whole_number_flags.hpp"
 
@@ -60,11 +60,8 @@ void report_out_of_memory_as_error(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   using namespace chungs;
-  app::limit_allocator_arenas();
+  set_process_defaults();
   app::report_out_of_memory_as_error(argc, argv);
-  // Nothing here uses OpenCL; left on, OpenCV probes the platform at its first call, which cost the
-  // tracker's first frame 30-280 ms on a GPU host (bench/README.md). The environment may still say.
-  setenv("OPENCV_OPENCL_DEVICE", "disabled", 0);
   CLI::App cli{"DiskChunGS: Gaussian-splatting SLAM with out-of-core chunked maps"};
   cli.require_subcommand(1);
   bool quiet = false, verbose = false;

@@ -16,6 +16,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/common/process_defaults.hpp"
 #include "chungs/config/config.hpp"
 #include "chungs/config/presets.hpp"
 #include "chungs/datasets/rosbag_images.hpp"
@@ -320,6 +321,11 @@ struct LiveMapper::Impl {
     }
   }
 };
+
+std::string set_process_defaults() {
+  chungs::set_process_defaults();
+  return allocator_description();
+}
 
 LiveMapper::LiveMapper(const Settings& s) : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;

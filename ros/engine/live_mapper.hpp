@@ -46,6 +46,11 @@ struct Status {
   std::string error;  // the mapping thread's failure, if it stopped on one
 };
 
+// The process settings `diskchungs` starts with (one malloc arena, so that host memory stays flat over
+// a long drive; OpenCV off OpenCL): call first in main(), before any thread. Returns the allocator's
+// description for the node's start line.
+std::string set_process_defaults();
+
 class LiveMapper {
  public:
   explicit LiveMapper(const Settings& settings);  // throws chungs::Error for bad settings or folder

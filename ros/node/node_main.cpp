@@ -387,9 +387,11 @@ class Node {
 }  // namespace chungs::ros_node
 
 int main(int argc, char** argv) {
+  const std::string allocator = chungs::live::set_process_defaults();
   ros::init(argc, argv, "diskchungs");
   try {
     chungs::ros_node::Node node;
+    ROS_INFO("diskchungs: %s", allocator.c_str());  // one arena unless MALLOC_ARENA_MAX or GLIBC_TUNABLES say
     ros::AsyncSpinner side(1, node.side_queue());
     side.start();
     while (ros::ok() && !node.stop_requested())

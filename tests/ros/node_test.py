@@ -213,6 +213,9 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
     text = open(log.name).read()
     if "map committed" not in text or "has died" in text:
         fail(f"{name}: the node did not exit cleanly; log {log.name}: {text[-2000:]}")
+    # The node starts as `diskchungs` does: one malloc arena, so host memory stays flat on a long drive.
+    if "diskchungs: glibc malloc, 1 arena" not in text:
+        fail(f"{name}: the node did not say it runs on one malloc arena; log {log.name}: {text[:2000]}")
     with open(os.path.join(out, "run_state.json")) as f:
         state = json.load(f)
     if not state.get("finished") or state.get("next_frame") != frames:

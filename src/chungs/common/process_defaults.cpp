@@ -8,22 +8,26 @@
 // (common/heap.hpp). 10 km drive on an H100: +3.8 % / -0.0 % around the plateau once the budget was
 // reached, no slower (bench/README.md). MALLOC_ARENA_MAX or GLIBC_TUNABLES in the environment still
 // decide where set.
-#include "allocator.hpp"
+//
+// OpenCV: nothing here uses OpenCL; left on, OpenCV probes the platform at its first call, which cost
+// the tracker's first frame 30-280 ms on a GPU host (bench/README.md). The environment may still say.
+#include "chungs/common/process_defaults.hpp"
 
 #include <malloc.h>
 
 #include <cstdlib>
 
-namespace chungs::app {
+namespace chungs {
 
 namespace {
 constexpr int kArenas = 1;
 bool g_limited = false;
 }  // namespace
 
-void limit_allocator_arenas() {
-  if (std::getenv("MALLOC_ARENA_MAX") || std::getenv("GLIBC_TUNABLES")) return;
-  g_limited = mallopt(M_ARENA_MAX, kArenas) == 1;
+void set_process_defaults() {
+  if (!std::getenv("MALLOC_ARENA_MAX") && !std::getenv("GLIBC_TUNABLES"))
+    g_limited = mallopt(M_ARENA_MAX, kArenas) == 1;
+  setenv("OPENCV_OPENCL_DEVICE", "disabled", 0);
 }
 
 std::string allocator_description() {
@@ -34,4 +38,4 @@ std::string allocator_description() {
   return "glibc malloc";
 }
 
-}  // namespace chungs::app
+}  // namespace chungs
