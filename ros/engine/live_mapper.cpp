@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/heap.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/common/process_defaults.hpp"
 #include "chungs/config/config.hpp"
@@ -339,6 +340,13 @@ LiveMapper::LiveMapper(const Settings& s) : impl_(std::make_unique<Impl>()) {
   m.queue_bound = queue_bound(s, m.config.mapper);  // before the folder is made: a bad value leaves none
   resolve_device(m.config.mapper.device);
   m.mapper = std::make_unique<Mapper>(s.out, m.config, s.resume);
+  // A live source has no end, so its map can always outgrow the budget: the memory for chunks in flight
+  // is made resident now, as `run` does for a dataset that can (pipeline/run_pipeline.cpp), and the heap
+  // keeps what it frees, so host memory stays level once the budget is full instead of rising each time
+  // a queue reaches a new high.
+  keep_heap_for_reuse(0);
+  m.mapper->in_flight_blocks().make_resident();
+  log::info("chunks in flight: ", m.mapper->in_flight_blocks().capacity_bytes() >> 20, " MB made resident");
   if (s.track) {
     // The tracker's own map is not kept in the folder: a resumed run could not continue its poses.
     if (s.resume) fail(s.out, ": resume continues maps made on the robot's poses only, not on the tracker's");

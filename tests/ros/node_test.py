@@ -15,6 +15,7 @@ Needs Debian's python3 (rospy, rosbag). Exit 77 (skipped) when the shared data i
 import argparse
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -216,6 +217,9 @@ def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, pre
     # The node starts as `diskchungs` does: one malloc arena, so host memory stays flat on a long drive.
     if "diskchungs: glibc malloc, 1 arena" not in text:
         fail(f"{name}: the node did not say it runs on one malloc arena; log {log.name}: {text[:2000]}")
+    # ... and, its map able to outgrow any budget, with the memory for chunks in flight resident from the start.
+    if not re.search(r"chunks in flight: [1-9][0-9]* MB made resident", text):
+        fail(f"{name}: the node did not make its chunks in flight resident; log {log.name}: {text[:2000]}")
     with open(os.path.join(out, "run_state.json")) as f:
         state = json.load(f)
     if not state.get("finished") or state.get("next_frame") != frames:
