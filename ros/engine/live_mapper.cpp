@@ -83,6 +83,32 @@ size_t queue_bound(const Settings& s, const MapperConfig& mc) {
   return size_t(std::max(mc.frame_lookahead, 1));
 }
 
+// A lock granted in the order it was asked for. The mapping thread takes the map's lock for one step
+// at a time and, under anytime pacing, asks again at once: with std::mutex it won again and again, so
+// the node's status, renders and clouds waited seconds (a test saw no status for minutes), and so did
+// its shutdown, which waits for them (roslaunch's SIGTERM 15 s after Ctrl-C then lost the map since
+// its last commit). Here a query waits for one step at most.
+class TurnLock {
+ public:
+  void lock() {
+    std::unique_lock l(m_);
+    const uint64_t ticket = next_++;
+    cv_.wait(l, [&] { return serving_ == ticket; });
+  }
+  void unlock() {
+    {
+      std::lock_guard l(m_);
+      ++serving_;
+    }
+    cv_.notify_all();
+  }
+
+ private:
+  std::mutex m_;
+  std::condition_variable cv_;
+  uint64_t next_ = 0, serving_ = 0;
+};
+
 }  // namespace
 
 struct LiveMapper::Impl {
@@ -93,14 +119,20 @@ struct LiveMapper::Impl {
   // bundle adjustment and loop closures reach the map as in `run --poses track`.
   std::unique_ptr<tracking::VisualTracker> tracker;
   std::unique_ptr<PoseUpdateApplier> updates;
-  std::mutex
-      map_mutex;  // the mapper is single-threaded: the mapping thread and the node's queries take turns
+  // The mapper is single-threaded: the mapping thread and the node's queries take turns, in the order
+  // they asked.
+  TurnLock map_mutex;
 
   std::mutex queue_mutex;
   std::condition_variable queue_cv;
   std::deque<LiveFrame> queue;
   bool finishing = false, finished = false;
   std::thread worker;
+  // Settings::track: the tracker's own thread tracks every frame as it comes and hands each frame's
+  // result to the mapping thread through `decided` (guarded by queue_mutex, as the flags below), so a
+  // mapper behind its intake drops keyframes, as `run` does, instead of the tracker losing frames.
+  std::thread tracking;
+  bool being_tracked = false, tracking_done = false, failed = false;
   std::string error;
 
   // The next frame's number. Taken with queue_mutex held (a frame taken off the queue, or dropped from
@@ -156,9 +188,23 @@ struct LiveMapper::Impl {
     return key;
   }
 
-  // Maps frame number i; true when it became a keyframe.
-  bool map_frame(const LiveFrame& in, uint64_t i) {
-    if (in.left.width == 0) return false;  // skip(): a frame without a pose, counted in order
+  // A frame's pose (given, or the tracker's), whether it becomes a keyframe, and the tracker's pose
+  // updates that came with it.
+  struct Decided {
+    Frame frame;
+    uint64_t index = 0;
+    double stamp = 0;
+    SE3 pose;
+    bool key = false;
+    long source_id = 0;
+    std::vector<PoseUpdate> pending;
+  };
+  std::deque<Decided> decided;
+
+  // Stage one (the tracker's thread with Settings::track, else the mapping thread): frame number i's
+  // pose and role. None for a frame that has no part in the map (no pose, held out).
+  std::optional<Decided> decide(const LiveFrame& in, uint64_t i) {
+    if (in.left.width == 0) return std::nullopt;  // skip(): a frame without a pose, counted in order
     Frame f;
     f.index = i;
     f.timestamp = in.stamp;
@@ -183,21 +229,29 @@ struct LiveMapper::Impl {
       for (const tracking::MapOperation& op : tracker->take_map_operations())
         if (op.kind != tracking::MapOperation::Kind::NewKeyframe) pending.push_back(pose_update_of(op));
     } else {
-      if (held_out) return false;
+      if (held_out) return std::nullopt;
       if (!in.pose) fail(settings.source, " frame ", i, ": no pose");
       pose = to_se3(*in.pose);
       key = is_keyframe(pose);
     }
-    if (key) add_keyframe(std::move(f), i, in.stamp, pose, source_id);
-    if (!pending.empty()) {
+    return Decided{std::move(f), i, in.stamp, pose, key, source_id, std::move(pending)};
+  }
+
+  // Stage two (the mapping thread): the keyframe into the map unless `drop` (a later one supersedes
+  // it), then the tracker's pose updates in order, whatever became of the keyframe. True when a
+  // keyframe was added.
+  bool map_decided(Decided d, bool drop) {
+    const bool add = d.key && !drop;
+    if (add) add_keyframe(std::move(d.frame), d.index, d.stamp, d.pose, d.source_id);
+    if (!d.pending.empty()) {
       PoseUpdateApplier::Applied applied;
       {
         std::lock_guard lock(map_mutex);
-        applied = updates->apply(pending);
+        applied = updates->apply(d.pending);
       }
       if (applied.loop) commit(false, true);
     }
-    if (!key) return false;
+    if (!add) return false;
     const MapperConfig& mc = config.mapper;
     // Fixed pacing: its steps. Anytime: the floor, as `run` keeps it; without it a node behind its
     // intake mapped frame after frame with no step between them, and the map filled with Gaussians
@@ -263,31 +317,102 @@ struct LiveMapper::Impl {
   }
   bool has_keyframes() { return keyframe_count() > 0; }
 
-  void run() {
+  // The tracker's thread (Settings::track): every frame in order, never waiting for the mapper.
+  void track_frames() {
     try {
       while (true) {
         std::optional<LiveFrame> frame;
         uint64_t index = 0;
         {
           std::unique_lock lock(queue_mutex);
+          queue_cv.wait(lock, [&] { return !queue.empty() || finishing || failed; });
+          if (failed || queue.empty()) break;
+          frame = std::move(queue.front());
+          queue.pop_front();
+          index = next_frame++;
+          being_tracked = true;
+        }
+        std::optional<Decided> d = decide(*frame, index);
+        {
+          std::lock_guard lock(queue_mutex);
+          being_tracked = false;
+          if (d) decided.push_back(std::move(*d));
+        }
+        queue_cv.notify_all();
+      }
+    } catch (const std::exception& e) {
+      std::lock_guard lock(queue_mutex);
+      error = e.what();
+      failed = true;
+      log::error("tracking stopped: ", e.what());
+    }
+    {
+      std::lock_guard lock(queue_mutex);
+      tracking_done = true;
+    }
+    queue_cv.notify_all();
+  }
+
+  void note_dropped_keyframe() {
+    std::lock_guard lock(queue_mutex);
+    if (dropped++ == 0)
+      log::warn(
+          "the mapper is behind the tracker: a keyframe that a later one supersedes is dropped, as in "
+          "`run` (the status counts them)");
+  }
+
+  void run() {
+    try {
+      const bool anytime = config.mapper.pacing == "anytime";
+      while (true) {
+        std::optional<LiveFrame> frame;
+        std::optional<Decided> tracked;
+        uint64_t index = 0;
+        bool drop = false;
+        {
+          std::unique_lock lock(queue_mutex);
           // Anytime pacing trains while no frame waits; fixed pacing trains only per keyframe.
-          const bool idle_training = config.mapper.pacing == "anytime";
-          if (!idle_training) queue_cv.wait(lock, [&] { return !queue.empty() || finishing; });
-          if (!queue.empty()) {
-            frame = std::move(queue.front());
-            queue.pop_front();
-            index = next_frame++;
-          } else if (finishing) {
-            break;
+          if (tracker) {
+            if (!anytime) queue_cv.wait(lock, [&] { return !decided.empty() || tracking_done; });
+            if (!decided.empty()) {
+              tracked = std::move(decided.front());
+              decided.pop_front();
+              drop = anytime && tracked->key &&
+                     std::any_of(decided.begin(), decided.end(), [](const Decided& d) { return d.key; });
+            } else if (tracking_done) {
+              break;
+            }
+          } else {
+            if (!anytime) queue_cv.wait(lock, [&] { return !queue.empty() || finishing; });
+            if (!queue.empty()) {
+              frame = std::move(queue.front());
+              queue.pop_front();
+              index = next_frame++;
+            } else if (finishing) {
+              break;
+            }
           }
         }
-        if (frame) {
-          map_frame(*frame, index);
+        if (tracked) {
+          if (drop) note_dropped_keyframe();
+          map_decided(std::move(*tracked), drop);
+        } else if (frame) {
+          if (std::optional<Decided> d = decide(*frame, index)) map_decided(std::move(*d), false);
         } else if (has_keyframes()) {
           step();
         } else {
           std::this_thread::sleep_for(std::chrono::milliseconds(5));
         }
+      }
+      bool tracking_failed = false;
+      {
+        std::lock_guard lock(queue_mutex);
+        tracking_failed = failed;
+      }
+      if (tracking_failed) {
+        // The error is the status's; what was mapped is kept, unfinished.
+        if (has_keyframes()) commit(false, false);
+        return;
       }
       if (has_keyframes()) {
         const size_t keyframes = keyframe_count();
@@ -316,8 +441,12 @@ struct LiveMapper::Impl {
         log::warn("map ", settings.out, ": no keyframe arrived; nothing was mapped");
       }
     } catch (const std::exception& e) {
-      std::lock_guard lock(queue_mutex);
-      error = e.what();
+      {
+        std::lock_guard lock(queue_mutex);
+        error = e.what();
+        failed = true;  // the tracker's thread stops too
+      }
+      queue_cv.notify_all();
       log::error("mapping stopped: ", e.what());
     }
   }
@@ -359,6 +488,7 @@ LiveMapper::LiveMapper(const Settings& s) : impl_(std::make_unique<Impl>()) {
     if (!m.mapper->keyframes().empty()) m.last_keyframe = m.mapper->keyframes().back().pose;
   }
   m.worker = std::thread([&m] { m.run(); });
+  if (m.tracker) m.tracking = std::thread([&m] { m.track_frames(); });
 }
 
 LiveMapper::~LiveMapper() {
@@ -475,7 +605,7 @@ Status LiveMapper::status() {
   Status s;
   {
     std::lock_guard lock(m.queue_mutex);
-    s.queued = m.queue.size();
+    s.queued = m.queue.size() + m.decided.size() + (m.being_tracked ? 1 : 0);
     s.dropped = m.dropped;
     s.without_pose = m.without_pose;
     s.error = m.error;
@@ -546,6 +676,7 @@ void LiveMapper::finish() {
     m.finishing = true;
   }
   m.queue_cv.notify_all();
+  if (m.tracking.joinable()) m.tracking.join();
   if (m.worker.joinable()) m.worker.join();
   std::lock_guard lock(m.queue_mutex);
   m.finished = true;
