@@ -399,6 +399,27 @@ def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
           f"{len(keyframe_poses(out))} keyframes")
 
 
+def check_refused(ros, tmp, settings, expected, what):
+    """The node started on these settings ends at once with `expected` in its error line, before it makes its
+    map folder; returns that line. Parameters outlive a launch on the master: they are deleted after."""
+    bad = os.path.join(tmp, "bad_settings.yaml")
+    with open(bad, "w") as f:
+        json.dump(settings, f)
+    out = os.path.join(tmp, "bad_map")
+    p, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), out, bad)
+    try:
+        p.wait(timeout=120)
+    except subprocess.TimeoutExpired:
+        fail(f"the node kept running on {what}")
+    text = open(log.name).read()
+    if expected not in text:
+        fail(f"{what} was not refused by name; log {log.name}: {text[-1500:]}")
+    if os.path.exists(out):
+        fail(f"{what} was refused, but only after the map folder was made")
+    subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
+    return next(l for l in text.splitlines() if "error:" in l).strip()
+
+
 def check_anytime_behind(ros, tmp, bag, frames, topics, track=False):
     """Anytime pacing, as the launch files set it, fed faster than the node maps (the bag at 20 times its
     rate): every keyframe gets the floor of steps (mapper.min_steps_per_keyframe) before the next one is
@@ -530,33 +551,12 @@ def main():
         rospy.init_node("diskchungs_test", anonymous=True, disable_signals=True)
 
         # A mapper setting the YAML does not have is refused at start, naming the parameter.
-        bad = os.path.join(tmp, "bad_settings.yaml")
-        with open(bad, "w") as f:
-            json.dump({"mapper": {"no_such_setting": 1}}, f)
-        p, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), os.path.join(tmp, "bad_map"), bad)
-        try:
-            p.wait(timeout=120)
-        except subprocess.TimeoutExpired:
-            fail("the node kept running on an unknown setting")
-        text = open(log.name).read()
-        if "unknown key 'mapper.no_such_setting'" not in text:
-            fail(f"an unknown setting was not refused by name; log {log.name}: {text[-1500:]}")
-        print("unknown setting: refused (" + next(l for l in text.splitlines() if "error:" in l).strip() + ")")
-        # Parameters outlive a launch on the master: the next node must not inherit the bad one.
-        subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
+        said = check_refused(ros, tmp, {"mapper": {"no_such_setting": 1}}, "unknown key 'mapper.no_such_setting'",
+                             "an unknown setting")
+        print(f"unknown setting: refused ({said})")
         # A negative queue bound is refused by name, not taken as "no bound" (it was clamped to 0).
-        with open(bad, "w") as f:
-            json.dump({"max_queue": -5}, f)
-        p, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), os.path.join(tmp, "bad_queue_map"), bad)
-        try:
-            p.wait(timeout=120)
-        except subprocess.TimeoutExpired:
-            fail("the node kept running on max_queue -5")
-        text = open(log.name).read()
-        if "max_queue must be -1 (automatic), 0 (no bound) or a count of frames, got -5" not in text:
-            fail(f"max_queue -5 was not refused by name; log {log.name}: {text[-1500:]}")
-        if os.path.exists(os.path.join(tmp, "bad_queue_map")):
-            fail("max_queue -5 was refused, but only after the map folder was made")
+        check_refused(ros, tmp, {"max_queue": -5},
+                      "max_queue must be -1 (automatic), 0 (no bound) or a count of frames, got -5", "max_queue -5")
         print("max_queue -5: refused")
         subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
 
