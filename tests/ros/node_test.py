@@ -558,7 +558,6 @@ def main():
         check_refused(ros, tmp, {"max_queue": -5},
                       "max_queue must be -1 (automatic), 0 (no bound) or a count of frames, got -5", "max_queue -5")
         print("max_queue -5: refused")
-        subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
 
         bag = os.path.join(tmp, "kitti.bag")
         subprocess.run([a.to_bag, "kitti:" + kitti, bag, "--max-frames", str(a.frames)], check=True,
