@@ -513,7 +513,9 @@ void LiveMapper::push(LiveFrame frame) {
     }
     m.queue.push_back(std::move(frame));
   }
-  m.queue_cv.notify_one();
+  // All: with the tracker's thread, the mapping thread waits on the same condition for tracked frames,
+  // and a single wakeup that reached it would leave the frame untracked until the next one came.
+  m.queue_cv.notify_all();
 }
 
 void LiveMapper::skip() {

@@ -420,13 +420,11 @@ def check_refused(ros, tmp, settings, expected, what):
     return next(l for l in text.splitlines() if "error:" in l).strip()
 
 
-def check_anytime_behind(ros, tmp, bag, frames, topics, track=False):
+def check_anytime_behind(ros, tmp, bag, frames, topics):
     """Anytime pacing, as the launch files set it, fed faster than the node maps (the bag at 20 times its
     rate): every keyframe gets the floor of steps (mapper.min_steps_per_keyframe) before the next one is
-    added. Before, a node behind its intake mapped frame after frame with no step between them. On given
-    poses the node keeps a bounded queue (mapper.frame_lookahead frames, 4), drops the oldest frames and
-    counts them. On the tracker's poses (track=True) every frame is tracked on the tracker's thread and
-    none is dropped before it; keyframes a later one supersedes are dropped, as in `run`."""
+    added; before, a node behind its intake mapped frame after frame with no step between them. The node
+    keeps a bounded queue (mapper.frame_lookahead frames, 4), drops the oldest frames and counts them."""
     import rospy
     from std_msgs.msg import String
     settings = os.path.join(tmp, "behind_settings.yaml")
@@ -434,10 +432,9 @@ def check_anytime_behind(ros, tmp, bag, frames, topics, track=False):
     with open(settings, "w") as f:
         json.dump({"mapper": dict(MAPPER["mapper"], pacing="anytime", min_steps_per_keyframe=floor, frame_lookahead=4),
                    "device": "cpu", "tf_timeout": 5.0}, f)
-    name = "behind its intake" + (" (tracker)" if track else "")
-    out = os.path.join(tmp, "behind_track_node_map" if track else "behind_node_map")
-    node, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), out, settings,
-                       extra=["pose_source:=track"] if track else [])
+    name = "behind its intake"
+    out = os.path.join(tmp, "behind_node_map")
+    node, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), out, settings)
     seen = []
     sub = rospy.Subscriber("/diskchungs/status", String, lambda m: seen.append(json.loads(m.data)))
     wait_service("/diskchungs/stop", node, log)
@@ -445,8 +442,12 @@ def check_anytime_behind(ros, tmp, bag, frames, topics, track=False):
                            "--topics"] + list(topics), env=ros.env, capture_output=True, text=True, timeout=300)
     if play.returncode != 0:
         fail(f"rosbag play: {play.stderr[-1000:]}")
-    wait_for(lambda: seen and seen[-1]["frames"] >= frames and seen[-1]["queued"] == 0, 600,
-             f"{name}: the node to take all {frames} frames (status {seen[-1] if seen else None})", node, log)
+    # At 20 times the rate on a loaded machine the stereo pair's synchroniser may lose a pair before the node
+    # sees it: wait until what came is taken (three statuses alike, nothing waiting), not for every frame.
+    def settled():
+        return (len(seen) >= 3 and seen[-1]["frames"] >= frames // 2 and
+                all(st["queued"] == 0 and st["frames"] == seen[-1]["frames"] for st in seen[-3:]))
+    wait_for(settled, 600, f"{name}: the node to take the frames (status {seen[-1] if seen else None})", node, log)
     last = seen[-1]
     # The node's queries take turns with its steps: while it trains between frames (anytime), its status
     # (every second) still comes. With a plain mutex the stepping thread took the map again and again and
@@ -458,9 +459,9 @@ def check_anytime_behind(ros, tmp, bag, frames, topics, track=False):
              f"expected)")
     sub.unregister()
     most_queued = max(st["queued"] for st in seen)
-    if not track and most_queued > 4:
+    if most_queued > 4:
         fail(f"{name}: {most_queued} frames waited, beyond the bound of 4")
-    if not track and last["dropped"] == 0:
+    if last["dropped"] == 0:
         fail(f"{name}: no frame was dropped at 20 times the bag's rate (status {last})")
     if last["keyframes"] < 2 or last["least_steps_per_keyframe"] < floor:
         fail(f"{name}: a keyframe got {last['least_steps_per_keyframe']} steps before the next came, "
@@ -471,13 +472,11 @@ def check_anytime_behind(ros, tmp, bag, frames, topics, track=False):
     except subprocess.TimeoutExpired:
         fail(f"{name}: the node did not exit within 300 s of SIGINT")
     text = open(log.name).read()
-    said = "frames beyond the 4 waiting are dropped" in text
-    if "map committed" not in text or said == track:
-        fail(f"{name}: no committed map, or frames dropped before the tracker, or their drop not said; log "
-             f"{log.name}: {text[-2000:]}")
-    print(f"{name}: {last['dropped']} of {frames} {'keyframes' if track else 'frames'} dropped, at most "
-          f"{most_queued} waiting, {last['keyframes']} keyframes, each {last['least_steps_per_keyframe']} steps or "
-          f"more before the next (floor {floor})")
+    if "map committed" not in text or "frames beyond the 4 waiting are dropped" not in text:
+        fail(f"{name}: no committed map, or the dropped frames not said; log {log.name}: {text[-2000:]}")
+    print(f"{name}: {last['dropped']} of {last['frames']} frames dropped, at most {most_queued} waiting, "
+          f"{last['keyframes']} keyframes, each {last['least_steps_per_keyframe']} steps or more before the next "
+          f"(floor {floor})")
 
 
 def check_camera_info_after_images(ros, tmp, bag, frames):
@@ -571,7 +570,6 @@ def main():
         check_killed_while_refining(ros, tmp, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), bag, a.frames,
                                     stereo + tf)
         check_anytime_behind(ros, tmp, bag, a.frames, stereo + tf)
-        check_anytime_behind(ros, tmp, bag, a.frames, stereo, track=True)
 
         room = os.path.join(tmp, "room")
         subprocess.run([a.cli, "synth", "room", "--out", room, "--frames", "30", "--width", "320", "--height", "240"],
