@@ -140,9 +140,7 @@ struct LiveMapper::Impl {
   std::atomic<uint64_t> next_frame{0};
   uint64_t dropped = 0, corrected = 0, without_pose = 0;
   size_t queue_bound = 0;  // frames waiting at most, the oldest dropped beyond it (0: no bound)
-  // Steps when the latest keyframe came, and the fewest any earlier keyframe got before its successor
-  // (guarded by map_mutex).
-  uint64_t steps_at_keyframe = 0;
+  // The fewest steps any keyframe got before its successor came (guarded by map_mutex).
   std::optional<uint64_t> least_steps;
   std::optional<SE3> last_keyframe;
   size_t since_keyframe = 0;
@@ -284,10 +282,10 @@ struct LiveMapper::Impl {
     {
       std::lock_guard lock(map_mutex);
       // The steps the previous keyframe got before this one came (the floor, or starvation, in numbers).
-      const uint64_t now = mapper->iterations();
-      if (!mapper->keyframes().empty())
-        least_steps = std::min(least_steps.value_or(now - steps_at_keyframe), now - steps_at_keyframe);
-      steps_at_keyframe = now;
+      if (!mapper->keyframes().empty()) {
+        const uint64_t got = mapper->steps_since_keyframe();
+        least_steps = std::min(least_steps.value_or(got), got);
+      }
       mapper->add_keyframe(i, stamp, m.frame.left, m.depth, m.frame.camera, pose);
       if (updates) updates->added(source_id, mapper->keyframes().back().id);
     }
