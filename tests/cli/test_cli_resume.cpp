@@ -120,6 +120,22 @@ TEST(CliResume, AnotherChunkSizeIsRefusedNamingTheMapsOwn) {
   EXPECT_EQ(r.code, 0) << r.out;
 }
 
+// A map keeps the resolution it was made at: --resume --resolution 0.5 on a full-size map was taken and
+// added keyframes at half the size to it.
+TEST(CliResume, AnotherResolutionIsRefusedNamingTheMapsOwn) {
+  chungs::test::TempDir dir;
+  const fs::path map = small_map(dir.path());
+  const std::string before = listing(map);
+  const std::string resume = "run --dataset " + kDataset + " --device cpu --no-eval --resume --out " + map.string();
+  auto r = run_cli(resume + " --resolution 0.5");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("--resolution 0.5: the map in " + map.string() + " was made at resolution 1;"), std::string::npos)
+      << r.out;
+  EXPECT_EQ(listing(map), before);
+  r = run_cli(resume + " --resolution 1");
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
 // --resume with other poses than the map's, or fewer frames than it covers, was taken: the first placed
 // the rest of the map on another trajectory, the second wrote the smaller count as where the map stood
 // (a later --resume mapped those frames again on top of their Gaussians).

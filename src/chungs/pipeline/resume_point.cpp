@@ -1,5 +1,6 @@
 #include "chungs/pipeline/resume_point.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -9,7 +10,8 @@
 
 namespace chungs {
 
-ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_t frames, size_t mapped) {
+ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_t frames, size_t mapped,
+                         double resolution) {
   ResumePoint p;
   if (!o.resume || state.is_null()) return p;
   if (state.value("dataset", std::string()) != o.dataset)
@@ -22,6 +24,12 @@ ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_
   if (!same_poses)
     fail(o.out.string(), ": the map was made on --poses ", had, ", not ", o.poses,
          "; --resume goes on with the poses it was made on");
+  // Keyframes at another size would train one map at two scales of detail, its sampler and learning
+  // rates tuned to one; maps committed before the state named its resolution go on unchecked.
+  if (const auto r = state.find("resolution"); r != state.end() && r->is_number() &&
+                                              std::abs(r->get<double>() - resolution) > 1e-9)
+    fail("--resolution ", resolution, ": the map in ", o.out.string(), " was made at resolution ", r->get<double>(),
+         "; --resume goes on at the map's resolution (leave --resolution out or give ", r->get<double>(), ")");
   p.start = resume_frame(state, o.out / "run_state.json", frames);
   // Fewer frames than the map covers would write that smaller count as where it stands: a later
   // --resume would then map the frames between again, on top of their Gaussians.

@@ -1,5 +1,5 @@
 // Where `run --resume` goes on: the checks that the command continues the map it names (same dataset,
-// same poses, no fewer frames than it covers) and what the run carries over (its frame, time, timeline).
+// same poses and resolution, no fewer frames than it covers) and what the run carries over (its frame, time, timeline).
 #pragma once
 #include <cstddef>
 #include <nlohmann/json.hpp>
@@ -17,7 +17,9 @@ struct ResumePoint {
 };
 
 // `state`: the run state the map was committed with (null for a new map: frame 0). `frames`: the
-// dataset's frames; `mapped`: those this run maps (--max-frames). Throws Error naming the flag or file.
-ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_t frames, size_t mapped);
+// dataset's frames; `mapped`: those this run maps (--max-frames); `resolution`: this run's image scale.
+// Throws Error naming the flag or file.
+ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_t frames, size_t mapped,
+                         double resolution);
 
 }  // namespace chungs

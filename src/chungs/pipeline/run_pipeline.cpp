@@ -135,7 +135,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   if (mode == DepthMode::Multiview) mapper_cfg.adam.lr_position *= cfg.adam.multiview_position_factor;
   Mapper mapper(o.out, mapper_cfg, o.resume);
   const nlohmann::json& prev = mapper.resumed_state();
-  ResumePoint resumed = resume_point(o, prev, dataset->size(), n);
+  ResumePoint resumed = resume_point(o, prev, dataset->size(), n, mc.resolution);
   const size_t start = resumed.start;
   const double carried_seconds = resumed.seconds;
   std::vector<TimelineSample>& timeline = resumed.timeline;
@@ -160,8 +160,8 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const auto t0 = Clock::now();
   auto seconds = [&] { return carried_seconds + since(t0); };
   auto state = [&](size_t next_frame, bool finished) {
-    return nlohmann::json{{"dataset", o.dataset}, {"poses", o.poses},     {"next_frame", next_frame},
-                          {"frames", n},          {"finished", finished}, {"seconds", seconds()}};
+    return nlohmann::json{{"dataset", o.dataset}, {"poses", o.poses},       {"resolution", mc.resolution},
+                          {"next_frame", next_frame}, {"frames", n}, {"finished", finished}, {"seconds", seconds()}};
   };
   // The timeline grows with the run, so it goes to run_state.json as text (Mapper::checkpoint).
   auto timeline_member = [&] {
