@@ -8,7 +8,8 @@
 # $BUILD_DIR/onnxruntime for ONNX Runtime's library, which --mono-depth-model opens at run time
 # (CHUNGS_ONNXRUNTIME_NPM=AUTO|ON|OFF; python3-onnx writes the tiny models its tests load).
 # --ros (or CI=true) also installs Debian's ROS 1 packages (about 140 packages, 220 MB) for the rosbag:
-# dataset, the node (ros/) and their tests; the build finds them (CHUNGS_ROS=AUTO|ON|OFF).
+# dataset, the node (ros/) and their tests (with gdb, which the node test uses to show where a stalled
+# node waits); the build finds them (CHUNGS_ROS=AUTO|ON|OFF).
 set -euo pipefail
 WITH_ROS=0
 for arg in "$@"; do
@@ -33,7 +34,7 @@ if [ "${CHUNGS_SKIP_APT:-0}" != 1 ]; then
   if [ "$WITH_ROS" = 1 ]; then
     # ROS 1 (ros_comm 1.15): C++ headers for the bag reader and the node; roscore, roslaunch, rosbag
     # play and the python messages the ROS tests use (they run with Debian's /usr/bin/python3).
-    $SUDO apt-get install -y -qq --no-install-recommends librosbag-storage-dev libroscpp-dev libsensor-msgs-dev libgeometry-msgs-dev libnav-msgs-dev libtf2-ros-dev libtf2-msgs-dev libmessage-filters-dev libstd-srvs-dev python3-rosbag python3-roslaunch rosout python3-sensor-msgs python3-geometry-msgs python3-nav-msgs python3-tf2-msgs python3-std-srvs >/dev/null
+    $SUDO apt-get install -y -qq --no-install-recommends librosbag-storage-dev libroscpp-dev libsensor-msgs-dev libgeometry-msgs-dev libnav-msgs-dev libtf2-ros-dev libtf2-msgs-dev libmessage-filters-dev libstd-srvs-dev python3-rosbag python3-roslaunch rosout python3-sensor-msgs python3-geometry-msgs python3-nav-msgs python3-tf2-msgs python3-std-srvs gdb >/dev/null
   fi
 fi
 

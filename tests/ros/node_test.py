@@ -141,7 +141,32 @@ def wait_for(predicate, seconds, what, process=None, log=None):
                 return
             fail(f"roslaunch exited ({process.returncode}) while waiting for {what}{log_tail()}")
         time.sleep(0.2)
-    fail(f"timed out after {seconds} s waiting for {what}{log_tail()}")
+    fail(f"timed out after {seconds} s waiting for {what}{log_tail()}{node_stacks(process) if process else ''}")
+
+
+def node_stacks(process):
+    """Every thread's stack of the nodes roslaunch `process` started, from gdb: a node that stalled (its status
+    stopped for minutes, twice in many full-suite runs, never alone) says where its threads wait."""
+    if shutil.which("gdb") is None:
+        return "; no gdb here to show the node's threads"
+    pending, nodes = [process.pid], []
+    while pending:
+        for kid in child_pids(pending.pop()):
+            pending.append(kid)
+            if "diskchungs_node" in cmdline(kid):
+                nodes.append(kid)
+    out = ""
+    for pid in nodes:
+        try:
+            r = subprocess.run(["gdb", "-p", str(pid), "-batch", "-ex", "thread apply all bt"], capture_output=True,
+                               text=True, timeout=120)
+            frames = [l for l in r.stdout.splitlines() if l.startswith(("Thread ", "#"))]
+            out += f"\nthreads of node {pid} (gdb):\n" + "\n".join(frames)[-12000:]
+            if not frames:
+                out += f"none shown: {r.stderr[-500:]}"
+        except (OSError, subprocess.TimeoutExpired) as e:
+            out += f"\nnode {pid}: gdb failed ({e})"
+    return out or "; no diskchungs_node process under roslaunch"
 
 
 def node_case(a, ros, tmp, name, launch_file, bag, bag_spec, direct, frames, preset, topics, extra=(), resume=True,
