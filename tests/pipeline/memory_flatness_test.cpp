@@ -64,6 +64,50 @@ TEST(MemoryFlatness, MeasuresOnlyAfterTheBudgetIsReached) {
   EXPECT_LT(f->vram->max_above, 0.01);
 }
 
+// Host memory keeps the images of the latest keyframes (keyframes.max_in_memory): RSS climbs until the map
+// has that many, after the budget was reached on a short drive. The measure starts at the later of the two,
+// and at the budget where the keyframes came first or never came.
+TEST(MemoryFlatness, StartsOnceTheKeyframeImagesAreHeldWhenThatComesLater) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(-0.01, 0.01);
+  const uint64_t budget = 20000;
+  std::vector<TimelineSample> s;
+  for (size_t i = 0; i < 120; ++i) {
+    TimelineSample t;
+    t.seconds = 0.5 + double(i);
+    t.keyframes = 3 * i;
+    t.total = 500 * (i + 1);
+    t.resident = i < 10 ? budget * i / 20 : budget;              // the budget from sample 10
+    t.rss_mb = (i < 50 ? 100.0 + 3.0 * double(i) : 250.0) * (1 + u(rng));  // the images until 150 keyframes
+    s.push_back(t);
+  }
+  const auto held = memory_flatness(s, budget, 150);
+  ASSERT_TRUE(held);
+  EXPECT_DOUBLE_EQ(held->reached_seconds, s[10].seconds);
+  ASSERT_TRUE(held->keyframes_held_seconds);
+  EXPECT_DOUBLE_EQ(*held->keyframes_held_seconds, s[50].seconds);
+  EXPECT_DOUBLE_EQ(held->from_seconds, s[50].seconds);
+  EXPECT_EQ(held->rss.samples, 70u);
+  EXPECT_DOUBLE_EQ(held->rss.within_share, 1.0);
+  EXPECT_DOUBLE_EQ(held->to_json()["from_seconds"].get<double>(), s[50].seconds);
+  // Measured from the budget, the climb shows: the same series is not level.
+  const auto budget_only = memory_flatness(s, budget);
+  ASSERT_TRUE(budget_only);
+  EXPECT_DOUBLE_EQ(budget_only->from_seconds, s[10].seconds);
+  EXPECT_FALSE(budget_only->keyframes_held_seconds);
+  EXPECT_TRUE(budget_only->to_json()["keyframes_held_seconds"].is_null());
+  EXPECT_LT(budget_only->rss.within_share, 0.9);
+  // Held before the budget (a small cache): from the budget.
+  const auto early = memory_flatness(s, budget, 9);
+  ASSERT_TRUE(early && early->keyframes_held_seconds);
+  EXPECT_DOUBLE_EQ(*early->keyframes_held_seconds, s[3].seconds);
+  EXPECT_DOUBLE_EQ(early->from_seconds, s[10].seconds);
+  // Never held (a cache larger than the drive), or held at the last sample only: from the budget.
+  EXPECT_DOUBLE_EQ(memory_flatness(s, budget, 400)->from_seconds, s[10].seconds);
+  EXPECT_FALSE(memory_flatness(s, budget, 400)->keyframes_held_seconds);
+  EXPECT_DOUBLE_EQ(memory_flatness(s, budget, 3 * 119)->from_seconds, s[10].seconds);
+}
+
 TEST(MemoryFlatness, NoneBeforeTheBudgetAndNoVramOnTheCpu) {
   std::mt19937 rng(5);
   auto s = ramp_then_level(rng, 30, 20, 10000, 100.0, 0.01, false);

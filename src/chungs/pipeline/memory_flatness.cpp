@@ -43,6 +43,9 @@ nlohmann::json flat_json(const Flatness& f) {
 
 nlohmann::json MemoryFlatness::to_json() const {
   nlohmann::json j = {{"reached_seconds", reached_seconds},
+                      {"keyframes_held_seconds", keyframes_held_seconds ? nlohmann::json(*keyframes_held_seconds)
+                                                                        : nlohmann::json(nullptr)},
+                      {"from_seconds", from_seconds},
                       {"total_at_reached", total_at_reached},
                       {"total_at_end", total_at_end},
                       {"tolerance", tolerance},
@@ -52,7 +55,7 @@ nlohmann::json MemoryFlatness::to_json() const {
 }
 
 std::optional<MemoryFlatness> memory_flatness(const std::vector<TimelineSample>& samples, uint64_t budget,
-                                              double tolerance, double reach_fraction) {
+                                              uint64_t keyframes_held, double tolerance, double reach_fraction) {
   if (budget == 0) return std::nullopt;
   const auto reached = std::find_if(samples.begin(), samples.end(), [&](const TimelineSample& s) {
     return double(s.resident) >= reach_fraction * double(budget);
@@ -63,9 +66,19 @@ std::optional<MemoryFlatness> memory_flatness(const std::vector<TimelineSample>&
   m.reached_seconds = reached->seconds;
   m.total_at_reached = reached->total;
   m.total_at_end = samples.back().total;
+  auto from = reached;
+  if (keyframes_held > 0) {
+    const auto held = std::find_if(samples.begin(), samples.end(),
+                                   [&](const TimelineSample& s) { return s.keyframes >= keyframes_held; });
+    if (held != samples.end()) {
+      m.keyframes_held_seconds = held->seconds;
+      if (held > reached && samples.end() - held >= 2) from = held;
+    }
+  }
+  m.from_seconds = from->seconds;
   std::vector<double> rss, vram, t;
   bool sampled_vram = false;
-  for (auto it = reached; it != samples.end(); ++it) {
+  for (auto it = from; it != samples.end(); ++it) {
     t.push_back(it->seconds);
     rss.push_back(it->rss_mb);
     vram.push_back(it->vram_mb);

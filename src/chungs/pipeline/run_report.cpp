@@ -116,8 +116,10 @@ nlohmann::json memory_report(const Mapper& mapper, const std::vector<TimelineSam
                          {"peak_used_mb", double(blocks.peak_used_bytes()) / 1048576.0},
                          {"resident", blocks.resident()},
                          {"heap_blocks", blocks.heap_blocks()}};
-  // Once the budget is reached, memory should stay level however far the map grows.
-  if (const auto flat = memory_flatness(timeline, mapper.budget())) m["after_budget"] = flat->to_json();
+  // Once the budget is reached (and the keyframe images host memory keeps), memory should stay level
+  // however far the map grows.
+  if (const auto flat = memory_flatness(timeline, mapper.budget(), mapper.config().keyframes.max_in_memory))
+    m["after_budget"] = flat->to_json();
   return m;
 }
 
