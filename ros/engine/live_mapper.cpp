@@ -29,6 +29,7 @@
 #include "chungs/pipeline/frame_source.hpp"
 #include "chungs/pipeline/ply_export.hpp"
 #include "chungs/pipeline/pose_updates.hpp"
+#include "chungs/pipeline/resume_point.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/pipeline/tracker_feed.hpp"
 #include "chungs/store/chunk_id.hpp"
@@ -160,6 +161,7 @@ struct LiveMapper::Impl {
     // "track" as `run --poses track`: such a map lies in its first camera's frame (render says so).
     return {{"dataset", settings.source},
             {"poses", settings.track ? "track" : "external"},
+            {"resolution", config.mapper.resolution},
             {"next_frame", next_frame.load()},
             {"frames", next_frame.load()},
             {"finished", done},
@@ -467,6 +469,10 @@ LiveMapper::LiveMapper(const Settings& s) : impl_(std::make_unique<Impl>()) {
   m.queue_bound = queue_bound(s, m.config.mapper);  // before the folder is made: a bad value leaves none
   resolve_device(m.config.mapper.device);
   m.mapper = std::make_unique<Mapper>(s.out, m.config, s.resume);
+  // Keyframes at another size would train one map at two scales of detail, as with `run --resume`.
+  if (const std::optional<double> had = other_resolution(m.mapper->resumed_state(), m.config.mapper.resolution))
+    fail(s.out, ": the map was made at mapper.resolution ", *had, ", the settings give ", m.config.mapper.resolution,
+         "; a resumed map keeps its resolution");
   // A live source has no end, so its map can always outgrow the budget: the memory for chunks in flight
   // is made resident now, as `run` does for a dataset that can (pipeline/run_pipeline.cpp), and the heap
   // keeps what it frees, so host memory stays level once the budget is full instead of rising each time

@@ -314,6 +314,24 @@ def check_resume(ros, launch_file, out, settings, extra, name, cli, tmp):
     from std_srvs.srv import Trigger
     before = keyframe_poses(out)
     x_before = ply_mean_x(cli, out, os.path.join(tmp, name + "_before.ply"))
+    # A map keeps the resolution it was made at: other settings are refused by name, the map left as it was
+    # (they were taken, and added keyframes of another size to it).
+    other = dict(resumed, mapper=dict(resumed["mapper"], resolution=resumed["mapper"].get("resolution", 1.0) / 2))
+    other_settings = os.path.join(tmp, name + "_other_resolution.yaml")
+    with open(other_settings, "w") as f:
+        json.dump(other, f)
+    listing = sorted((p, os.path.getsize(os.path.join(d, p))) for d, _, files in os.walk(out) for p in files)
+    refused, log0 = launch(ros, launch_file, out, other_settings, resume=True, extra=extra)
+    try:
+        refused.wait(timeout=120)
+    except subprocess.TimeoutExpired:
+        fail(f"{name}: the node resumed its map at another resolution")
+    text = open(log0.name).read()
+    if "the map was made at mapper.resolution" not in text or "a resumed map keeps its resolution" not in text:
+        fail(f"{name}: another resolution was not refused by name; log {log0.name}: {text[-1500:]}")
+    if sorted((p, os.path.getsize(os.path.join(d, p))) for d, _, files in os.walk(out) for p in files) != listing:
+        fail(f"{name}: the refused resume changed the map folder")
+    subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
     again, log2 = launch(ros, launch_file, out, settings, resume=True, extra=extra)
     wait_service("/diskchungs/stop", again, log2)
     status = {}

@@ -26,10 +26,9 @@ ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_
          "; --resume goes on with the poses it was made on");
   // Keyframes at another size would train one map at two scales of detail, its sampler and learning
   // rates tuned to one; maps committed before the state named its resolution go on unchecked.
-  if (const auto r = state.find("resolution"); r != state.end() && r->is_number() &&
-                                              std::abs(r->get<double>() - resolution) > 1e-9)
-    fail("--resolution ", resolution, ": the map in ", o.out.string(), " was made at resolution ", r->get<double>(),
-         "; --resume goes on at the map's resolution (leave --resolution out or give ", r->get<double>(), ")");
+  if (const std::optional<double> had_resolution = other_resolution(state, resolution))
+    fail("--resolution ", resolution, ": the map in ", o.out.string(), " was made at resolution ", *had_resolution,
+         "; --resume goes on at the map's resolution (leave --resolution out or give ", *had_resolution, ")");
   p.start = resume_frame(state, o.out / "run_state.json", frames);
   // Fewer frames than the map covers would write that smaller count as where it stands: a later
   // --resume would then map the frames between again, on top of their Gaussians.
@@ -43,6 +42,13 @@ ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_
     fail(o.out.string(), "/run_state.json: 'timeline' is damaged (", e.what(), ")");
   }
   return p;
+}
+
+std::optional<double> other_resolution(const nlohmann::json& state, double resolution) {
+  if (!state.is_object()) return std::nullopt;
+  const auto r = state.find("resolution");
+  if (r == state.end() || !r->is_number() || std::abs(r->get<double>() - resolution) <= 1e-9) return std::nullopt;
+  return r->get<double>();
 }
 
 }  // namespace chungs

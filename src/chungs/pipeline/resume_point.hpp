@@ -3,6 +3,7 @@
 #pragma once
 #include <cstddef>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <vector>
 
 #include "chungs/pipeline/run_pipeline.hpp"
@@ -21,5 +22,9 @@ struct ResumePoint {
 // Throws Error naming the flag or file.
 ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_t frames, size_t mapped,
                          double resolution);
+
+// The resolution a committed map was made at when it differs from `resolution` (the ROS node's check as
+// well as run's); none when they agree or the state does not say (maps committed before it did).
+std::optional<double> other_resolution(const nlohmann::json& state, double resolution);
 
 }  // namespace chungs
