@@ -1,5 +1,6 @@
 // Where `run --resume` goes on: the checks that the command continues the map it names (same dataset,
-// same poses and resolution, no fewer frames than it covers) and what the run carries over (its frame, time, timeline).
+// same poses and resolution, no fewer frames than it covers) and what the run carries over (its frame,
+// time, timeline).
 #pragma once
 #include <cstddef>
 #include <nlohmann/json.hpp>
