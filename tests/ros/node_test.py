@@ -322,13 +322,7 @@ def check_resume(ros, launch_file, out, settings, extra, name, cli, tmp):
         json.dump(other, f)
     listing = sorted((p, os.path.getsize(os.path.join(d, p))) for d, _, files in os.walk(out) for p in files)
     refused, log0 = launch(ros, launch_file, out, other_settings, resume=True, extra=extra)
-    try:
-        refused.wait(timeout=120)
-    except subprocess.TimeoutExpired:
-        fail(f"{name}: the node resumed its map at another resolution")
-    text = open(log0.name).read()
-    if "the map was made at mapper.resolution" not in text or "a resumed map keeps its resolution" not in text:
-        fail(f"{name}: another resolution was not refused by name; log {log0.name}: {text[-1500:]}")
+    ended_saying(refused, log0, "; a resumed map keeps its resolution", f"{name}: another mapper.resolution")
     if sorted((p, os.path.getsize(os.path.join(d, p))) for d, _, files in os.walk(out) for p in files) != listing:
         fail(f"{name}: the refused resume changed the map folder")
     subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
@@ -442,6 +436,18 @@ def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
           f"{len(keyframe_poses(out))} keyframes")
 
 
+def ended_saying(process, log, expected, what):
+    """The node roslaunch `process` started ends at once with `expected` in its log; returns the log's text."""
+    try:
+        process.wait(timeout=120)
+    except subprocess.TimeoutExpired:
+        fail(f"the node kept running on {what}")
+    text = open(log.name).read()
+    if expected not in text:
+        fail(f"{what} was not refused by name; log {log.name}: {text[-1500:]}")
+    return text
+
+
 def check_refused(ros, tmp, settings, expected, what):
     """The node started on these settings ends at once with `expected` in its error line, before it makes its
     map folder; returns that line. Parameters outlive a launch on the master: they are deleted after."""
@@ -450,13 +456,7 @@ def check_refused(ros, tmp, settings, expected, what):
         json.dump(settings, f)
     out = os.path.join(tmp, "bad_map")
     p, log = launch(ros, os.path.join(ROOT, "ros/launch/kitti_stereo.launch"), out, bad)
-    try:
-        p.wait(timeout=120)
-    except subprocess.TimeoutExpired:
-        fail(f"the node kept running on {what}")
-    text = open(log.name).read()
-    if expected not in text:
-        fail(f"{what} was not refused by name; log {log.name}: {text[-1500:]}")
+    text = ended_saying(p, log, expected, what)
     if os.path.exists(out):
         fail(f"{what} was refused, but only after the map folder was made")
     subprocess.run(["rosparam", "delete", "/diskchungs"], env=ros.env, check=True, capture_output=True)
