@@ -23,16 +23,6 @@ TOPICS = ["/stereo/left/image_rect", "/stereo/left/camera_info", "/stereo/right/
           "/stereo/right/camera_info", "/tf", "/tf_static"]
 
 
-def node_pid(roslaunch):
-    pending = [roslaunch.pid]
-    while pending:
-        for kid in nt.child_pids(pending.pop()):
-            if "diskchungs_node" in nt.cmdline(kid):
-                return kid
-            pending.append(kid)
-    nt.fail("no diskchungs_node under roslaunch")
-
-
 def rss_mb(pid):
     with open(f"/proc/{pid}/status") as f:
         return next(int(l.split()[1]) for l in f if l.startswith("VmRSS")) / 1024
@@ -69,7 +59,10 @@ def main():
         subprocess.run(["rm", "-rf", out], check=True)
         node, log = nt.launch(ros, os.path.join(ROOT, "ros", "launch", "kitti_stereo.launch"), out, settings)
         nt.wait_service("/diskchungs/stop", node, log)
-        pid = node_pid(node)
+        pids = nt.node_pids(node)
+        if not pids:
+            nt.fail("no diskchungs_node under roslaunch")
+        pid = pids[0]
         play = subprocess.Popen(["rosbag", "play", "--quiet", "--wait-for-subscribers", "--delay", "0.5", bag,
                                  "--topics"] + TOPICS, env=ros.env, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.STDOUT)

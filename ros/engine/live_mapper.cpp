@@ -238,9 +238,8 @@ struct LiveMapper::Impl {
   }
 
   // Stage two (the mapping thread): the keyframe into the map unless `drop` (a later one supersedes
-  // it), then the tracker's pose updates in order, whatever became of the keyframe. True when a
-  // keyframe was added.
-  bool map_decided(Decided d, bool drop) {
+  // it), then the tracker's pose updates in order, whatever became of the keyframe.
+  void map_decided(Decided d, bool drop) {
     const bool add = d.key && !drop;
     if (add) add_keyframe(std::move(d.frame), d.index, d.stamp, d.pose, d.source_id);
     if (!d.pending.empty()) {
@@ -251,7 +250,7 @@ struct LiveMapper::Impl {
       }
       if (applied.loop) commit(false, true);
     }
-    if (!add) return false;
+    if (!add) return;
     const MapperConfig& mc = config.mapper;
     // Fixed pacing: its steps. Anytime: the floor, as `run` keeps it; without it a node behind its
     // intake mapped frame after frame with no step between them, and the map filled with Gaussians
@@ -268,7 +267,6 @@ struct LiveMapper::Impl {
     if (checkpoint_due(mc, since_checkpoint, keyframes_since_checkpoint,
                        std::chrono::duration<double>(Clock::now() - started).count(), io))
       commit(false, true);
-    return true;
   }
 
   // Loads the keyframe at the mapping resolution with `run`'s depth source and adds it to the map.
@@ -294,9 +292,13 @@ struct LiveMapper::Impl {
     ++keyframes_since_checkpoint;
   }
 
-  void step() {
+  // One step; false (and none) before the first keyframe. One turn of the map's lock, which the idle
+  // loop of anytime pacing takes step after step.
+  bool step() {
     std::lock_guard lock(map_mutex);
+    if (mapper->keyframes().empty()) return false;
     mapper->step();
+    return true;
   }
 
   void commit(bool done, bool behind) {
@@ -398,9 +400,7 @@ struct LiveMapper::Impl {
           map_decided(std::move(*tracked), drop);
         } else if (frame) {
           if (std::optional<Decided> d = decide(*frame, index)) map_decided(std::move(*d), false);
-        } else if (has_keyframes()) {
-          step();
-        } else {
+        } else if (!step()) {
           std::this_thread::sleep_for(std::chrono::milliseconds(5));
         }
       }

@@ -144,19 +144,24 @@ def wait_for(predicate, seconds, what, process=None, log=None):
     fail(f"timed out after {seconds} s waiting for {what}{log_tail()}{node_stacks(process) if process else ''}")
 
 
-def node_stacks(process):
-    """Every thread's stack of the nodes roslaunch `process` started, from gdb: a node that stalled (its status
-    stopped for minutes, twice in many full-suite runs, never alone) says where its threads wait."""
-    if shutil.which("gdb") is None:
-        return "; no gdb here to show the node's threads"
+def node_pids(process):
+    """The diskchungs_node processes among everything roslaunch `process` started."""
     pending, nodes = [process.pid], []
     while pending:
         for kid in child_pids(pending.pop()):
             pending.append(kid)
             if "diskchungs_node" in cmdline(kid):
                 nodes.append(kid)
+    return nodes
+
+
+def node_stacks(process):
+    """Every thread's stack of the nodes roslaunch `process` started, from gdb: a node that stalled (its status
+    stopped for minutes, twice in many full-suite runs, never alone) says where its threads wait."""
+    if shutil.which("gdb") is None:
+        return "; no gdb here to show the node's threads"
     out = ""
-    for pid in nodes:
+    for pid in node_pids(process):
         try:
             r = subprocess.run(["gdb", "-p", str(pid), "-batch", "-ex", "thread apply all bt"], capture_output=True,
                                text=True, timeout=120)
@@ -419,7 +424,7 @@ def check_killed_while_refining(ros, tmp, launch_file, bag, frames, topics):
     os.killpg(node.pid, signal.SIGINT)
     wait_for(lambda: "refining the map" in open(log.name).read(), 120, "the node to start refining", node, log)
     # roslaunch starts the node in a session of its own: killing roslaunch's group would leave it refining.
-    nodes = [pid for pid in child_pids(node.pid) if "diskchungs_node" in cmdline(pid)]
+    nodes = node_pids(node)
     if not nodes:
         fail(f"killed while refining: no diskchungs_node process under roslaunch ({node.pid})")
     for pid in nodes:
