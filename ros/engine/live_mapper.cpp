@@ -33,6 +33,7 @@
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/pipeline/tracker_feed.hpp"
 #include "chungs/store/chunk_id.hpp"
+#include "chungs/store/chunk_levels.hpp"
 #include "chungs/store/chunk_store.hpp"
 #include "chungs/tracking/visual_tracker.hpp"
 
@@ -558,6 +559,7 @@ std::vector<float> LiveMapper::centres(double radius) {
   if (!std::filesystem::exists(std::filesystem::path(m.settings.out) / "manifest.txt", ec)) return out;
   ChunkStore store(m.settings.out, reader_config());  // the committed checkpoint; never blocks the mapper
   for (ChunkId id : store.ids()) {
+    if (far_level_with_near_twin(store, id)) continue;
     Eigen::Vector3d lo, hi;
     chunk_box(chunk_coord(id), store.chunk_size(), lo, hi);
     if ((at.cwiseMax(lo).cwiseMin(hi) - at).norm() > radius) continue;

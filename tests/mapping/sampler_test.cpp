@@ -147,6 +147,35 @@ TEST(Sampler, PlacesGaussiansOnPixelRaysWithFootprintAndChunks) {
     }
 }
 
+// Beyond the far-level distance a view's Gaussians go into the far level of their cube (chunk_id.hpp),
+// which is what the view will draw and train there.
+TEST(Sampler, PointsBeyondTheFarLevelDistanceGoToTheFarLevelOfTheirCube) {
+  const Camera cam(40, 30, 35, 36, 19.2, 14.7);
+  const SE3 pose(Eigen::AngleAxisd(0.2, Eigen::Vector3d(0.1, 1, 0.3).normalized()).toRotationMatrix(),
+                 Eigen::Vector3d(-4.3, 0.8, 2.1));
+  std::mt19937 r(8);
+  std::uniform_real_distribution<float> U(2.f, 60.f);
+  ImageF img = random_image(40, 30, 3, 4), depth(40, 30, 1), prob(40, 30, 1, 0.5f);
+  for (auto& d : depth.vec()) d = U(r);
+  SamplerConfig c;
+  c.min_per_chunk_per_100k_px = 0;
+  c.min_per_chunk_floor = 0;
+  const double s = 5.0, far = 27.5;
+  std::mt19937_64 rng(2);
+  size_t near_n = 0, far_n = 0;
+  for (const auto& b : sample_gaussians(c, img, depth, prob, cam, pose, ChunkGrid(s, far), 0, 0, rng))
+    for (size_t i = 0; i < b.block.size(); ++i) {
+      const Eigen::Vector3d pw(b.block.params.mean[3 * i], b.block.params.mean[3 * i + 1], b.block.params.mean[3 * i + 2]);
+      const ChunkCoord cube = chunk_coord_of(pw, s);
+      const double centre = (Eigen::Vector3d(cube.x * s, cube.y * s, cube.z * s) - pose.t).norm();
+      ASSERT_EQ(near_level_of(b.id), chunk_id(cube));
+      ASSERT_EQ(is_far_level(b.id), centre > far) << "cube centre at " << centre << " m";
+      (is_far_level(b.id) ? far_n : near_n)++;
+    }
+  EXPECT_GT(near_n, 50u);
+  EXPECT_GT(far_n, 50u);
+}
+
 TEST(Sampler, DropsChunksThatReceiveTooFewGaussians) {
   const Camera cam(60, 10, 50, 50, 29.5, 4.5);
   ImageF img(60, 10, 3, 0.5f), depth(60, 10, 1, 5.f), prob(60, 10, 1, 1.f);

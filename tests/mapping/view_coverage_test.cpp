@@ -111,6 +111,26 @@ TEST(ViewCoverage, CoreIsTheFewestLargestChunksShowingTheShare) {
   }
 }
 
+TEST(ViewCoverage, BlocksBeyondTheFarLevelDistanceSeeTheFarLevelOfTheirCube) {
+  const Scene s = random_scene(12);
+  const double far = 22.0;
+  const ViewCoverage flat(s.depth, s.camera, s.pose, 5.0, 35.0);
+  const ViewCoverage v(s.depth, s.camera, s.pose, ChunkGrid(5.0, far), 35.0);
+  size_t far_chunks = 0;
+  for (ChunkId id : v.chunks()) {
+    const double centre = (chunk_centre(chunk_coord(id), 5.0) - s.pose.t).norm();
+    EXPECT_EQ(is_far_level(id), centre > far) << chunk_name(id) << " at " << centre << " m";
+    far_chunks += is_far_level(id);
+  }
+  EXPECT_GT(far_chunks, 3u);
+  EXPECT_LT(far_chunks, v.chunks().size());
+  // The same blocks per cube as with one level: only the level differs.
+  std::map<ChunkId, uint32_t> one, two;
+  for (size_t i = 0; i < flat.chunks().size(); ++i) one[flat.chunks()[i]] = flat.blocks_per_chunk()[i];
+  for (size_t i = 0; i < v.chunks().size(); ++i) two[near_level_of(v.chunks()[i])] = v.blocks_per_chunk()[i];
+  EXPECT_EQ(one, two);
+}
+
 TEST(ViewCoverage, RefusesADepthMapOfAnotherSize) {
   const Scene s = random_scene(5);
   EXPECT_THROW(ViewCoverage(ImageF(60, 37, 1), s.camera, s.pose, 10.0, 0.0), Error);

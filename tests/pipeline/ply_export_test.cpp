@@ -92,6 +92,27 @@ TEST(PlyExport, AMapExportHoldsEveryGaussianUnderTheCountItsHeaderNames) {
   EXPECT_EQ(one.size() - (end + 11), store.count(first) * 62u * 4u);
 }
 
+// A PLY viewer draws every splat from wherever it looks: each cube goes in once, at its near level, or at
+// its far level where the map saw it only from afar.
+TEST(PlyExport, EachCubeGoesInOnceAtItsNearLevelOrItsOnlyOne) {
+  test::TempDir dir;
+  ChunkStoreConfig c;
+  c.durable = false;
+  const ChunkId both = chunk_id({0, 0, 1}), far_only = far_level_of(chunk_id({0, 0, 9}));
+  {
+    ChunkStore store(dir / "map", c);
+    store.save(both, test::random_block(30, 1));
+    store.save(far_level_of(both), test::random_block(7, 2));
+    store.save(far_only, test::random_block(5, 3));
+  }
+  const ChunkStore store(dir / "map", reader_config(c));
+  EXPECT_EQ(export_ply(store, dir / "all.ply", {}), 30u + 5u);
+  // A cube named by its coordinates: its near level, or the far one when that is all there is.
+  EXPECT_EQ(export_ply(store, dir / "one.ply", PlySelection{both, {}, {}}), 30u);
+  EXPECT_EQ(export_ply(store, dir / "far.ply", PlySelection{near_level_of(far_only), {}, {}}), 5u);
+  EXPECT_THROW(export_ply(store, dir / "none.ply", PlySelection{chunk_id({3, 3, 3}), {}, {}}), Error);
+}
+
 // An export that fails part way (here a damaged chunk) leaves the file that was there, never a partial
 // one: it wrote the header with 0 Gaussians first, so a failed export left a valid, empty PLY.
 TEST(PlyExport, AFailedExportLeavesTheFileThatWasThereAndNoTemporaries) {

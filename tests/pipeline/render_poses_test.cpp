@@ -8,6 +8,7 @@
 #include "chungs/image/image_io.hpp"
 #include "chungs/pipeline/render_poses.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
+#include "chungs/store/chunk_store.hpp"
 #include "mapping/synthetic_sequence.hpp"
 #include "test_support.hpp"
 #include "mapping/tiny_config.hpp"
@@ -72,6 +73,42 @@ TEST(RenderPoses, ScoresHeldOutFramesAsTheMapperDid) {
   const Image8 png = read_image8(out.path() / "render_000003.png");
   EXPECT_EQ(png.width(), 64);
   EXPECT_EQ(png.height(), 96);
+}
+
+// A map whose cubes have two levels is drawn at the levels its own distance chose, whatever the
+// reader's settings say: the far level of a cube is what views from beyond it were trained on.
+TEST(RenderPoses, AMapWithTwoLevelsIsDrawnAtItsOwnDistanceWhateverTheSettingsSay) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  test::WallSequence seq{16, 64, 48, 0.3};
+  RunOptions o;
+  o.dataset = "synthetic:wall";
+  o.out = dir / "map";
+  o.config = small_map_config();
+  o.config.culling.far_level_distance = 3.2;  // the wall 3 m ahead: cubes in front near, those aside far
+  const nlohmann::json report = run_mapping(o, seq);
+  size_t far = 0, near = 0;
+  {
+    const ChunkStore store(dir / "map", reader_config());
+    EXPECT_EQ(store.config_value("far_level_distance"), std::optional<std::string>("3.2"));
+    for (ChunkId id : store.ids()) (is_far_level(id) ? far : near)++;
+  }
+  EXPECT_GT(far, 2u);
+  EXPECT_GT(near, 2u);
+  for (double setting : {0.0, 70.0}) {
+    Config c = o.config;
+    c.culling.far_level_distance = setting;
+    MapRenderer r(dir / "map", c);
+    test::TempDir out;
+    std::vector<std::optional<SE3>> poses;
+    for (size_t i = 0; i < seq.size(); ++i) poses.push_back(seq.gt_pose(i));
+    const RenderPosesSummary s = render_dataset(r, seq, poses, 1.0, out.path(), 1, false);
+    for (const auto& hv : report["held_out"]["views"]) {
+      const size_t f = hv["frame"].get<size_t>();
+      ASSERT_TRUE(s.views[f].metrics);
+      EXPECT_NEAR(s.views[f].metrics->psnr, hv["psnr"].get<double>(), 0.05) << "frame " << f << ", setting " << setting;
+    }
+  }
 }
 
 TEST(RenderPoses, StreamsChunksUnderABudgetBelowTheMapWithTheSamePictures) {

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <random>
 #include <set>
 
@@ -54,6 +55,7 @@ TEST(FrustumCuller, MatchesBruteForceOnThousandsOfRandomPoses) {
   for (size_t parallel_min : {size_t(1) << 40, size_t(1)}) {  // serial, then parallel walk
     CullerConfig cfg;
     cfg.parallel_min_chunks = parallel_min;
+    cfg.far_level_distance = 0;  // the cubes' visibility (levels: LevelsMatchBruteForce... below)
     FrustumCuller culler(10.0, cfg);
     culler.set_chunks(ids, 1);
     // Fewer poses on the threaded path: on a loaded machine each parallel region can cost ms.
@@ -91,7 +93,9 @@ TEST(FrustumCuller, MatchesBruteForceWithOddSizesAndShortDistances) {
 TEST(FrustumCuller, NeverMissesAChunkContainingAVisiblePoint) {
   std::mt19937 rng(9);
   const std::vector<ChunkId> ids = random_map(rng, 30, 1.0);  // every chunk present
-  FrustumCuller culler(10.0);
+  CullerConfig one_level;
+  one_level.far_level_distance = 0;
+  FrustumCuller culler(10.0, one_level);
   culler.set_chunks(ids, 1);
   std::uniform_real_distribution<double> u01(0, 1);
   for (int i = 0; i < 300; ++i) {
@@ -125,6 +129,74 @@ TEST(FrustumCuller, DropsChunksBehindTheCameraAndBeyondTheDistance) {
   for (int z = 0; z <= 5; ++z) want.push_back(chunk_id({0, 0, z}));  // nearest face of chunk 5 at 45 m
   std::sort(want.begin(), want.end());
   EXPECT_EQ(vis, want);
+}
+
+TEST(FrustumCuller, DrawsEachCubeAtTheLevelItsDistanceChoosesWhereTheMapHoldsIt) {
+  // Cubes down +z, centres 0-90 m ahead; cube 2 has only its far level, cube 8 only its near one.
+  std::vector<ChunkId> ids;
+  for (int z = 0; z <= 9; ++z) {
+    if (z != 2) ids.push_back(chunk_id({0, 0, z}));
+    if (z != 8) ids.push_back(far_level_of(chunk_id({0, 0, z})));
+  }
+  const Camera cam(640, 480, 500, 500, 319.5, 239.5);
+  CullerConfig cfg;
+  cfg.far_level_distance = 45;
+  FrustumCuller culler(10.0, cfg);
+  culler.set_chunks(ids, 1);
+  std::vector<ChunkId> want;
+  for (int z = 0; z <= 4; ++z)
+    if (z != 2) want.push_back(chunk_id({0, 0, z}));  // a missing level is left to the sampler, not replaced
+  for (int z = 5; z <= 9; ++z)
+    if (z != 8) want.push_back(far_level_of(chunk_id({0, 0, z})));
+  std::sort(want.begin(), want.end());
+  EXPECT_EQ(culler.cull(cam, SE3()), want);
+  EXPECT_EQ(culler.cull_brute_force(cam, SE3()), want);
+  // The camera 40 m further on: cube 5 (centre 10 m away) is near now.
+  const SE3 ahead(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0, 40));
+  const auto vis = culler.cull(cam, ahead);
+  EXPECT_TRUE(std::binary_search(vis.begin(), vis.end(), chunk_id({0, 0, 5})));
+  EXPECT_FALSE(std::binary_search(vis.begin(), vis.end(), far_level_of(chunk_id({0, 0, 5}))));
+  // One level: every cube near, and the cube with only a far level not drawn.
+  cfg.far_level_distance = 0;
+  FrustumCuller flat(10.0, cfg);
+  flat.set_chunks(ids, 1);
+  want.clear();
+  for (int z = 0; z <= 9; ++z)
+    if (z != 2) want.push_back(chunk_id({0, 0, z}));
+  std::sort(want.begin(), want.end());
+  EXPECT_EQ(flat.cull(cam, SE3()), want);
+}
+
+TEST(FrustumCuller, LevelsMatchBruteForceAndTheDistanceRuleOnRandomPoses) {
+  std::mt19937 rng(77);
+  std::vector<ChunkId> ids = random_map(rng, 60, 0.5);
+  std::bernoulli_distribution also_far(0.6);
+  const size_t near_count = ids.size();
+  for (size_t i = 0; i < near_count; ++i)
+    if (also_far(rng)) ids.push_back(far_level_of(ids[i]));
+  std::vector<ChunkId> sorted_ids = ids;
+  std::sort(sorted_ids.begin(), sorted_ids.end());
+  for (double d : {15.0, 42.5, 70.0}) {
+    CullerConfig cfg;
+    cfg.far_level_distance = d;
+    FrustumCuller culler(10.0, cfg);
+    culler.set_chunks(ids, 1);
+    size_t far_seen = 0, near_seen = 0;
+    for (int i = 0; i < 300; ++i) {
+      const Camera cam = random_camera(rng);
+      const SE3 pose = random_pose(rng, 250);
+      const auto fast = culler.cull(cam, pose);
+      ASSERT_EQ(fast, culler.cull_brute_force(cam, pose)) << "d=" << d << " pose " << i;
+      for (ChunkId id : fast) {
+        ASSERT_TRUE(std::binary_search(sorted_ids.begin(), sorted_ids.end(), id));
+        const double centre = (chunk_centre(chunk_coord(id), 10.0) - pose.t).norm();  // float64 reference
+        ASSERT_EQ(is_far_level(id), centre > d) << chunk_name(id) << " at " << centre << " m, d=" << d;
+        (is_far_level(id) ? far_seen : near_seen)++;
+      }
+    }
+    EXPECT_GT(far_seen, 100u) << "d=" << d;
+    EXPECT_GT(near_seen, 100u) << "d=" << d;
+  }
 }
 
 TEST(FrustumCuller, CachesPerKeyframeWhileThePoseMovesLittle) {

@@ -8,6 +8,7 @@ export interface ChunkInfo {
   max: [number, number, number];
   count: number;
   generation: number;
+  level?: "near" | "far"; // which of its cube's two levels of detail (absent: near)
 }
 
 export interface CameraInfo {
@@ -30,6 +31,7 @@ export interface MapInfo {
   version: number; // the server's count of checkpoints taken since it started (/api/events ids)
   checkpoint: number;
   chunk_size: number;
+  far_level_distance?: number; // beyond it (metres, to a cube's centre) a view draws the far level; 0: one level
   sh_degree: number;
   total_gaussians: number;
   origin: [number, number, number];

@@ -76,10 +76,37 @@ export class ChunkStreamer {
     }
   }
 
+  // Each cube at the level of detail a view from `eye` draws, as the mapper trained it (beyond
+  // far_level_distance of its centre the far level), or at its other level where the map lacks that
+  // one: a visitor may go where the car never was.
+  private atLevels(eye: THREE.Vector3): ChunkInfo[] {
+    const far = this.map.far_level_distance ?? 0;
+    const o = this.map.origin;
+    const cubes = new Map<string, ChunkInfo[]>();
+    for (const c of this.map.chunks) {
+      const key = c.coord.join(",");
+      const same = cubes.get(key);
+      if (same) same.push(c);
+      else cubes.set(key, [c]);
+    }
+    const out: ChunkInfo[] = [];
+    for (const same of cubes.values()) {
+      const c = same[0];
+      const d = Math.hypot(
+        (c.min[0] + c.max[0]) / 2 - o[0] - eye.x,
+        (c.min[1] + c.max[1]) / 2 - o[1] - eye.y,
+        (c.min[2] + c.max[2]) / 2 - o[2] - eye.z,
+      );
+      const wantFar = far > 0 && d > far;
+      out.push(same.find((s) => (s.level === "far") === wantFar) ?? c);
+    }
+    return out;
+  }
+
   // Chunks chosen for a camera at `eye` (scene coordinates, i.e. world minus the map's origin).
   choose(eye: THREE.Vector3, frustum: THREE.Frustum): ChunkInfo[] {
     const o = this.map.origin;
-    const ranked = this.map.chunks.map((c) => {
+    const ranked = this.atLevels(eye).map((c) => {
       this.box.min.set(c.min[0] - o[0], c.min[1] - o[1], c.min[2] - o[2]);
       this.box.max.set(c.max[0] - o[0], c.max[1] - o[1], c.max[2] - o[2]);
       return { c, seen: frustum.intersectsBox(this.box), d: this.box.distanceToPoint(eye) };

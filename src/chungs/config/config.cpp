@@ -60,6 +60,8 @@ void fields(V& v, CullerConfig& c) {
   v("cache_rotation_rad", c.cache_rotation_rad, "... and turns less than this");
   v("cache_max_entries", c.cache_max_entries, "");
   v("parallel_min_chunks", c.parallel_min_chunks, "");
+  v("far_level_distance", c.far_level_distance,
+    "beyond this distance (metres) a view draws and trains a chunk's far level; 0: one level (a map keeps its own)");
 }
 template <class V>
 void fields(V& v, RasterConfig& c) {
@@ -416,6 +418,8 @@ void validate_sections_without_checks(const Config& c) {
   if (k.far > k.near * 1e12)
     fail("culling: far must be at most 1e12 times near (", k.near, " m), got ", k.far);
   if (!(k.max_distance > 0)) fail("culling: max_distance must be positive, got ", k.max_distance);
+  if (!(std::isfinite(k.far_level_distance) && k.far_level_distance >= 0))
+    fail("culling: far_level_distance must be 0 (one level) or a positive number of metres, got ", k.far_level_distance);
   if (!(std::isfinite(k.cache_translation) && k.cache_translation >= 0))
     fail("culling: cache_translation must be 0 or more, got ", k.cache_translation);
   if (!(std::isfinite(k.cache_rotation_rad) && k.cache_rotation_rad >= 0))

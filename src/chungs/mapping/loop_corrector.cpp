@@ -93,7 +93,6 @@ KeyframeChunkIndex KeyframeChunkIndex::from_json(const nlohmann::json& j) {
       }
       if (s.empty() || n != s.size())
         fail("keyframe chunk index: keyframe ", key, ": bad chunk id ", e.dump());
-      chunk_coord(ChunkId(c));  // rejects ids no coordinate produces
       idx.add(uint32_t(k), ChunkId(c));
     }
   }
@@ -323,13 +322,14 @@ class Corrector {
     return it->second;
   }
 
-  // The chunk of a position; `current` for a position that has none (not finite, or beyond the
-  // range of chunk coordinates).
+  // The chunk of a position at the level of `current`, its chunk now; `current` for a position that
+  // has none (not finite, or beyond the range of chunk coordinates).
   ChunkId chunk_of(const Eigen::Vector3d& p, ChunkId current) const {
     if (!p.allFinite()) return current;
     const Eigen::Vector3d q = p / size_;
     if (q.cwiseAbs().maxCoeff() >= double(kChunkCoordMax)) return current;
-    return chunk_id_of(p, size_);
+    const ChunkId id = chunk_id_of(p, size_);
+    return is_far_level(current) ? far_level_of(id) : id;
   }
 
   // Whether chunk `dest` is on the to-do list after position `current` (still to be visited).

@@ -13,6 +13,7 @@
 #include "chungs/mapping/sky_file.hpp"
 #include "chungs/render/render_passes.hpp"
 #include "chungs/render/sky.hpp"
+#include "chungs/store/chunk_levels.hpp"
 
 namespace chungs {
 
@@ -72,6 +73,12 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   // writing the map of now would pair it with an older keyframe list.
   rc.flush_on_close = false;
   residency_ = std::make_unique<Residency>(*store_, backend_->pool(), rc);
+  // The map's chunks have the levels its own far-level distance chose (store/chunk_levels.hpp).
+  const double far_level = settle_far_level_distance(*store_, config_.culling.far_level_distance);
+  if (far_level != config_.culling.far_level_distance)
+    log::info("culling.far_level_distance ", config_.culling.far_level_distance, ": the map in ", folder.string(),
+              " was made with ", far_level, far_level > 0 ? " m" : " (one level)", ", which it keeps");
+  config_.culling.far_level_distance = far_level;
   culler_ = std::make_unique<FrustumCuller>(store_->chunk_size(), config_.culling);
   keyframe_store_ = std::make_unique<KeyframeStore>(folder / "keyframes", config_.keyframes);
   if (resume && fs::exists(folder / "keyframes.txt")) {
@@ -248,7 +255,7 @@ SampleStats Mapper::sample_view(uint32_t id, const Image8& color, const ImageF& 
                             device_ == "cuda", pixels, refine_totals_);
     };
   // With the pool, the cap is applied below to the sampler's picks and the pool's new chunks together.
-  auto batches = sample_gaussians(config_.sampler, target, depth, prob, camera, pose, store_->chunk_size(), id,
+  auto batches = sample_gaussians(config_.sampler, target, depth, prob, camera, pose, grid(), id,
                                   uint32_t(iterations_), rng_, &stats, &exclude, pooling ? 0 : cap, seeds, &refine,
                                   &established, pooling ? &strays : nullptr);
   keyframe_times_.sample_ms += ms_since(t2);
@@ -330,7 +337,7 @@ SampleStats Mapper::add_keyframe(uint64_t frame, double stamp, const Image8& col
   std::vector<ChunkId> core;
   const bool cores = config_.selector.core_share < 1;
   if ((config_.selector.best_view_share > 0 || cores) && depth) {
-    coverage.emplace(*depth, camera, pose, store_->chunk_size(), config_.sampler.fill_depth);
+    coverage.emplace(*depth, camera, pose, grid(), config_.sampler.fill_depth);
     not_sampled = chunks_sampled_better(id, *coverage);
     if (cores) core = coverage->core(config_.selector.core_share);
   }

@@ -233,6 +233,8 @@ class Mapper {
   // Narrows the selector's candidates to the keyframes whose views fit the budget together
   // (training_window.hpp); after every change of the keyframes or their poses.
   void update_training_window();
+  // Where a view's new Gaussians and coverage blocks go: the map's chunks at their levels.
+  ChunkGrid grid() const { return {store_->chunk_size(), config_.culling.far_level_distance}; }
   std::filesystem::path folder_;
   Config config_;
   std::unique_ptr<ChunkStore> store_;

@@ -119,7 +119,7 @@ const ViewCoverage& Mapper::coverage_of(const KeyframeRecord& kf) {
     const std::shared_ptr<const KeyframeImages> images = keyframe_store_->get(kf.id);
     ViewCoverage built;  // no depth map: nothing known of where its pixels look
     if (!images->depth.empty())
-      built = ViewCoverage(images->depth, kf.camera, kf.pose, store_->chunk_size(), config_.sampler.fill_depth);
+      built = ViewCoverage(images->depth, kf.camera, kf.pose, grid(), config_.sampler.fill_depth);
     it = coverage_.emplace(kf.id, std::move(built)).first;
   }
   return it->second;

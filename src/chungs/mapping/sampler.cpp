@@ -114,7 +114,7 @@ ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, co
 
 std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
-                                         double chunk_size, uint32_t keyframe_id, uint32_t step,
+                                         const ChunkGrid& grid, uint32_t keyframe_id, uint32_t step,
                                          std::mt19937_64& rng, SampleStats* stats,
                                          const std::unordered_set<ChunkId>* exclude, uint64_t max_new,
                                          const std::vector<Eigen::Vector3d>* seeds, const RefineDepths* refine,
@@ -193,7 +193,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
     size_t kept = 0;
     for (Pick& pk : picks) {
       pk.pw = pose * camera.unproject(Eigen::Vector2d(pk.x, pk.y), pk.z);
-      pk.id = chunk_id_of(pk.pw, chunk_size);
+      pk.id = grid.for_view(pk.pw, pose.t);
       // The map holds this place in a chunk the render left out: what looks missing is on disk.
       if (exclude && exclude->count(pk.id)) {
         ++st.excluded;
@@ -212,7 +212,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
       const Eigen::Vector2d uv = camera.project(pc);
       const long x = std::lround(uv.x()), y = std::lround(uv.y());
       if (!(x >= 0 && y >= 0 && x < image.width() && y < image.height())) continue;
-      const ChunkId id = chunk_id_of(X, chunk_size);
+      const ChunkId id = grid.for_view(X, pose.t);
       if (exclude && exclude->count(id)) {
         ++st.excluded;
         continue;
@@ -229,7 +229,7 @@ std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const Imag
   {
     std::unordered_map<ChunkId, uint64_t> per_chunk;
     for (const Pick& pk : picks) ++per_chunk[pk.id];
-    const uint64_t least = config.min_per_chunk(image.pixels(), chunk_size);
+    const uint64_t least = config.min_per_chunk(image.pixels(), grid.size);
     // A place that enters the view a few pixels at a time (a turn's side, the far end of the street)
     // gives each keyframe only a few picks in its chunk: once the chunk exists, they are kept.
     const auto small = [&](const Pick& pk) {

@@ -107,7 +107,8 @@ ImageF sampling_probability(const SamplerConfig& config, const ImageF& image, co
 using RefineDepths = std::function<void(std::vector<PixelDepth>&)>;
 
 // Samples Gaussians for a keyframe, at most one per pixel (run_mapping counts on it to tell whether
-// a dataset can fill the budget). image: float colour (1 or 3 channels, [0,1]); depth: metres,
+// a dataset can fill the budget), each in the chunk `grid` gives it for a view from the camera (the far level
+// of a distant cube, chunk_id.hpp). image: float colour (1 or 3 channels, [0,1]); depth: metres,
 // 0 invalid, negative where a guess (depth/guessed_depth.hpp: placed at its magnitude), same size.
 // Points falling in a chunk of `exclude` are not taken (the map holds that
 // place but the render that set the probability left it out); of the rest at most max_new (0: no
@@ -121,7 +122,7 @@ using RefineDepths = std::function<void(std::vector<PixelDepth>&)>;
 // strays (may be null): receives the picks that rule held back, built like the others, by chunk.
 std::vector<ChunkBatch> sample_gaussians(const SamplerConfig& config, const ImageF& image, const ImageF& depth,
                                          const ImageF& probability, const Camera& camera, const SE3& pose,
-                                         double chunk_size, uint32_t keyframe_id, uint32_t step,
+                                         const ChunkGrid& grid, uint32_t keyframe_id, uint32_t step,
                                          std::mt19937_64& rng, SampleStats* stats = nullptr,
                                          const std::unordered_set<ChunkId>* exclude = nullptr,
                                          uint64_t max_new = 0, const std::vector<Eigen::Vector3d>* seeds = nullptr,

@@ -10,7 +10,7 @@
 
 namespace chungs {
 
-ViewCoverage::ViewCoverage(const ImageF& depth, const Camera& camera, const SE3& pose, double chunk_size,
+ViewCoverage::ViewCoverage(const ImageF& depth, const Camera& camera, const SE3& pose, const ChunkGrid& grid,
                            double fill_depth)
     : width_(camera.width), height_(camera.height) {
   if (depth.width() != camera.width || depth.height() != camera.height)
@@ -28,7 +28,7 @@ ViewCoverage::ViewCoverage(const ImageF& depth, const Camera& camera, const SE3&
       double z = placement_depth(depth(x, y));  // a guess still says where the surface is
       if (!(z > 0) || !std::isfinite(z)) z = fill_depth;
       if (!(z > 0)) continue;
-      const ChunkId id = chunk_id_of(pose * camera.unproject(Eigen::Vector2d(x, y), z), chunk_size);
+      const ChunkId id = grid.for_view(pose * camera.unproject(Eigen::Vector2d(x, y), z), pose.t);
       auto [it, fresh] = index.try_emplace(id, uint16_t(chunks_.size()));
       if (fresh) {
         if (chunks_.size() >= kNone) fail("view coverage: the view sees more than ", kNone - 1, " chunks");

@@ -27,9 +27,10 @@ class ViewCoverage {
   static constexpr uint16_t kNone = 0xFFFF;  // a block that sees no surface (no depth, no fill)
 
   ViewCoverage() = default;
-  // depth: metres, 0 or non-finite where unknown (then fill_depth, if > 0). Throws Error when the
+  // depth: metres, 0 or non-finite where unknown (then fill_depth, if > 0); each block's surface in the
+  // chunk `grid` gives it for this view (a distant cube's far level). Throws Error when the
   // depth map and the camera differ in size or the view sees more than 65 535 chunks.
-  ViewCoverage(const ImageF& depth, const Camera& camera, const SE3& pose, double chunk_size,
+  ViewCoverage(const ImageF& depth, const Camera& camera, const SE3& pose, const ChunkGrid& grid,
                double fill_depth);
 
   const std::vector<ChunkId>& chunks() const { return chunks_; }

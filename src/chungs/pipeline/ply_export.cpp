@@ -7,6 +7,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/store/atomic_file.hpp"
+#include "chungs/store/chunk_levels.hpp"
 
 namespace chungs {
 
@@ -87,12 +88,17 @@ void write_gaussian_ply(const std::filesystem::path& file, const std::vector<con
 
 uint64_t export_ply(const ChunkStore& store, const std::filesystem::path& file, const PlySelection& select) {
   if (select.box_lo.has_value() != select.box_hi.has_value()) fail("export: a box needs both corners");
+  // A PLY's viewer draws every splat from wherever it looks: each cube at its near level, or its far
+  // one where it has no other.
   std::vector<ChunkId> ids;
   if (select.chunk) {
-    if (!store.contains(*select.chunk)) fail("export: the map has no chunk ", chunk_name(*select.chunk));
-    ids.push_back(*select.chunk);
+    const ChunkId near = near_level_of(*select.chunk);
+    if (store.contains(near)) ids.push_back(near);
+    else if (store.contains(far_level_of(near))) ids.push_back(far_level_of(near));
+    else fail("export: the map has no chunk ", chunk_name(near));
   } else {
     for (ChunkId id : store.ids()) {
+      if (far_level_with_near_twin(store, id)) continue;
       if (select.box_lo) {
         Eigen::Vector3d lo, hi;
         chunk_box(chunk_coord(id), store.chunk_size(), lo, hi);

@@ -8,22 +8,31 @@
 #include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/image/image_io.hpp"
-#include "chungs/pipeline/evaluation.hpp"
-#include "chungs/pipeline/frame_source.hpp"
 #include "chungs/mapping/map_state.hpp"
 #include "chungs/mapping/mapper.hpp"
 #include "chungs/mapping/sky_file.hpp"
+#include "chungs/pipeline/evaluation.hpp"
+#include "chungs/pipeline/frame_source.hpp"
 #include "chungs/render/cpu/rasterizer.hpp"
 #include "chungs/render/gaussian_view.hpp"
-#include "chungs/render/render_passes.hpp"
 #include "chungs/render/render_camera.hpp"
+#include "chungs/render/render_passes.hpp"
 #include "chungs/residency/budget_groups.hpp"
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
+#include "chungs/store/chunk_levels.hpp"
 
 namespace chungs {
 
 namespace fs = std::filesystem;
+
+namespace {
+// The map's chunks are drawn at the levels its own far-level distance chose.
+CullerConfig with_map_levels(CullerConfig c, const ChunkStore& store) {
+  c.far_level_distance = map_far_level_distance(store);
+  return c;
+}
+}  // namespace
 
 struct MapRenderer::Impl {
   ChunkStore store;
@@ -39,7 +48,7 @@ struct MapRenderer::Impl {
       : store(folder, reader_config(c.store)),  // rendering never repairs or rewrites the map
         pool(c.residency.budget_gaussians, store.sh_degree()),
         residency(store, pool, c.residency),
-        culler(store.chunk_size(), c.culling),
+        culler(store.chunk_size(), with_map_levels(c.culling, store)),
         raster(c.raster),
         background(c.raster.background) {}
 };

@@ -38,6 +38,7 @@ void FrustumCuller::set_chunks(std::span<const ChunkId> ids, uint64_t version) {
   std::vector<ChunkCoord> coords;
   coords.reserve(ids.size());
   for (ChunkId id : ids) coords.push_back(chunk_coord(id));
+  ids_ = std::unordered_set<ChunkId>(ids.begin(), ids.end());
   octree_.build(std::move(coords), chunk_size_);
   version_ = version;
   built_ = true;
@@ -60,8 +61,7 @@ std::vector<ChunkId> FrustumCuller::cull_brute_force(const Camera& camera, const
   std::vector<ChunkId> out;
   for (const ChunkCoord& c : octree_.chunks())
     if (chunk_visible(f, pose.t, c)) out.push_back(chunk_id(c));
-  std::sort(out.begin(), out.end());
-  return out;
+  return at_levels(std::move(out), pose.t);
 }
 
 std::vector<ChunkId> FrustumCuller::cull(const Camera& camera, const SE3& pose) const {
@@ -133,6 +133,17 @@ std::vector<ChunkId> FrustumCuller::cull(const Camera& camera, const SE3& pose) 
     tests += part_tests[i];
   }
   stats_.node_tests += tests;
+  std::sort(out.begin(), out.end());
+  return at_levels(std::move(out), eye);
+}
+
+std::vector<ChunkId> FrustumCuller::at_levels(std::vector<ChunkId> cubes, const Eigen::Vector3d& eye) const {
+  std::vector<ChunkId> out;
+  out.reserve(cubes.size());
+  for (ChunkId cube : cubes) {
+    const ChunkId id = level_for_view(cube, eye, chunk_size_, config_.far_level_distance);
+    if (ids_.count(id)) out.push_back(id);
+  }
   std::sort(out.begin(), out.end());
   return out;
 }

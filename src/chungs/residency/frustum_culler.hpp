@@ -10,12 +10,17 @@
 // plane or beyond the distance is rejected whole, a node inside all planes and entirely within
 // the distance is accepted whole, otherwise its children are tested. Both shortcuts are exact
 // (the tests are monotone in the box), so the result equals the brute-force loop's.
+// Of each visible cube the result names the level a view from the camera centre draws
+// (level_for_view, chunk_id.hpp), and only when the map holds that level: a far level not yet made
+// leaves its cube's pixels to the sampler, and the near level of a cube the camera has reached
+// likewise, instead of drawing what the other level holds for views it was not trained for.
 // Results are cached per keyframe while its pose moves less than cache_translation * s and
 // cache_rotation_rad, and the map's chunk set is unchanged.
 #pragma once
 #include <cstdint>
 #include <span>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "chungs/geometry/camera.hpp"
@@ -34,6 +39,13 @@ struct CullerConfig {
   size_t cache_max_entries = 4096;    // keyframes remembered; the cache is cleared beyond
   size_t parallel_min_chunks = 20000; // use threads only when this many chunks remain to test
                                       // after the top of the tree (bench/README.md)
+  // Beyond this distance from a view (metres, to a chunk's centre) the view draws and trains the
+  // chunk's far level (chunk_id.hpp); 0: one level. A map keeps the distance it was made with (its
+  // manifest's far_level_distance). On a 2 km street at 620x188 (GPU, 30 steps per keyframe):
+  // 27.70 dB held-out with one level, 27.73 / 27.90 / 28.04 / 28.42 / 27.99 at 30 / 40 / 50 / 70 /
+  // 85 m; under a 100 k budget, below one view's need, 25.35 dB against 26.68-27.14 at 30-70 m
+  // (bench/README.md, issue 19).
+  double far_level_distance = 70.0;
 };
 
 struct CullStats {
@@ -77,6 +89,9 @@ class FrustumCuller {
     std::vector<ChunkId> visible;
   };
   bool chunk_visible(const Frustum& f, const Eigen::Vector3d& eye, const ChunkCoord& c) const;
+  // The visible cubes' chunks at the levels a view from `eye` draws, those the map holds.
+  std::vector<ChunkId> at_levels(std::vector<ChunkId> cubes, const Eigen::Vector3d& eye) const;
+  std::unordered_set<ChunkId> ids_;  // the map's chunks, either level
 
   double chunk_size_;
   CullerConfig config_;

@@ -21,7 +21,6 @@ std::vector<PinResult> Residency::add_many(std::span<const ChunkAddition> adds) 
     if (!adds[i].block) fail("residency: add_many entry ", i, " has no block");
     if (adds[i].block->size() == 0) continue;
     adds[i].block->validate("residency add");
-    chunk_coord(adds[i].id);  // rejects ids no coordinate produces
     todo.push_back(i);
   }
   if (todo.empty()) return results;

@@ -5,6 +5,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/sky_file.hpp"
+#include "chungs/store/chunk_levels.hpp"
 
 namespace chungs::serve {
 
@@ -145,7 +146,8 @@ nlohmann::json MapSnapshot::describe() const {
                       {"min", {lo.x(), lo.y(), lo.z()}},
                       {"max", {hi.x(), hi.y(), hi.z()}},
                       {"count", e.count},
-                      {"generation", e.generation}});
+                      {"generation", e.generation},
+                      {"level", is_far_level(id) ? "far" : "near"}});
   }
   nlohmann::json kfs = nlohmann::json::array();
   for (const auto& k : keyframes_)
@@ -156,6 +158,7 @@ nlohmann::json MapSnapshot::describe() const {
   nlohmann::json j = {{"format", 1},
                       {"checkpoint", checkpoint_},
                       {"chunk_size", s},
+                      {"far_level_distance", map_far_level_distance(*store_)},
                       {"sh_degree", m.sh_degree},
                       {"total_gaussians", m.total_gaussians()},
                       {"origin", {o.x(), o.y(), o.z()}},

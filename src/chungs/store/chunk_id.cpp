@@ -26,8 +26,7 @@ ChunkId chunk_id(const ChunkCoord& c) {
 }
 
 ChunkCoord chunk_coord(ChunkId id) {
-  if (id >> (3 * kChunkAxisBits))
-    fail(chunk_name(id), " has bits set above the three 21-bit coordinate fields");
+  id = near_level_of(id);
   auto axis = [&](int shift) { return int32_t(int64_t((id >> shift) & kAxisMask) - kChunkCoordOffset); };
   return {axis(2 * kChunkAxisBits), axis(kChunkAxisBits), axis(0)};
 }
@@ -61,8 +60,14 @@ Eigen::Vector3d chunk_centre(const ChunkCoord& c, double s) {
 std::string chunk_name(ChunkId id) {
   char hex[24];
   std::snprintf(hex, sizeof hex, "0x%016llx", static_cast<unsigned long long>(id));
-  if (id >> (3 * kChunkAxisBits)) return cat("chunk ", hex);
-  return cat("chunk ", chunk_coord(id).str(), "/", hex);
+  return cat("chunk ", chunk_coord(id).str(), is_far_level(id) ? " far/" : "/", hex);
+}
+
+ChunkId level_for_view(ChunkId id, const Eigen::Vector3d& eye, double s, double far_distance) {
+  const ChunkId near = near_level_of(id);
+  if (!(far_distance > 0)) return near;
+  const double d2 = (chunk_centre(chunk_coord(near), s) - eye).squaredNorm();
+  return d2 > far_distance * far_distance ? far_level_of(near) : near;
 }
 
 }  // namespace chungs

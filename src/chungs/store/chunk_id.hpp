@@ -2,6 +2,12 @@
 // integer multiples of s: coordinate floor((p + s/2) / s) per axis. An id packs three 21-bit
 // fields, each the coordinate plus 2^20, so coordinates span [-2^20, 2^20 - 1]; outside that range
 // packing fails instead of wrapping into another chunk.
+//
+// Each cube has two levels of detail, two chunks: the near level (the id as packed) holds what
+// views from within far_distance of the cube's centre draw and train, the far level (the same id
+// with its top bit set) what views from farther away draw and train. A distant place fills few
+// pixels, so its far level holds few, large Gaussians, and a view that reaches 100 m needs far
+// fewer Gaussians resident than when its distant chunks held what near views made there.
 #pragma once
 #include <Eigen/Core>
 #include <cstdint>
@@ -33,7 +39,7 @@ struct ChunkCoord {
 
 // Throws Error naming the coordinate when an axis lies outside [kChunkCoordMin, kChunkCoordMax].
 ChunkId chunk_id(const ChunkCoord& c);
-ChunkCoord chunk_coord(ChunkId id);  // throws on ids whose unused top bit is set
+ChunkCoord chunk_coord(ChunkId id);  // of either level
 // The chunk of a world point; throws on non-finite points, s <= 0, or a coordinate out of range.
 ChunkCoord chunk_coord_of(const Eigen::Vector3d& p, double chunk_size);
 inline ChunkId chunk_id_of(const Eigen::Vector3d& p, double chunk_size) {
@@ -51,7 +57,27 @@ inline void chunk_box(const ChunkCoord& c, double s, Eigen::Vector3d& lo, Eigen:
 }
 Eigen::Vector3d chunk_centre(const ChunkCoord& c, double s);
 
-std::string chunk_name(ChunkId id);  // "(x, y, z)/0x0123456789abcdef" for messages
+std::string chunk_name(ChunkId id);  // "(x, y, z)/0x0123456789abcdef", "(x, y, z) far/0x..." for messages
+
+constexpr ChunkId kFarLevelBit = ChunkId(1) << 63;
+inline bool is_far_level(ChunkId id) { return (id & kFarLevelBit) != 0; }
+inline ChunkId near_level_of(ChunkId id) { return id & ~kFarLevelBit; }
+inline ChunkId far_level_of(ChunkId id) { return id | kFarLevelBit; }
+// The level of chunk `id`'s cube (either level given) that a view from `eye` draws: the far one
+// when the cube's centre lies more than far_distance away; with far_distance <= 0 (one level)
+// always the near one.
+ChunkId level_for_view(ChunkId id, const Eigen::Vector3d& eye, double chunk_size, double far_distance);
+
+// Where a view's points go: the chunk of a point at the level a view from `eye` draws. From a bare
+// chunk size (implicitly), a grid of one level.
+struct ChunkGrid {
+  double size = 10.0;
+  double far_level_distance = 0;  // metres; 0: one level
+  ChunkGrid(double size_m, double far_level_m = 0) : size(size_m), far_level_distance(far_level_m) {}
+  ChunkId for_view(const Eigen::Vector3d& p, const Eigen::Vector3d& eye) const {
+    return level_for_view(chunk_id_of(p, size), eye, size, far_level_distance);
+  }
+};
 
 }  // namespace chungs
 

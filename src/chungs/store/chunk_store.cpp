@@ -306,7 +306,6 @@ void ChunkStore::save_arrays(ChunkId id, const ConstBlockArrays& block, Writebac
 
 std::pair<uint64_t, ChunkFileInfo> ChunkStore::write_generation(ChunkId id, const ConstBlockArrays& block,
                                                                  Writeback writeback) {
-  chunk_coord(id);  // rejects ids that no coordinate produces
   const ChunkWriteOptions opt{config_.compress,     config_.zstd_level,   config_.shuffle,
                               false,                config_.half_moments, config_.half_sh_rest,
                               config_.durable && writeback == Writeback::Start};

@@ -126,11 +126,6 @@ Manifest Manifest::parse(const std::string& text, const std::filesystem::path& f
       ManifestEntry e{parse_u64(count_s2, 10, file, n, "count"), parse_u64(bytes_s, 10, file, n, "file size"),
                       parse_u64(sum2, 16, file, n, "checksum"),
                       version < 2 ? 0 : parse_u64(gen_s, 10, file, n, "generation")};
-      try {
-        chunk_coord(id);
-      } catch (const Error& err) {
-        bad(err.what());
-      }
       // Readers size pools and budgets by these counts before any chunk file is opened.
       if (e.count > kMaxChunkGaussians)
         bad(cat(chunk_name(id), " is listed with ", e.count, " Gaussians, more than a chunk may hold (",
