@@ -143,6 +143,36 @@ TEST(MapperCheckpoint, ClosingWithoutACheckpointLeavesTheLastOne) {
   for (uint32_t k : ids) ASSERT_LT(k, 4u) << "a Gaussian of keyframe " << k << " outlived its run's last checkpoint";
 }
 
+// The levels of a map's chunks were chosen by the distance it was made with: a resumed run keeps it,
+// whatever its settings say, and goes on adding to both levels the same way.
+TEST(MapperCheckpoint, AResumedMapKeepsTheFarLevelDistanceItWasMadeWith) {
+  log::set_level(log::Level::Warn);
+  test::TempDir dir;
+  const test::WallSequence seq(10);
+  Config c = small_config();
+  c.culling.far_level_distance = 3.2;  // the wall 3 m ahead: the cubes in front near, those aside far
+  const fs::path m_dir = dir / "m";
+  {
+    Mapper m(m_dir, c, false);
+    add_frames(m, seq, 0, 4);
+    m.checkpoint({{"next_frame", 4}});
+  }
+  Config other = c;
+  other.culling.far_level_distance = 70;
+  {
+    Mapper m(m_dir, other, true);
+    EXPECT_DOUBLE_EQ(m.config().culling.far_level_distance, 3.2);
+    add_frames(m, seq, 4, 8);
+    m.checkpoint({{"next_frame", 8}});
+  }
+  const ChunkStore store(m_dir, reader_config());
+  EXPECT_EQ(store.config_value("far_level_distance"), std::optional<std::string>("3.2"));
+  size_t far = 0, near = 0;
+  for (ChunkId id : store.ids()) (is_far_level(id) ? far : near)++;
+  EXPECT_GT(far, 0u);
+  EXPECT_GT(near, 0u);
+}
+
 // Every file but the lock, by name: a hash of its contents.
 std::map<std::string, size_t> contents(const fs::path& folder) {
   std::map<std::string, size_t> out;
