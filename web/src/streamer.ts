@@ -49,10 +49,23 @@ function toExtSplats(p: PackedChunk): ExtSplats {
   });
 }
 
+// The map's chunks by cube: one entry, or two where the cube has both levels of detail.
+function byCube(map: MapInfo): ChunkInfo[][] {
+  const cubes = new Map<string, ChunkInfo[]>();
+  for (const c of map.chunks) {
+    const key = c.coord.join(",");
+    const same = cubes.get(key);
+    if (same) same.push(c);
+    else cubes.set(key, [c]);
+  }
+  return [...cubes.values()];
+}
+
 export class ChunkStreamer {
   readonly stats: StreamStats;
   private slots = new Map<string, Slot>();
   private box = new THREE.Box3();
+  private cubes: ChunkInfo[][]; // per map, not per frame: choose() runs at every camera move
 
   constructor(
     private scene: THREE.Scene,
@@ -63,6 +76,7 @@ export class ChunkStreamer {
     private onShown?: (id: string) => void, // a chunk's mesh entered the scene
   ) {
     this.stats = { loaded: 0, loading: 0, splats: 0, peakSplats: 0, budget, fetches: 0, disposed: 0, failed: 0, fetchMs: [], errors: [] };
+    this.cubes = byCube(map);
   }
 
   // A newer checkpoint of the map: chunks it changed or removed leave the page now (the changed
@@ -70,6 +84,7 @@ export class ChunkStreamer {
   setMap(map: MapInfo, stale: Iterable<string>): void {
     map.origin = this.map.origin;
     this.map = map;
+    this.cubes = byCube(map);
     for (const id of stale) {
       const slot = this.slots.get(id);
       if (slot) this.drop(id, slot);
@@ -82,15 +97,8 @@ export class ChunkStreamer {
   private atLevels(eye: THREE.Vector3): ChunkInfo[] {
     const far = this.map.far_level_distance ?? 0;
     const o = this.map.origin;
-    const cubes = new Map<string, ChunkInfo[]>();
-    for (const c of this.map.chunks) {
-      const key = c.coord.join(",");
-      const same = cubes.get(key);
-      if (same) same.push(c);
-      else cubes.set(key, [c]);
-    }
     const out: ChunkInfo[] = [];
-    for (const same of cubes.values()) {
+    for (const same of this.cubes) {
       const c = same[0];
       const d = Math.hypot(
         (c.min[0] + c.max[0]) / 2 - o[0] - eye.x,
