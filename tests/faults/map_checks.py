@@ -52,6 +52,17 @@ class Commits:
         return self.order[-1] if self.order else None
 
 
+FAR_LEVEL_BIT = 1 << 63
+
+
+def exported_total(chunks):
+    """The Gaussians `export` writes for a manifest's chunks: each 10 m cube once, its near level, or its
+    far level (id with the top bit set) where the map has no near level for that cube."""
+    ids = {int(name, 16) for name in chunks}
+    return sum(c[0] for name, c in chunks.items()
+               if not (int(name, 16) & FAR_LEVEL_BIT and int(name, 16) & ~FAR_LEVEL_BIT in ids))
+
+
 PLY_COUNT = re.compile(rb"element vertex (\d+)")
 
 

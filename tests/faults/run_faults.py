@@ -45,7 +45,7 @@ from pathlib import Path
 sys.dont_write_bytecode = True
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from map_checks import Commits, check_committed, keyframe_ids, ply_count, read_manifest  # noqa: E402
+from map_checks import Commits, check_committed, exported_total, keyframe_ids, ply_count, read_manifest  # noqa: E402
 
 # 54 keyframes, 12 commits, 6 chunks in about 2 s on one core; 96x32 with depth=1 maps the same
 # keyframes into one chunk in 1.4 s (the full sweep of bench/README.md).
@@ -149,11 +149,11 @@ class Sweep:
         if (folder / "manifest.txt").exists():
             ply = d / "map.ply"
             erc, _, eerr = run([self.cli, "export", "--map", str(folder), "--out", str(ply)], self.base_env)
-            want = sum(c[0] for c in read_manifest(folder / "manifest.txt")[1].values())
+            want = exported_total(read_manifest(folder / "manifest.txt")[1])
             if erc != 0:
                 problems.append(f"export failed: {eerr.strip()[-200:]}")
             elif ply_count(ply) != want:
-                problems.append(f"export wrote {ply_count(ply)} Gaussians, the manifest lists {want}")
+                problems.append(f"export wrote {ply_count(ply)} Gaussians, each cube of the manifest once holds {want}")
             if render and k:
                 rrc, _, rerr = run([self.cli, "render", "--map", str(folder), "--poses", str(self.trajectory),
                                     "--stride", "20", "--out", str(d / "renders"), "-q"], self.base_env)

@@ -6,7 +6,7 @@ processes run `export` (twice) and `render` on the same folder, one after anothe
 until the run ends (at least --reads of them while it runs: choose --length to suit). The rule
 (README, "Readers may run beside a running mapper"): a reader reads the last committed checkpoint
 whole, starting over by itself when the mapper's commits take files before it has them open.
-A watcher notes every checkpoint's Gaussian total as its manifest appears. Every read is judged:
+A watcher notes, as each checkpoint's manifest appears, the Gaussians export would write from it. Every read is judged:
 
   ok        export wrote exactly the Gaussians of one committed checkpoint, or render wrote every
             view (a handful along the street) as a whole PNG
@@ -39,7 +39,7 @@ from pathlib import Path
 sys.dont_write_bytecode = True
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from map_checks import ply_count, read_manifest  # noqa: E402
+from map_checks import exported_total, ply_count, read_manifest  # noqa: E402
 
 CONFIG = """mapper:
   checkpoint_every: 3
@@ -50,13 +50,6 @@ REFUSALS = ("not a map folder", "no keyframes.txt")
 RETRY = "committed again while"
 CRASH_MARKERS = ("terminate called", "Segmentation fault", "Aborted", "core dumped", "runtime error:")
 FPS = re.compile(r"([0-9.]+) FPS")
-
-
-def manifest_total(folder):
-    try:
-        return sum(c[0] for c in read_manifest(folder / "manifest.txt")[1].values())
-    except (OSError, ValueError, IndexError):
-        return None
 
 
 def whole_png(path):
@@ -79,7 +72,7 @@ def whole_png(path):
 
 
 class Watcher:
-    """Every checkpoint's Gaussian total, read as its manifest is renamed into place (a manifest is
+    """What export would write from every checkpoint, read as its manifest is renamed into place (a manifest is
     replaced whole, so a read gets one; a checkpoint replaced before the watcher saw it is a gap)."""
 
     def __init__(self, folder):
@@ -94,7 +87,7 @@ class Watcher:
                 key = (st.st_ino, st.st_mtime_ns)
                 if key != last:
                     checkpoint, chunks, _ = read_manifest(self.folder / "manifest.txt")
-                    self.totals[checkpoint] = sum(c[0] for c in chunks.values())
+                    self.totals[checkpoint] = exported_total(chunks)
                     last = key
             except (OSError, ValueError, IndexError):
                 pass
