@@ -173,6 +173,49 @@ TEST(MapperCheckpoint, AResumedMapKeepsTheFarLevelDistanceItWasMadeWith) {
   EXPECT_GT(near, 0u);
 }
 
+// A manifest lost (deleted after it read back corrupt, as the readers' error advises) leaves the chunk files:
+// --resume rebuilds the map from them, its far level included, instead of rolling every chunk back to an
+// empty map, and goes on mapping.
+TEST(MapperCheckpoint, AMapWhoseManifestIsLostIsRebuiltFromItsChunkFilesOnResume) {
+  log::set_level(log::Level::Error);
+  test::TempDir dir;
+  const test::WallSequence seq(10);
+  Config c = small_config();
+  c.culling.far_level_distance = 3.2;  // both levels (see above)
+  const fs::path m_dir = dir / "m";
+  {
+    Mapper m(m_dir, c, false);
+    add_frames(m, seq, 0, 4);
+    m.checkpoint({{"next_frame", 4}});
+  }
+  std::vector<std::pair<ChunkId, uint64_t>> before;
+  {
+    const ChunkStore store(m_dir, reader_config());
+    before = store.counts();
+  }
+  ASSERT_GT(before.size(), 2u);
+  ASSERT_TRUE(is_far_level(before.back().first));
+  fs::remove(m_dir / "manifest.txt");
+  {
+    Mapper m(m_dir, c, true);
+    EXPECT_EQ(m.keyframes().size(), 4u);
+    EXPECT_DOUBLE_EQ(m.config().culling.far_level_distance, 3.2);
+    {
+      const ChunkStore store(m_dir, reader_config());  // as a reader beside the resumed run sees it
+      EXPECT_EQ(store.counts(), before);
+      EXPECT_EQ(store.config_value("far_level_distance"), std::optional<std::string>("3.2"));
+    }
+    add_frames(m, seq, 4, 8);
+    m.checkpoint({{"next_frame", 8}});
+  }
+  const ChunkStore store(m_dir, reader_config());
+  size_t far = 0, near = 0;
+  for (ChunkId id : store.ids()) (is_far_level(id) ? far : near)++;
+  EXPECT_GT(far, 0u);
+  EXPECT_GT(near, 0u);
+  EXPECT_GE(store.size(), before.size());
+}
+
 // Every file but the lock, by name: a hash of its contents.
 std::map<std::string, size_t> contents(const fs::path& folder) {
   std::map<std::string, size_t> out;

@@ -49,6 +49,17 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   // and run state committed with it (no Gaussians of frames that a resumed run processes again).
   ChunkStoreConfig store_config = config_.store;
   store_config.adopt_uncommitted = false;
+  // A committed keyframe list without a manifest: the manifest was lost (or deleted after it read back
+  // corrupt, as the readers' error advises). Rolling back to "the last commit" would then delete every
+  // chunk file; the map is rebuilt from them instead, the newest whole file of each chunk.
+  const bool manifest_lost = resume && !fs::exists(folder / "manifest.txt") && fs::exists(folder / "keyframes.txt");
+  if (manifest_lost) {
+    ChunkStoreConfig rebuild = store_config;
+    rebuild.adopt_uncommitted = true;  // on this open only: the session's own files roll back as ever
+    const ChunkStore rebuilt(folder, rebuild);
+    log::warn(folder.string(), ": manifest.txt is missing; rebuilt it from ", rebuilt.size(),
+              " chunk files (chunks saved after the last checkpoint, if a crash left any, are kept too)");
+  }
   store_ = std::make_unique<ChunkStore>(folder, store_config);
   if (resume) {
     recover_checkpoint_files();
@@ -79,6 +90,7 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     log::info("culling.far_level_distance ", config_.culling.far_level_distance, ": the map in ", folder.string(),
               " was made with ", far_level, far_level > 0 ? " m" : " (one level)", ", which it keeps");
   config_.culling.far_level_distance = far_level;
+  if (manifest_lost) store_->commit();  // the rebuilt manifest names the distance before anyone reads it
   culler_ = std::make_unique<FrustumCuller>(store_->chunk_size(), config_.culling);
   keyframe_store_ = std::make_unique<KeyframeStore>(folder / "keyframes", config_.keyframes);
   if (resume && fs::exists(folder / "keyframes.txt")) {

@@ -13,8 +13,9 @@ inline constexpr const char* kFarLevelKey = "far_level_distance";
 // The map's distance in metres; 0 for a map made before chunks had levels (all of them near).
 // Throws Error naming the manifest when the entry is not 0 or a positive number of metres.
 double map_far_level_distance(const ChunkStore& store);
-// Records `metres` in a map that has no chunks yet (committed with the next checkpoint); for a map
-// that has, leaves its own. Returns the distance the map keeps.
+// Records `metres` in a map that has no chunks yet (committed with the next commit); for a map that
+// has, leaves its own: 0 for one made before levels. A map with far-level chunks but no entry (its
+// manifest rebuilt from the chunk files) gets `metres`, with a warning. Returns the distance the map keeps.
 double settle_far_level_distance(ChunkStore& store, double metres);
 
 // For a reader that draws the map one way from everywhere (a PLY file, a point cloud): a far level
