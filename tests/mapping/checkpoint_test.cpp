@@ -196,14 +196,21 @@ TEST(MapperCheckpoint, AMapWhoseManifestIsLostIsRebuiltFromItsChunkFilesOnResume
   ASSERT_GT(before.size(), 2u);
   ASSERT_TRUE(is_far_level(before.back().first));
   fs::remove(m_dir / "manifest.txt");
+  // The chunk size and SH degree went with the manifest too: the run state committed with it names them,
+  // so settings that differ (a user resuming without the map's --chunk-size) do not misplace the chunks.
+  Config other = c;
+  other.store.chunk_size = 2 * c.store.chunk_size;
+  other.store.sh_degree = 1;
   {
-    Mapper m(m_dir, c, true);
+    Mapper m(m_dir, other, true);
     EXPECT_EQ(m.keyframes().size(), 4u);
     EXPECT_DOUBLE_EQ(m.config().culling.far_level_distance, 3.2);
     {
       const ChunkStore store(m_dir, reader_config());  // as a reader beside the resumed run sees it
       EXPECT_EQ(store.counts(), before);
       EXPECT_EQ(store.config_value("far_level_distance"), std::optional<std::string>("3.2"));
+      EXPECT_EQ(store.chunk_size(), c.store.chunk_size);
+      EXPECT_EQ(store.sh_degree(), c.store.sh_degree);
     }
     add_frames(m, seq, 4, 8);
     m.checkpoint({{"next_frame", 8}});

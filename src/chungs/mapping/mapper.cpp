@@ -35,6 +35,25 @@ bool worth_saying_again(uint64_t needed, uint64_t& largest) {
   return say;
 }
 
+// The chunk size and SH degree that a lost manifest held, from the run state committed with it (maps
+// whose state predates them keep the settings' values); a damaged value is refused naming the file.
+void take_map_geometry(const fs::path& state_file, ChunkStoreConfig& c) {
+  if (!fs::exists(state_file)) return;
+  const nlohmann::json j = read_json_file(state_file);
+  if (!j.is_object()) return;  // validate_run_state names it when the run state is read
+  if (j.contains("chunk_size")) {
+    const nlohmann::json& v = j["chunk_size"];
+    if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>()))
+      fail(state_file.string(), ": 'chunk_size' must be a positive number of metres, got ", v.dump());
+    c.chunk_size = v.get<double>();
+  }
+  if (j.contains("sh_degree")) {
+    const nlohmann::json& v = j["sh_degree"];
+    if (!v.is_number_unsigned() || v.get<uint64_t>() > uint64_t(kMaxShDegree))
+      fail(state_file.string(), ": 'sh_degree' must be a whole number in [0, ", kMaxShDegree, "], got ", v.dump());
+    c.sh_degree = int(v.get<uint64_t>());
+  }
+}
 }  // namespace
 
 Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
@@ -56,9 +75,10 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   if (manifest_lost) {
     ChunkStoreConfig rebuild = store_config;
     rebuild.adopt_uncommitted = true;  // on this open only: the session's own files roll back as ever
+    take_map_geometry(folder / "run_state.json", rebuild);
     const ChunkStore rebuilt(folder, rebuild);
-    log::warn(folder.string(), ": manifest.txt is missing; rebuilt it from ", rebuilt.size(),
-              " chunk files (chunks saved after the last checkpoint, if a crash left any, are kept too)");
+    log::warn(folder.string(), ": manifest.txt is missing; rebuilt it from ", rebuilt.size(), " chunk files, chunks of ",
+              rebuilt.chunk_size(), " m (chunks saved after the last checkpoint, if a crash left any, are kept too)");
   }
   store_ = std::make_unique<ChunkStore>(folder, store_config);
   if (resume) {

@@ -73,6 +73,9 @@ void Mapper::checkpoint(const nlohmann::json& run_state, bool behind, TextPieces
   std::optional<SkyTexture> sky = sky_on_ ? backend_->sky() : std::nullopt;  // as it is now
   nlohmann::json j = run_state;
   j["iterations"] = iterations_;
+  // Also held by the manifest; here they let a lost manifest be rebuilt at the map's own geometry.
+  j["chunk_size"] = store_->chunk_size();
+  j["sh_degree"] = store_->sh_degree();
   std::ostringstream s;
   s << rng_;
   j["rng"] = s.str();
