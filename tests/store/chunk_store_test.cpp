@@ -168,7 +168,7 @@ TEST(ChunkStore, RejectsACorruptManifestWithAHint) {
     ChunkStore s(dir.path(), fast_config());
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("delete the manifest"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("delete it, and `run --resume` rebuilds it"), std::string::npos) << e.what();
   }
 }
 

@@ -21,6 +21,7 @@
 #include "chungs/residency/frustum_culler.hpp"
 #include "chungs/residency/residency.hpp"
 #include "chungs/store/chunk_levels.hpp"
+#include "chungs/store/map_folder.hpp"
 
 namespace chungs {
 
@@ -54,7 +55,7 @@ struct MapRenderer::Impl {
 };
 
 MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
-  if (!fs::exists(folder / "manifest.txt")) fail(folder.string(), ": not a map folder (no manifest.txt)");
+  require_map_manifest(folder);
   // The camera and sky of the checkpoint the manifest names, even where its run failed before they
   // took their final names: a reader renames nothing. A mapper may be running: it renames them
   // after its commit, so a numbered file can vanish between looking and reading (then the final

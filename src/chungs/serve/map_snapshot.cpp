@@ -6,6 +6,7 @@
 #include "chungs/common/log.hpp"
 #include "chungs/mapping/sky_file.hpp"
 #include "chungs/store/chunk_levels.hpp"
+#include "chungs/store/map_folder.hpp"
 
 namespace chungs::serve {
 
@@ -32,7 +33,7 @@ nlohmann::json camera_json(const Camera& c) {
 }  // namespace
 
 MapSnapshot::MapSnapshot(const fs::path& folder) : folder_(folder) {
-  if (!fs::is_regular_file(folder / "manifest.txt")) fail(folder.string(), ": not a map folder (no manifest.txt)");
+  require_map_manifest(folder);
   // The keyframe list is the mapper's, committed with the manifest under a numbered name first and
   // renamed after the commit; a reader renames nothing. When the manifest moved on while the list
   // was read, the list may belong to the next checkpoint: read everything again.

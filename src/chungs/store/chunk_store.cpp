@@ -15,6 +15,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/store/chunk_file_name.hpp"
+#include "chungs/store/map_folder.hpp"
 
 namespace chungs {
 
@@ -53,7 +54,7 @@ ChunkStore::ChunkStore(fs::path folder, const ChunkStoreConfig& config)
     try {
       manifest_ = Manifest::read(manifest_path());
     } catch (const Error& e) {
-      fail(e.what(), " (delete the manifest to rebuild it from the chunk files)");
+      fail(e.what(), " (delete it, and `run --resume` rebuilds it from the chunk files)");
     }
     if (manifest_.chunk_size != config.chunk_size)
       log::info(folder_.string(), ": map uses chunk size ", manifest_.chunk_size, " m (config asked ",
@@ -77,11 +78,11 @@ void ChunkStore::open_read_only() {
   // opened; then the manifest has moved on and the read starts over from it.
   constexpr int kAttempts = 5;
   auto read_manifest = [&] {
-    if (!fs::exists(manifest_path())) fail(folder_.string(), ": not a map folder (no manifest.txt)");
+    require_map_manifest(folder_);
     try {
       return Manifest::read(manifest_path());
     } catch (const Error& e) {
-      fail(e.what(), " (a writer, `run --resume`, can rebuild it from the chunk files)");
+      fail(e.what(), " (delete it, and `run --resume` rebuilds it from the chunk files)");
     }
   };
   Manifest m = read_manifest();
