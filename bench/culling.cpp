@@ -1,5 +1,6 @@
 // Frustum culling of a large map at the paper's 100 m far plane: the hierarchical culler on one
-// and two threads, the brute-force loop it must agree with, and a per-keyframe cache hit.
+// and two threads, the brute-force loop it must agree with, a per-keyframe cache hit, and what a change of
+// the map's chunk set costs (the octree and the id set that names each visible cube at its level).
 // Map: 400 x 400 chunks in 3 height layers (4 km square at 10 m chunks; 800 m at 2 m chunks, where
 // many more chunks lie within 100 m), a given share of them present;
 // a KITTI-like camera (1241 x 376, f = 718) at ground level looking horizontally.
@@ -12,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <unordered_set>
 
 #include "chungs/residency/frustum_culler.hpp"
 
@@ -94,6 +96,27 @@ void BM_CullCacheHit(benchmark::State& st) {
   }
 }
 
+// Once per change of the map's chunks (about once a keyframe while the map grows).
+void BM_SetChunks(benchmark::State& st) {
+  const std::vector<ChunkId> ids = make_map(double(st.range(0)) / 100.0);
+  FrustumCuller culler(10.0, CullerConfig{});
+  uint64_t version = 0;
+  for (auto _ : st) culler.set_chunks(ids, ++version);
+  st.counters["chunks"] = double(ids.size());
+}
+
+// The id set alone, the part of set_chunks that two levels per chunk added.
+void BM_ChunkIdSet(benchmark::State& st) {
+  const std::vector<ChunkId> ids = make_map(double(st.range(0)) / 100.0);
+  for (auto _ : st) {
+    std::unordered_set<ChunkId> set;
+    set.reserve(ids.size());
+    set.insert(ids.begin(), ids.end());
+    benchmark::DoNotOptimize(set.size());
+  }
+  st.counters["chunks"] = double(ids.size());
+}
+
 }  // namespace
 
 BENCHMARK(BM_CullHierarchical)->ArgNames({"fill_pct", "threads", "chunk_m"})
@@ -102,5 +125,7 @@ BENCHMARK(BM_CullHierarchical)->ArgNames({"fill_pct", "threads", "chunk_m"})
 BENCHMARK(BM_CullBruteForce)->ArgNames({"fill_pct", "chunk_m"})
     ->Args({5, 10})->Args({30, 10})->Args({100, 10})->Args({100, 2})->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CullCacheHit)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SetChunks)->ArgNames({"fill_pct"})->Arg(5)->Arg(30)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ChunkIdSet)->ArgNames({"fill_pct"})->Arg(5)->Arg(30)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();
