@@ -174,4 +174,33 @@ TEST(CliResume, AStereoMapGoesOnWithMultiviewDepth) {
   EXPECT_TRUE(fs::exists(dir / "map" / "report.json"));
 }
 
+// A corrupt manifest's hint said to delete it so that a writer rebuilds it; `run --resume` then deleted every
+// chunk file instead (its roll-back to the last commit found no commit). Now the user's whole path works.
+TEST(CliResume, AManifestDeletedAfterItReadBackCorruptIsRebuiltFromTheChunkFiles) {
+  chungs::test::TempDir dir;
+  const fs::path map = small_map(dir.path());
+  auto exported = [&](const std::string& name) {
+    const fs::path ply = dir / name;
+    auto r = run_cli("-q export --map " + map.string() + " --out " + ply.string());
+    EXPECT_EQ(r.code, 0) << r.out;
+    const std::string head = read_all(ply).substr(0, 300);
+    const size_t at = head.find("element vertex ");
+    return at == std::string::npos ? std::string("none") : head.substr(at, head.find('\n', at) - at);
+  };
+  const std::string before = exported("before.ply");
+  ASSERT_NE(before, "element vertex 0");
+  { std::ofstream(map / "manifest.txt", std::ios::app) << "junk\n"; }
+  auto r = run_cli("export --map " + map.string() + " --out " + (dir / "x.ply").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("delete it, and `run --resume` rebuilds it from the chunk files"), std::string::npos) << r.out;
+  fs::remove(map / "manifest.txt");
+  r = run_cli("export --map " + map.string() + " --out " + (dir / "x.ply").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("manifest.txt is missing, though the map's keyframes.txt is there"), std::string::npos) << r.out;
+  r = run_cli("run --dataset " + kDataset + " --device cpu --max-frames 12 --no-eval --resume --out " + map.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("manifest.txt is missing; rebuilt it from"), std::string::npos) << r.out;
+  EXPECT_EQ(exported("after.ply"), before);
+}
+
 }  // namespace
