@@ -7,28 +7,21 @@
 
 #include "chungs/common/error.hpp"
 #include "store/random_block.hpp"
+#include "store/store_test_configs.hpp"
 #include "test_support.hpp"
 
 using namespace chungs;
 namespace fs = std::filesystem;
 
-namespace {
-ChunkStoreConfig fast_config() {
-  ChunkStoreConfig c;
-  c.durable = false;
-  return c;
-}
-}  // namespace
-
 TEST(ChunkLevels, ANewMapRecordsItsDistanceAndKeepsItWhateverLaterSettingsSay) {
   test::TempDir dir;
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::unflushed_store());
     EXPECT_DOUBLE_EQ(settle_far_level_distance(s, 37.25), 37.25);
     s.save(far_level_of(chunk_id({1, 0, 4})), test::random_block(5, 1, 10, 0, 40));
     s.commit();
   }
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::unflushed_store());
   EXPECT_DOUBLE_EQ(map_far_level_distance(s), 37.25);
   EXPECT_DOUBLE_EQ(settle_far_level_distance(s, 80), 37.25);  // the chunks' levels were chosen at 37.25 m
   EXPECT_DOUBLE_EQ(settle_far_level_distance(s, 0), 37.25);
@@ -39,11 +32,11 @@ TEST(ChunkLevels, ANewMapRecordsItsDistanceAndKeepsItWhateverLaterSettingsSay) {
 TEST(ChunkLevels, AMapFromBeforeLevelsStaysOneLevel) {
   test::TempDir dir;
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::unflushed_store());
     s.save(chunk_id({0, 0, 2}), test::random_block(4, 2, 0, 0, 20));
     s.commit();
   }
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::unflushed_store());
   EXPECT_DOUBLE_EQ(map_far_level_distance(s), 0);
   EXPECT_DOUBLE_EQ(settle_far_level_distance(s, 70), 0);
   EXPECT_FALSE(s.config_value(kFarLevelKey).has_value());
@@ -53,11 +46,11 @@ TEST(ChunkLevels, ADamagedEntryIsRefusedNamingTheManifest) {
   for (const char* bad : {"-3", "abc", "nan", "inf"}) {
     test::TempDir dir;
     {
-      ChunkStore s(dir.path(), fast_config());
+      ChunkStore s(dir.path(), test::unflushed_store());
       s.set_config(kFarLevelKey, bad);
       s.commit();
     }
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::unflushed_store());
     try {
       map_far_level_distance(s);
       FAIL() << bad;
@@ -71,7 +64,7 @@ TEST(ChunkLevels, ADamagedEntryIsRefusedNamingTheManifest) {
 
 TEST(ChunkLevels, AReaderThatDrawsEverythingSkipsOnlyFarLevelsWithANearTwin) {
   test::TempDir dir;
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::unflushed_store());
   const ChunkId both = chunk_id({0, 0, 1}), far_only = far_level_of(chunk_id({0, 0, 9}));
   s.save(both, test::random_block(3, 3, 0, 0, 10));
   s.save(far_level_of(both), test::random_block(2, 4, 0, 0, 10));

@@ -10,6 +10,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/store/chunk_store.hpp"
 #include "store/random_block.hpp"
+#include "store/store_test_configs.hpp"
 #include "test_support.hpp"
 
 using namespace chungs;
@@ -17,11 +18,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-ChunkStoreConfig writer() {
-  ChunkStoreConfig c;
-  c.durable = false;
-  return c;
-}
+ChunkStoreConfig writer() { return test::unflushed_store(); }
 
 ChunkStoreConfig reader() {
   ChunkStoreConfig c;

@@ -9,6 +9,7 @@
 #include "chungs/common/error.hpp"
 #include "chungs/store/chunk_store.hpp"
 #include "store/random_block.hpp"
+#include "store/store_test_configs.hpp"
 #include "test_support.hpp"
 
 using namespace chungs;
@@ -16,13 +17,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-ChunkStoreConfig writer() {
-  ChunkStoreConfig c;
-  c.durable = false;
-  c.half_moments = c.half_sh_rest = false;  // bit-exact round trips
-  return c;
-}
-
+ChunkStoreConfig writer() { return test::exact_unflushed_store(); }
 ChunkStoreConfig reader() { return reader_config(writer()); }
 
 ChunkId cid(int x) { return chunk_id({x, -1, 3}); }

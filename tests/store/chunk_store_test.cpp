@@ -8,25 +8,17 @@
 
 #include "chungs/common/error.hpp"
 #include "store/random_block.hpp"
+#include "store/store_test_configs.hpp"
 #include "test_support.hpp"
 
 using namespace chungs;
 namespace fs = std::filesystem;
 
-namespace {
-ChunkStoreConfig fast_config() {
-  ChunkStoreConfig c;
-  c.half_moments = c.half_sh_rest = false;  // these tests compare exact round trips
-  c.durable = false;  // kill-safety is tested in crash_test.cpp; here flushes only cost time
-  return c;
-}
-}  // namespace
-
 TEST(ChunkStore, SavedChunksSurviveCloseAndReopen) {
   test::TempDir dir;
   std::map<ChunkId, GaussianBlock> ref;
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     for (int i = 0; i < 20; ++i) {
       const ChunkId id = chunk_id({i, -i, i % 4});
       ref[id] = test::random_block(10 + i, i);
@@ -34,7 +26,7 @@ TEST(ChunkStore, SavedChunksSurviveCloseAndReopen) {
     }
     s.set_config("dataset", "synthetic city");
   }
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::exact_unflushed_store());
   EXPECT_FALSE(s.open_report().repaired());
   EXPECT_EQ(s.size(), ref.size());
   EXPECT_EQ(s.config_value("dataset"), "synthetic city");
@@ -55,18 +47,18 @@ TEST(ChunkStore, CompressedMapReopensWithCompressionOff) {
   const ChunkId id = chunk_id({1, 2, 3});
   const GaussianBlock b = test::random_block(500, 3);
   {
-    ChunkStoreConfig c = fast_config();
+    ChunkStoreConfig c = test::exact_unflushed_store();
     c.compress = true;
     ChunkStore s(dir.path(), c);
     s.save(id, b);
   }
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::exact_unflushed_store());
   EXPECT_TRUE(test::same_bits(s.load(id), b));
 }
 
 TEST(ChunkStore, EmptyBlockRemovesTheChunk) {
   test::TempDir dir;
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::exact_unflushed_store());
   const ChunkId id = chunk_id({0, 0, 0});
   s.save(id, test::random_block(3, 1));
   EXPECT_TRUE(fs::exists(s.chunk_path(id)));
@@ -79,9 +71,9 @@ TEST(ChunkStore, EmptyBlockRemovesTheChunk) {
 
 TEST(ChunkStore, RefusesASecondOpenOfTheSameFolder) {
   test::TempDir dir;
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::exact_unflushed_store());
   try {
-    ChunkStore t(dir.path(), fast_config());
+    ChunkStore t(dir.path(), test::exact_unflushed_store());
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("already open"), std::string::npos) << e.what();
@@ -93,7 +85,7 @@ TEST(ChunkStore, ReopenAdoptsUpdatesAndDropsWhatHappenedAfterTheLastCommit) {
   const ChunkId a = chunk_id({1, 0, 0}), b = chunk_id({2, 0, 0}), c = chunk_id({3, 0, 0});
   const GaussianBlock ba = test::random_block(5, 1), bb = test::random_block(6, 2), bc = test::random_block(7, 3);
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     s.save(a, ba);
     s.save(b, bb);
   }
@@ -104,7 +96,7 @@ TEST(ChunkStore, ReopenAdoptsUpdatesAndDropsWhatHappenedAfterTheLastCommit) {
   }();
   GaussianBlock bb2 = test::random_block(9, 4);
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     s.save(b, bb2);   // updated
     s.save(c, bc);    // adopted
     s.remove(a);      // dropped
@@ -114,7 +106,7 @@ TEST(ChunkStore, ReopenAdoptsUpdatesAndDropsWhatHappenedAfterTheLastCommit) {
     f << saved;
   }
   std::ofstream(dir / "chunks" / "0000000000000001.chunk.tmp-1-2") << "half a write";
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::exact_unflushed_store());
   const auto& r = s.open_report();
   EXPECT_EQ(r.entries_adopted, 1u);
   EXPECT_EQ(r.entries_updated, 1u);
@@ -133,11 +125,11 @@ TEST(ChunkStore, RebuildsAMissingManifestFromTheChunkFiles) {
   const ChunkId id = chunk_id({-4, 5, 6});
   const GaussianBlock b = test::random_block(11, 8);
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     s.save(id, b);
   }
   fs::remove(dir / "manifest.txt");
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::exact_unflushed_store());
   EXPECT_EQ(s.count(id), 11u);
   EXPECT_TRUE(test::same_bits(s.load(id), b));
 }
@@ -147,13 +139,13 @@ TEST(ChunkStore, RejectsAChunkFileThatNamesAnotherChunk) {
   const ChunkId a = chunk_id({1, 1, 1}), b = chunk_id({2, 2, 2});
   fs::path pa, pb;
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     s.save(a, test::random_block(4, 1));
     pa = s.chunk_path(a), pb = s.chunk_path(b);
   }
   fs::rename(pa, pb);
   try {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find(pb.string()), std::string::npos) << e.what();
@@ -162,10 +154,10 @@ TEST(ChunkStore, RejectsAChunkFileThatNamesAnotherChunk) {
 
 TEST(ChunkStore, RejectsACorruptManifestWithAHint) {
   test::TempDir dir;
-  { ChunkStore s(dir.path(), fast_config()); s.set_config("k", "v"); }
+  { ChunkStore s(dir.path(), test::exact_unflushed_store()); s.set_config("k", "v"); }
   std::ofstream(dir / "manifest.txt", std::ios::app) << "junk\n";
   try {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("delete it, and `run --resume` rebuilds it"), std::string::npos) << e.what();
@@ -174,10 +166,10 @@ TEST(ChunkStore, RejectsACorruptManifestWithAHint) {
 
 TEST(ChunkStore, ExistingMapKeepsItsChunkSize) {
   test::TempDir dir;
-  ChunkStoreConfig c = fast_config();
+  ChunkStoreConfig c = test::exact_unflushed_store();
   c.chunk_size = 4.0;
   { ChunkStore s(dir.path(), c); }
-  ChunkStore s(dir.path(), fast_config());
+  ChunkStore s(dir.path(), test::exact_unflushed_store());
   EXPECT_EQ(s.chunk_size(), 4.0);
 }
 
@@ -186,7 +178,7 @@ TEST(ChunkStore, VerifyOnOpenCatchesPayloadCorruption) {
   const ChunkId id = chunk_id({0, 1, 0});
   fs::path p;
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     s.save(id, test::random_block(30, 1));
     p = s.chunk_path(id);
   }
@@ -195,8 +187,8 @@ TEST(ChunkStore, VerifyOnOpenCatchesPayloadCorruption) {
     f.seekp(1000);
     f.put('\x7f');
   }
-  EXPECT_NO_THROW(ChunkStore(dir.path(), fast_config()));  // header-only check by default
-  ChunkStoreConfig c = fast_config();
+  EXPECT_NO_THROW(ChunkStore(dir.path(), test::exact_unflushed_store()));  // header-only check by default
+  ChunkStoreConfig c = test::exact_unflushed_store();
   c.verify_on_open = true;
   EXPECT_THROW(ChunkStore(dir.path(), c), Error);
 }
@@ -208,7 +200,7 @@ TEST(ChunkStore, AListedChunkWhoseFileIsGoneIsDroppedNamingTheFile) {
   const ChunkId a = chunk_id({1, 0, 0}), b = chunk_id({2, 0, 0});
   fs::path gone;
   {
-    ChunkStore s(dir.path(), fast_config());
+    ChunkStore s(dir.path(), test::exact_unflushed_store());
     s.save(a, test::random_block(5, 1));
     s.save(b, test::random_block(6, 2));
     gone = s.chunk_path(b);
@@ -219,7 +211,7 @@ TEST(ChunkStore, AListedChunkWhoseFileIsGoneIsDroppedNamingTheFile) {
   for (bool adopt : {false, true}) {
     // The repair commits a manifest without the chunk: the one listing it goes back for the next open.
     std::ofstream(dir / "manifest.txt", std::ios::trunc) << listed.str();
-    ChunkStoreConfig c = fast_config();
+    ChunkStoreConfig c = test::exact_unflushed_store();
     c.adopt_uncommitted = adopt;
     testing::internal::CaptureStderr();
     {
