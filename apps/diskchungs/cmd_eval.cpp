@@ -9,6 +9,7 @@
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/output_paths.hpp"
 #include "chungs/eval/depth_metrics.hpp"
 #include "chungs/eval/report.hpp"
 #include "chungs/geometry/trajectory.hpp"
@@ -265,11 +266,18 @@ const Command eval_cmd("eval", "trajectory accuracy (ATE, RPE), image quality (P
       require_flag(std::isfinite(args->max_dt) && args->max_dt >= 0, "--max-dt", "0 or more seconds",
                    args->max_dt);
       require_flag(args->rpe_delta >= 1, "--rpe-delta", "at least 1 frame", args->rpe_delta);
+      if (given(*ate, "--plot")) {
+        require_flag(!args->plot.empty(), "--plot", "a PNG file", "an empty path");
+        refuse_output_over_input(args->plot, "--plot", args->gt, "--gt");
+        refuse_output_over_input(args->plot, "--plot", args->est, "--est");
+        refuse_replacing_other_than_png(args->plot, "--plot");
+      }
       return run_ate(*args);
     }
     if (images->parsed()) {
       require_flag(!given(*images, "--lpips-weights") || !args->lpips_weights.empty(), "--lpips-weights",
                    "a weights file", "an empty path");
+      require_flag(!given(*images, "--mask") || !args->mask.empty(), "--mask", "a mask image", "an empty path");
       return run_images(*args);
     }
     if (depth->parsed()) {

@@ -36,9 +36,15 @@ void check_flags(const CLI::App& s, const SynthArgs& a) {
     if (given(s, flag))
       require_flag(v >= 1 && v <= synth::kMaxImageSide, flag, cat("1 to ", synth::kMaxImageSide, " pixels"),
                    v);
+  if (a.width > 0 && a.height > 0)
+    require_flag(uint64_t(a.width) * uint64_t(a.height) <= kMaxImagePixels, "--width x --height",
+                 cat("at most ", kMaxImagePixels, " pixels (what the dataset readers take)"),
+                 cat(a.width, "x", a.height));
+  require_flag(!a.out.empty(), "--out", "a folder", "an empty path");
   if (given(s, "--frames")) {
     if (s.get_name() == "room")
-      require_flag(a.frames >= 1, "--frames", "at least 1", a.frames);
+      require_flag(a.frames >= 1 && uint64_t(a.frames) <= synth::kMaxFrames, "--frames",
+                   cat("1 to ", synth::kMaxFrames), a.frames);
     else
       require_flag(a.max_frames >= 0, "--frames", "0 (all) or more", a.max_frames);
   }
@@ -49,8 +55,11 @@ void check_flags(const CLI::App& s, const SynthArgs& a) {
     require_flag(a.length_m > 0 && a.length_m <= synth::kMaxStreetLengthM, "--length-m",
                  cat("in (0, ", synth::kMaxStreetLengthM, "] metres"), a.length_m);
   if (given(s, "--every")) require_flag(a.every >= 1, "--every", "at least 1", a.every);
+  // Frames are named by their stamps to the microsecond (TUM layout): above 1 MHz two frames would share a
+  // file, and below a frame a million seconds the stamps outgrow their names.
   if (given(s, "--rate"))
-    require_flag(std::isfinite(a.rate_hz) && a.rate_hz > 0, "--rate", "a positive number of Hz", a.rate_hz);
+    require_flag(std::isfinite(a.rate_hz) && a.rate_hz >= 1e-6 && a.rate_hz <= 1e6, "--rate",
+                 "from 1e-06 to 1e+06 Hz", a.rate_hz);
 }
 
 int run_room(const SynthArgs& a) {
@@ -122,7 +131,7 @@ const Command synth_cmd("synth", "render synthetic sequences (room, street, a me
   auto size_opts = [a](CLI::App* s) {
     s->add_option("--width", a->width, "image width (default per scene)");
     s->add_option("--height", a->height, "image height (default per scene)");
-    // A typed -1 is refused by main (whole_number_flags.hpp), not wrapped to 2^64 - 1.
+    // A typed -1 is refused by main (number_flags.hpp), not wrapped to 2^64 - 1.
     s->add_option("--seed", a->seed, "random seed: same seed, same bytes");
     s->add_flag("--no-depth", a->no_depth, "KITTI layout: leave out depth/ (uint16, metres * 256)");
   };

@@ -1,5 +1,6 @@
 #include "dataset_spec.hpp"
 
+#include <cctype>
 #include <cerrno>
 #include <cstdlib>
 #include <set>
@@ -17,7 +18,9 @@ double number(const std::string& spec, const std::string& key, const std::string
   char* end = nullptr;
   errno = 0;
   const double v = std::strtod(value.c_str(), &end);
-  if (value.empty() || *end != '\0' || errno == ERANGE)
+  // strtod also takes hexadecimal (0x10) and skips leading blanks: a value must read as it shows.
+  if (value.empty() || *end != '\0' || errno == ERANGE || std::isspace(static_cast<unsigned char>(value[0])) ||
+      value.find_first_of("xX") != std::string::npos)
     fail("dataset '", spec, "': value '", value, "' of ", key, " is not a number");
   return v;
 }

@@ -10,7 +10,7 @@
 #include "chungs/common/log.hpp"
 #include "chungs/common/process_defaults.hpp"
 #include "command.hpp"
-#include "whole_number_flags.hpp"
+#include "number_flags.hpp"
 
 namespace chungs::app {
 
@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return cli.exit(e);
   }
-  if (const std::string why = app::misread_whole_number(cli); !why.empty()) {
+  if (const std::string why = app::misread_number(cli); !why.empty()) {
     std::fprintf(stderr, "diskchungs: error: %s\n", why.c_str());
     return 1;
   }

@@ -338,6 +338,17 @@ def number_cases():
         ("--rpe-delta", ["0", "-1", "abc"]),
         ("--align", ["affine"]),
     ], seed("traj_tum.txt", "traj.txt"), quick_first=True)
+    # CLI11 read an empty text as 0 for a decimal flag and took hexadecimal.
+    c.append(err("num.eval_ate--max-dt=empty", ate + " --max-dt ''", "--max-dt", seed("traj_tum.txt", "traj.txt")))
+    c.append(err("num.synth_street--length-m=hex", street + " --length-m 0x10", "--length-m"))
+    # 2^31 frames: the room's trajectory was built whole first (2.6 GB at the case's memory cap).
+    c.append(err("num.synth_room--frames=2^31", "synth room --out out --frames 2147483648 --width 32 --height 24",
+                 "--frames"))
+    # 16384 a side passed the side check, then took gigabytes; the readers take 8192 x 8192 at most.
+    c.append(err("num.synth_room_area", "synth room --out out --frames 1 --width 16384 --height 16384", "--width"))
+    c.append(err("num.synth_room--out=empty", "synth room --out '' --frames 1 --width 32 --height 24", "--out"))
+    # Frames are named by their stamps to the microsecond: at 1e300 Hz five frames shared one file.
+    c.append(err("num.synth_mesh--rate=1e300", mesh + " " + intr + " --rate 1e300", "--rate", mesh_setup))
     return c
 
 
@@ -384,6 +395,10 @@ def synth_cases():
     for name, traj in [("empty", ""), ("nan", "0 nan 0 -2 0 0 0 1\n"), ("zero_quaternion", "0 0 0 -2 0 0 0 0\n"),
                        ("words", "zero one two\n"), ("seven_fields", "0 0 0 -2 0 0 1\n")]:
         c.append(err("synth.traj_" + name, cmd, "traj.txt", setup(traj=traj)))
+    # The sequence writes its folder's trajectory: --traj out/poses.txt --out out was rewritten as the new one.
+    c.append(err("synth.traj_in_the_output_folder", "synth mesh --mesh mesh.ply --traj out/poses.txt --out out " + intr,
+                 ("--traj", "poses.txt"), both(setup(), file_in("out/poses.txt", "0 0 0 -2 0 0 0 1\n")),
+                 watch=["out/poses.txt"]))
     c.append(err("synth.check_office0_missing", "synth check-office0 --data nowhere", "nowhere"))
     c.append(err("synth.out_is_a_file", "synth room --out f.txt --frames 2 --width 32 --height 32", "f.txt",
                  file_in("f.txt", "x\n")))
@@ -741,6 +756,7 @@ def street_spec_cases():
         ("length_nan", "length=nan", "length"),
         ("length_inf", "length=inf", "length"),
         ("length_too_long", "length=1e7", "length"),
+        ("length_hex", "length=0x10", "length"),
         ("width_zero", "length=12,width=0,height=0", "0x0"),
         ("width_only", "length=12,width=64", "height"),
         ("width_negative", "length=12,width=-64,height=48", "width"),
@@ -938,6 +954,12 @@ def trajectory_cases():
     c.append(ok("traj.ate_valid", ate, both(gt, seed("traj_tum.txt", "est.txt")), quick=True))
     c.append(ok("traj.ate_kitti_valid", "eval ate --gt gt.txt --est est.txt",
                 both(seed("traj_kitti.txt", "gt.txt"), seed("traj_kitti.txt", "est.txt"))))
+    # A read-only command: --plot named like its input wrote a PNG over the trajectory.
+    both_files = both(gt, seed("traj_tum.txt", "est.txt"))
+    c.append(err("traj.ate_plot_over_its_input", ate + " --plot est.txt", ("--plot", "est.txt"), both_files,
+                 watch=["est.txt"]))
+    c.append(err("traj.ate_plot_over_a_text_file", ate + " --plot notes.txt", "notes.txt",
+                 both(both_files, file_in("notes.txt", "my notes\n")), watch=["notes.txt"]))
 
     def est(fn):
         def setup(d, s):

@@ -218,9 +218,32 @@ void prepare_parent(const std::filesystem::path& file) {
   prepare_output_file(file, "image");
 }
 
-struct FileCloser {
-  void operator()(FILE* f) const { std::fclose(f); }
-};
+// Encodes into a temporary file beside `file` and renames it over `file` once whole, so that a failed
+// write (a full disk) leaves the earlier file, or none, never a truncated or empty one.
+template <class Encode>
+void write_whole(const std::filesystem::path& file, const char* kind, Encode encode) {
+  prepare_parent(file);
+  std::filesystem::path part = file;
+  part += ".part";
+  FILE* f = std::fopen(part.c_str(), "wb");
+  if (!f) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
+  ErrBuf err;
+  std::string why;
+  if (!encode(f, err))
+    why = cat(kind, " write failed (", err.msg, ")");
+  else if (std::fflush(f) != 0)
+    why = cat("write failed (", std::strerror(errno), ")");
+  if (std::fclose(f) != 0 && why.empty()) why = cat("write failed (", std::strerror(errno), ")");
+  std::error_code ec;
+  if (why.empty()) {
+    std::filesystem::rename(part, file, ec);
+    if (ec) why = cat("cannot replace it (", ec.message(), ")");
+  }
+  if (!why.empty()) {
+    std::filesystem::remove(part, ec);
+    fail(file.string(), ": ", why);
+  }
+}
 
 // libpng's own writer says only "Write Error"; the system's reason (a full disk, an I/O error) is
 // what the user needs.
@@ -256,7 +279,6 @@ bool encode_png(FILE* f, int w, int h, int channels, int depth, const unsigned c
 template <typename T>
 void write_png_any(const std::filesystem::path& file, const Image<T>& img, int depth) {
   if (img.empty()) fail(file.string(), ": refusing to write an empty image");
-  prepare_parent(file);
   size_t stride = size_t(img.width()) * img.channels() * sizeof(T);
   std::vector<unsigned char> buf(stride * img.height());
   for (size_t i = 0; i < img.size(); ++i) {
@@ -269,12 +291,9 @@ void write_png_any(const std::filesystem::path& file, const Image<T>& img, int d
   }
   std::vector<const unsigned char*> rows(img.height());
   for (int y = 0; y < img.height(); ++y) rows[y] = buf.data() + stride * y;
-  std::unique_ptr<FILE, FileCloser> f(std::fopen(file.c_str(), "wb"));
-  if (!f) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
-  ErrBuf err;
-  if (!encode_png(f.get(), img.width(), img.height(), img.channels(), depth, rows.data(), err))
-    fail(file.string(), ": PNG write failed (", err.msg, ")");
-  if (std::fflush(f.get()) != 0) fail(file.string(), ": write failed (", std::strerror(errno), ")");
+  write_whole(file, "PNG", [&](FILE* f, ErrBuf& err) {
+    return encode_png(f, img.width(), img.height(), img.channels(), depth, rows.data(), err);
+  });
 }
 
 bool encode_jpeg(FILE* f, const Image8& img, int quality, ErrBuf& err) {
@@ -318,12 +337,7 @@ void write_jpeg(const std::filesystem::path& file, const Image8& img, int qualit
   if (img.empty()) fail(file.string(), ": refusing to write an empty image");
   if (img.channels() != 1 && img.channels() != 3)
     fail(file.string(), ": JPEG needs 1 or 3 channels, got ", img.channels());
-  prepare_parent(file);
-  std::unique_ptr<FILE, FileCloser> f(std::fopen(file.c_str(), "wb"));
-  if (!f) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
-  ErrBuf err;
-  if (!encode_jpeg(f.get(), img, quality, err)) fail(file.string(), ": JPEG write failed (", err.msg, ")");
-  if (std::fflush(f.get()) != 0) fail(file.string(), ": write failed (", std::strerror(errno), ")");
+  write_whole(file, "JPEG", [&](FILE* f, ErrBuf& err) { return encode_jpeg(f, img, quality, err); });
 }
 
 void write_image(const std::filesystem::path& file, const Image8& img) {

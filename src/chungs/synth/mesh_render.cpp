@@ -9,6 +9,7 @@
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
+#include "chungs/common/output_paths.hpp"
 #include "chungs/image/image_io.hpp"
 #include "chungs/synth/ply.hpp"
 
@@ -67,6 +68,12 @@ Camera parse_intrinsics(const std::string& spec) {
 
 SequenceReport render_mesh_sequence(const MeshSequenceSpec& spec) {
   if (spec.every == 0) fail("--every must be at least 1");
+  // The sequence replaces its folder's frames, trajectory and calibration: an input inside it could be
+  // one of them (--traj X/poses.txt --out X was rewritten as the new sequence's 3 poses).
+  for (const auto& [input, flag] : {std::pair{spec.traj, "--traj"}, std::pair{spec.mesh, "--mesh"}})
+    if (lies_within(input, spec.out))
+      fail(input.string(), ": the ", flag, " file lies in the output folder ", spec.out.string(),
+           ", which the sequence writes; give another --out");
   Trajectory full = read_trajectory(spec.traj, spec.rate_hz);
   Trajectory traj;
   for (size_t i = 0; i < full.size(); i += spec.every) {

@@ -31,7 +31,14 @@ SequenceReport render_sequence(Scene& scene, const Trajectory& traj, const Camer
   if (cam.width > kMaxImageSide || cam.height > kMaxImageSide)
     fail("synthetic camera: image size ", cam.width, "x", cam.height, " exceeds ", kMaxImageSide,
          " pixels a side");
+  // What the dataset readers take (image.hpp): a larger frame could not be read back, and its buffers
+  // alone would take gigabytes.
+  if (uint64_t(cam.width) * uint64_t(cam.height) > kMaxImagePixels)
+    fail("synthetic camera: image size ", cam.width, "x", cam.height, " exceeds ", kMaxImagePixels,
+         " pixels, the most a dataset image may have");
   if (traj.empty()) fail("synthetic sequence for ", out, ": the trajectory has no poses");
+  if (traj.size() > kMaxFrames)
+    fail("synthetic sequence for ", out, ": ", traj.size(), " frames, more than the ", kMaxFrames, " allowed");
   const bool stereo = opt.layout == Layout::Kitti;
   if (stereo && !(opt.baseline > 0)) fail("KITTI layout needs a positive stereo baseline, got ", opt.baseline);
   auto writer = opt.layout == Layout::Tum ? make_tum_writer(out, cam)

@@ -12,6 +12,9 @@ namespace chungs::synth {
 // Largest synthetic image side: a 16384 x 16384 frame with depth already takes about 2 GB, so a
 // typed 100000 is refused before buffers are sized for it.
 constexpr int kMaxImageSide = 16384;
+// Most frames a generated sequence may have: its trajectory is built whole before the first frame
+// (~120 bytes a pose), and a million frames (9 hours at 30 Hz) is beyond any test sequence.
+constexpr size_t kMaxFrames = 1'000'000;
 
 struct SequenceOptions {
   Layout layout = Layout::Tum;

@@ -55,7 +55,10 @@ void prepare_frame_dir(const fs::path& dir) {
   if (removed) log::warn(dir.string(), ": replaced ", removed, " frames of an earlier sequence");
 }
 
-std::string stamp_name(double t) {
+// A frame's file name in the TUM layout: its stamp to the microsecond. Beyond 1e15 s the name would no
+// longer tell microseconds apart (and 1e300 overflowed the name).
+std::string stamp_name(size_t index, double t) {
+  if (!(std::abs(t) < 1e15)) fail("frame ", index, ": stamp ", t, " s cannot name its file (|stamp| < 1e15 s)");
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6f", t);
   return buf;
@@ -69,7 +72,11 @@ class TumWriter : public SequenceWriter {
   }
   void add(const FrameOut& f) override {
     if (!f.left) fail("TUM writer: frame ", f.index, " has no colour image");
-    const std::string name = stamp_name(f.stamp) + ".png";
+    const std::string name = stamp_name(f.index, f.stamp) + ".png";
+    // Stamps closer than a microsecond name the same file: the later frame would replace the earlier.
+    if (!rgb_.empty() && rgb_.back() == name)
+      fail("frames ", f.index - 1, " and ", f.index, " have stamps ", traj_.stamps.back(), " and ", f.stamp,
+           " s, which name the same file ", name, " (stamps must differ by a microsecond or more)");
     write_png(out_ / "rgb" / name, *f.left);
     rgb_.push_back(name);
     if (f.depth) {

@@ -1,5 +1,6 @@
-#include "whole_number_flags.hpp"
+#include "number_flags.hpp"
 
+#include <cctype>
 #include <charconv>
 #include <cstdint>
 #include <limits>
@@ -58,23 +59,35 @@ const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
   return nullptr;
 }
 
+// Text a decimal flag reads as the number it shows: not empty, no blanks around it (strtod skips leading
+// ones), not hexadecimal (strtod takes 0x10 and 0x1p3).
+bool decimal_text(std::string_view text) {
+  if (text.empty() || std::isspace(static_cast<unsigned char>(text.front())) ||
+      std::isspace(static_cast<unsigned char>(text.back())))
+    return false;
+  return text.find_first_of("xX") == std::string_view::npos;
+}
+
 std::string misread_in(const CLI::Option& option) {
   if (option.count() == 0) return {};
   const std::string type = read_as(option);
   for (const std::string& text : option.results()) {
     if (type == "INT" && !reads_as_written<int64_t>(text)) return refusal(option, text, false);
     if (type == "UINT" && !reads_as_written<uint64_t>(text)) return refusal(option, text, true);
+    if (type == "FLOAT" && !decimal_text(text))
+      return cat(option.get_name(), " must be a number written in decimal, got ",
+                 text.empty() ? std::string("an empty value") : "'" + text + "'");
   }
   return {};
 }
 
 }  // namespace
 
-std::string misread_whole_number(const CLI::App& app) {
+std::string misread_number(const CLI::App& app) {
   for (const CLI::Option* option : app.get_options())
     if (std::string why = misread_in(*option); !why.empty()) return why;
   for (const CLI::App* sub : app.get_subcommands())  // the parsed ones
-    if (std::string why = misread_whole_number(*sub); !why.empty()) return why;
+    if (std::string why = misread_number(*sub); !why.empty()) return why;
   return {};
 }
 
@@ -90,7 +103,7 @@ std::string conversion_refusal(const CLI::App& app, const CLI::ConversionError& 
   if (!option) return {};
   const std::string type = read_as(*option);
   if (type == "INT" || type == "UINT") {
-    // CLI11 keeps whatever strtoll / strtoull make of decimal text for a 64-bit flag (misread_whole_number
+    // CLI11 keeps whatever strtoll / strtoull make of decimal text for a 64-bit flag (misread_number
     // checks those): decimal text it refused was refused by a 32-bit flag.
     const auto refuse = [&](const std::string& value) {
       if (!written_in_decimal(value)) return not_decimal(name, value);
