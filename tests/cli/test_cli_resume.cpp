@@ -67,7 +67,12 @@ TEST(CliResume, DamagedRunStateValuesAreRefusedNamingTheKey) {
            {"next_frame", "99999", "'next_frame' 99999 lies beyond"},
            {"seconds", "\"abc\"", "'seconds' must be a finite number"},
            {"iterations", "1.5", "'iterations' must be a whole number"},
-           {"finished", "\"yes\"", "'finished' must be true or false"}}) {
+           {"finished", "\"yes\"", "'finished' must be true or false"},
+           // The map's geometry, which a lost manifest is rebuilt with: out of range, or not the manifest's.
+           {"sh_degree", "9", "'sh_degree' must be a whole number in [0, 3]"},
+           {"chunk_size", "5", "'chunk_size' 5 differs from the map's 10 m"},
+           {"far_level_distance", "-1", "'far_level_distance' must be 0 or a positive number"},
+           {"frames", "3", "'next_frame' 12 lies beyond its 'frames' 3"}}) {
     { std::ofstream(map / "run_state.json", std::ios::binary) << replaced(key, value); }
     const std::string before = listing(map);
     auto r = run_cli("run --dataset " + kDataset + " --device cpu --no-eval --resume --out " + map.string());
@@ -201,6 +206,51 @@ TEST(CliResume, AManifestDeletedAfterItReadBackCorruptIsRebuiltFromTheChunkFiles
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("manifest.txt is missing; rebuilt it from"), std::string::npos) << r.out;
   EXPECT_EQ(exported("after.ply"), before);
+}
+
+// A keyframe list that lost lines (or was emptied) resumed with the keyframes it still named: the others
+// were dropped and their images deleted, with exit 0.
+TEST(CliResume, AKeyframeListThatLostLinesIsRefusedAndNoKeyframeIsDeleted) {
+  chungs::test::TempDir dir;
+  const fs::path map = small_map(dir.path());
+  const std::string list = read_all(map / "keyframes.txt");
+  std::vector<std::string> lines;
+  for (size_t at = 0; at < list.size();) {
+    const size_t end = list.find('\n', at);
+    lines.push_back(list.substr(at, end - at + 1));
+    at = end + 1;
+  }
+  ASSERT_GE(lines.size(), 6u);  // a header and five keyframes at least
+  const std::string header = lines[0];
+  std::string without_some = header;
+  for (size_t i = 1; i < lines.size(); ++i)
+    if (i < 2 || i > 4) without_some += lines[i];
+  for (const std::string& damaged : {without_some, header, std::string()}) {
+    { std::ofstream(map / "keyframes.txt", std::ios::binary) << damaged; }
+    const std::string before = listing(map);
+    auto r = run_cli("run --dataset " + kDataset + " --device cpu --no-eval --resume --out " + map.string());
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("keyframes.txt: lists"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("the list is damaged; the map is left as it is"), std::string::npos) << r.out;
+    EXPECT_EQ(listing(map), before);
+  }
+  { std::ofstream(map / "keyframes.txt", std::ios::binary) << list; }
+  auto r = run_cli("run --dataset " + kDataset + " --device cpu --max-frames 12 --no-eval --resume --out " + map.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
+// A map without far-level chunks yet, its manifest lost: the rebuilt manifest said nothing of the
+// distance, so the map was taken for one made before levels and kept one level for good.
+TEST(CliResume, AMapRebuiltFromItsChunkFilesKeepsItsFarLevelDistance) {
+  chungs::test::TempDir dir;
+  const fs::path map = small_map(dir.path());
+  ASSERT_NE(read_all(map / "manifest.txt").find("config far_level_distance 70\n"), std::string::npos);
+  fs::remove(map / "manifest.txt");
+  auto r = run_cli("run --dataset " + kDataset + " --device cpu --max-frames 12 --no-eval --resume --out " + map.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("(one level)"), std::string::npos) << r.out;
+  EXPECT_NE(read_all(map / "manifest.txt").find("config far_level_distance 70\n"), std::string::npos)
+      << read_all(map / "manifest.txt");
 }
 
 }  // namespace

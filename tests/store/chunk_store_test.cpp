@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -95,18 +96,22 @@ TEST(ChunkStore, ReopenAdoptsUpdatesAndDropsWhatHappenedAfterTheLastCommit) {
     return std::string(std::istreambuf_iterator<char>(f), {});
   }();
   GaussianBlock bb2 = test::random_block(9, 4);
+  test::TempDir crashed;
   {
     ChunkStore s(dir.path(), test::exact_unflushed_store());
     s.save(b, bb2);   // updated
     s.save(c, bc);    // adopted
     s.remove(a);      // dropped
+    // The folder as a process that died before committing leaves it (a clean close commits).
+    fs::copy(dir.path(), crashed.path(), fs::copy_options::recursive | fs::copy_options::overwrite_existing);
   }
-  {  // As if the process had died before committing: put the older manifest back.
-    std::ofstream f(manifest_before, std::ios::trunc);
-    f << saved;
+  fs::remove(crashed / "lock");
+  {
+    std::ifstream f(crashed / "manifest.txt");
+    ASSERT_EQ(std::string(std::istreambuf_iterator<char>(f), {}), saved);  // the session's changes uncommitted
   }
-  std::ofstream(dir / "chunks" / "0000000000000001.chunk.tmp-1-2") << "half a write";
-  ChunkStore s(dir.path(), test::exact_unflushed_store());
+  std::ofstream(crashed / "chunks" / "0000000000000001.chunk.tmp-1-2") << "half a write";
+  ChunkStore s(crashed.path(), test::exact_unflushed_store());
   const auto& r = s.open_report();
   EXPECT_EQ(r.entries_adopted, 1u);
   EXPECT_EQ(r.entries_updated, 1u);
@@ -116,7 +121,7 @@ TEST(ChunkStore, ReopenAdoptsUpdatesAndDropsWhatHappenedAfterTheLastCommit) {
   EXPECT_TRUE(test::same_bits(s.load(b), bb2));
   EXPECT_TRUE(test::same_bits(s.load(c), bc));
   // The repair was committed at once: the manifest on disk now matches.
-  const Manifest m = Manifest::read(dir / "manifest.txt");
+  const Manifest m = Manifest::read(crashed / "manifest.txt");
   EXPECT_EQ(m.chunks, s.manifest().chunks);
 }
 
@@ -193,33 +198,60 @@ TEST(ChunkStore, VerifyOnOpenCatchesPayloadCorruption) {
   EXPECT_THROW(ChunkStore(dir.path(), c), Error);
 }
 
-TEST(ChunkStore, AListedChunkWhoseFileIsGoneIsDroppedNamingTheFile) {
-  // The warning said "manifest was behind the chunk files (interrupted session): ... dropped 1
-  // entries" and named neither the chunk nor its file.
+TEST(ChunkStore, AListedChunkWhoseFileIsGoneIsRefusedNamingTheFileAndTheFolderIsLeftAsItIs) {
+  // It was dropped from the map with a warning, and the repair then deleted the chunk's older file,
+  // which a rebuild from the chunk files could still have used; the readers refused the same map.
   test::TempDir dir;
   const ChunkId a = chunk_id({1, 0, 0}), b = chunk_id({2, 0, 0});
+  const GaussianBlock older = test::random_block(6, 2);
   fs::path gone;
   {
     ChunkStore s(dir.path(), test::exact_unflushed_store());
     s.save(a, test::random_block(5, 1));
-    s.save(b, test::random_block(6, 2));
+    s.save(b, older);
+    s.commit();
+    s.save(b, test::random_block(7, 3));
+    s.commit();
     gone = s.chunk_path(b);
+    // As a crash now leaves it: the manifest names b's newer file; its older one waits a commit to go.
+    fs::copy(dir.path(), dir.path().string() + "-crashed", fs::copy_options::recursive);
   }
-  fs::remove(gone);
-  std::stringstream listed;
-  listed << std::ifstream(dir / "manifest.txt").rdbuf();
+  const fs::path crashed = dir.path().string() + "-crashed";
+  fs::remove(crashed / "lock");
+  fs::remove(crashed / "chunks" / gone.filename());
+  auto listing = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::recursive_directory_iterator(crashed)) names.push_back(e.path().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  std::stringstream manifest_before;
+  manifest_before << std::ifstream(crashed / "manifest.txt").rdbuf();
+  const auto files_before = listing();
   for (bool adopt : {false, true}) {
-    // The repair commits a manifest without the chunk: the one listing it goes back for the next open.
-    std::ofstream(dir / "manifest.txt", std::ios::trunc) << listed.str();
     ChunkStoreConfig c = test::exact_unflushed_store();
     c.adopt_uncommitted = adopt;
-    testing::internal::CaptureStderr();
-    {
-      ChunkStore s(dir.path(), c);
-      EXPECT_FALSE(s.contains(b));
-      EXPECT_TRUE(s.contains(a));
+    try {
+      ChunkStore s(crashed, c);
+      ADD_FAILURE() << "a map whose listed chunk file is gone was opened";
+    } catch (const Error& e) {
+      const std::string said = e.what();
+      EXPECT_NE(said.find(gone.filename().string()), std::string::npos) << said;
+      EXPECT_NE(said.find("left as it is"), std::string::npos) << said;
     }
-    const std::string said = testing::internal::GetCapturedStderr();
-    EXPECT_NE(said.find(gone.string() + ": listed in the manifest but missing"), std::string::npos) << said;
+    fs::remove(crashed / "lock");
+    std::stringstream manifest_after;
+    manifest_after << std::ifstream(crashed / "manifest.txt").rdbuf();
+    EXPECT_EQ(manifest_after.str(), manifest_before.str());
+    EXPECT_EQ(listing(), files_before);
   }
+  // The way out the message gives: without the manifest, the map is rebuilt from what is there, b
+  // from its older file.
+  fs::remove(crashed / "manifest.txt");
+  ChunkStoreConfig rebuild = test::exact_unflushed_store();
+  rebuild.adopt_uncommitted = true;
+  ChunkStore s(crashed, rebuild);
+  ASSERT_TRUE(s.contains(b));
+  EXPECT_TRUE(test::same_bits(s.load(b), older));
+  fs::remove_all(crashed);
 }

@@ -8,8 +8,10 @@
 #include <sstream>
 
 #include "chungs/common/text_file.hpp"
+#include "chungs/gaussians/gaussian_block.hpp"
 #include "chungs/image/image.hpp"
 #include "chungs/store/atomic_file.hpp"
+#include "chungs/store/chunk_id.hpp"
 
 namespace chungs {
 
@@ -145,6 +147,24 @@ void validate_run_state(const nlohmann::json& j, const std::filesystem::path& fi
   if (j.contains("finished") && !j["finished"].is_boolean()) bad("finished", "true or false");
   for (const char* key : {"timeline", "keyframe_chunks"})
     if (j.contains(key) && !(j[key].is_array() || j[key].is_object())) bad(key, "an array or object");
+  if (j.contains("next_frame") && j.contains("frames") && j["next_frame"].get<uint64_t>() > j["frames"].get<uint64_t>())
+    fail(file.string(), ": 'next_frame' ", j["next_frame"].dump(), " lies beyond its 'frames' ", j["frames"].dump());
+  // The map's geometry, which a lost manifest is rebuilt with (Mapper), and the keyframe list's size.
+  auto number_in = [&](const char* key, double lo, double hi) {
+    return j[key].is_number() && j[key].get<double>() >= lo && j[key].get<double>() <= hi;
+  };
+  if (j.contains("chunk_size") && !number_in("chunk_size", kMinChunkSize, kMaxChunkSize))
+    bad("chunk_size", "a chunk size in [0.01, 10000] metres");
+  if (j.contains("sh_degree") && !(j["sh_degree"].is_number_unsigned() && j["sh_degree"].get<uint64_t>() <= kMaxShDegree))
+    bad("sh_degree", "a whole number in [0, 3]");
+  if (j.contains("far_level_distance") && !number_in("far_level_distance", 0, 1e6))
+    bad("far_level_distance", "0 or a positive number of metres");
+  if (j.contains("keyframe_list")) {
+    const nlohmann::json& k = j["keyframe_list"];
+    if (!k.is_object() || !k.contains("count") || !k["count"].is_number_unsigned() || !k.contains("last_id") ||
+        !k["last_id"].is_number_unsigned())
+      bad("keyframe_list", "an object of two whole numbers, count and last_id");
+  }
 }
 
 size_t resume_frame(const nlohmann::json& state, const std::filesystem::path& file, size_t frames) {

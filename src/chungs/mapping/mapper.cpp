@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <exception>
+#include <optional>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -35,24 +36,42 @@ bool worth_saying_again(uint64_t needed, uint64_t& largest) {
   return say;
 }
 
-// The chunk size and SH degree that a lost manifest held, from the run state committed with it (maps
-// whose state predates them keep the settings' values); a damaged value is refused naming the file.
-void take_map_geometry(const fs::path& state_file, ChunkStoreConfig& c) {
-  if (!fs::exists(state_file)) return;
+// The chunk size, SH degree and far-level distance that a lost manifest held, from the run state
+// committed with it (maps whose state predates them keep the settings' values; the distance then follows
+// the chunks, settle_far_level_distance). A damaged value is refused naming the file.
+std::optional<double> take_map_geometry(const fs::path& state_file, ChunkStoreConfig& c) {
+  if (!fs::exists(state_file)) return std::nullopt;
   const nlohmann::json j = read_json_file(state_file);
-  if (!j.is_object()) return;  // validate_run_state names it when the run state is read
-  if (j.contains("chunk_size")) {
-    const nlohmann::json& v = j["chunk_size"];
-    if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>()))
-      fail(state_file.string(), ": 'chunk_size' must be a positive number of metres, got ", v.dump());
-    c.chunk_size = v.get<double>();
-  }
-  if (j.contains("sh_degree")) {
-    const nlohmann::json& v = j["sh_degree"];
-    if (!v.is_number_unsigned() || v.get<uint64_t>() > uint64_t(kMaxShDegree))
-      fail(state_file.string(), ": 'sh_degree' must be a whole number in [0, ", kMaxShDegree, "], got ", v.dump());
-    c.sh_degree = int(v.get<uint64_t>());
-  }
+  validate_run_state(j, state_file);
+  if (j.contains("chunk_size")) c.chunk_size = j["chunk_size"].get<double>();
+  if (j.contains("sh_degree")) c.sh_degree = int(j["sh_degree"].get<uint64_t>());
+  if (j.contains("far_level_distance")) return j["far_level_distance"].get<double>();
+  return std::nullopt;
+}
+
+// The run state repeats the manifest's geometry: where they differ, one of them was damaged, and
+// which is unknown, so the map is left as it is.
+void require_same_geometry(const nlohmann::json& state, const fs::path& state_file, const ChunkStore& store) {
+  if (state.contains("chunk_size") && state["chunk_size"].get<double>() != store.chunk_size())
+    fail(state_file.string(), ": 'chunk_size' ", state["chunk_size"].dump(), " differs from the map's ",
+         store.chunk_size(), " m in ", store.manifest_path().string(), "; one of them is damaged, the map is left as it is");
+  if (state.contains("sh_degree") && int(state["sh_degree"].get<uint64_t>()) != store.sh_degree())
+    fail(state_file.string(), ": 'sh_degree' ", state["sh_degree"].dump(), " differs from the map's ",
+         store.sh_degree(), " in ", store.manifest_path().string(), "; one of them is damaged, the map is left as it is");
+}
+
+// The keyframe list must hold what the checkpoint that wrote it recorded: a list that lost lines (or
+// was emptied) would drop the keyframes it no longer names, and their images with them.
+void require_whole_keyframe_list(const nlohmann::json& state, const fs::path& state_file,
+                                 const std::vector<KeyframeRecord>& records, const fs::path& list_file) {
+  if (!state.contains("keyframe_list")) return;  // a map from before the run state recorded it
+  const uint64_t count = state["keyframe_list"]["count"].get<uint64_t>();
+  const uint64_t last = state["keyframe_list"]["last_id"].get<uint64_t>();
+  const uint64_t have_last = records.empty() ? 0 : records.back().id;
+  if (records.size() != count || have_last != last)
+    fail(list_file.string(), ": lists ", records.size(), " keyframes (the last ", have_last, "), but the checkpoint "
+         "that wrote it recorded ", count, " (the last ", last, ") in ", state_file.string(),
+         ": the list is damaged; the map is left as it is");
 }
 }  // namespace
 
@@ -72,10 +91,11 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   // corrupt, as the readers' error advises). Rolling back to "the last commit" would then delete every
   // chunk file; the map is rebuilt from them instead, the newest whole file of each chunk.
   const bool manifest_lost = resume && !fs::exists(folder / "manifest.txt") && fs::exists(folder / "keyframes.txt");
+  std::optional<double> rebuilt_far_level;  // the lost manifest's distance, as the run state kept it
   if (manifest_lost) {
     ChunkStoreConfig rebuild = store_config;
     rebuild.adopt_uncommitted = true;  // on this open only: the session's own files roll back as ever
-    take_map_geometry(folder / "run_state.json", rebuild);
+    rebuilt_far_level = take_map_geometry(folder / "run_state.json", rebuild);
     const ChunkStore rebuilt(folder, rebuild);
     log::warn(folder.string(), ": manifest.txt is missing; rebuilt it from ", rebuilt.size(), " chunk files, chunks of ",
               rebuilt.chunk_size(), " m (chunks saved after the last checkpoint, if a crash left any, are kept too)");
@@ -105,6 +125,7 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   rc.flush_on_close = false;
   residency_ = std::make_unique<Residency>(*store_, backend_->pool(), rc);
   // The map's chunks have the levels its own far-level distance chose (store/chunk_levels.hpp).
+  if (rebuilt_far_level) record_far_level_distance(*store_, *rebuilt_far_level);
   const double far_level = settle_far_level_distance(*store_, config_.culling.far_level_distance);
   if (far_level != config_.culling.far_level_distance)
     log::info("culling.far_level_distance ", config_.culling.far_level_distance, ": the map in ", folder.string(),
@@ -112,9 +133,31 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   config_.culling.far_level_distance = far_level;
   if (manifest_lost) store_->commit();  // the rebuilt manifest names the distance before anyone reads it
   culler_ = std::make_unique<FrustumCuller>(store_->chunk_size(), config_.culling);
+  if (resume && fs::exists(folder / "run_state.json")) {
+    const fs::path file = folder / "run_state.json";
+    resumed_state_ = read_json_file(file);
+    validate_run_state(resumed_state_, file);
+    require_same_geometry(resumed_state_, file, *store_);
+    iterations_ = resumed_state_.value("iterations", uint64_t(0));
+    steps_at_last_keyframe_ = steps_at_last_sampling_ = iterations_;
+    try {
+      if (resumed_state_.contains("keyframe_chunks")) {
+        keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
+        resumed_state_["keyframe_chunks"] = true;  // its tree is ~30 MB after a 10 km drive: not kept
+      }
+    } catch (const std::exception& e) {  // a JSON type error, or the index's own Error
+      fail(file.string(), ": 'keyframe_chunks' is damaged (", e.what(), ")");
+    }
+    if (resumed_state_.contains("rng")) {
+      std::istringstream s(resumed_state_["rng"].get<std::string>());
+      s >> rng_;
+      if (!s) fail(file.string(), ": 'rng' is not a saved random state");
+    }
+  }
   keyframe_store_ = std::make_unique<KeyframeStore>(folder / "keyframes", config_.keyframes);
   if (resume && fs::exists(folder / "keyframes.txt")) {
     keyframes_ = read_keyframe_records(folder / "keyframes.txt");
+    require_whole_keyframe_list(resumed_state_, folder / "run_state.json", keyframes_, folder / "keyframes.txt");
     std::vector<uint64_t> known;
     for (const auto& k : keyframes_) {
       if (!keyframe_store_->contains(k.id))
@@ -131,26 +174,6 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   if (resume && fs::exists(folder / "sky.bin")) {
     backend_->set_sky(read_sky_file(folder / "sky.bin"), config_.sky.lr);
     sky_on_ = true;
-  }
-  if (resume && fs::exists(folder / "run_state.json")) {
-    const fs::path file = folder / "run_state.json";
-    resumed_state_ = read_json_file(file);
-    validate_run_state(resumed_state_, file);
-    iterations_ = resumed_state_.value("iterations", uint64_t(0));
-    steps_at_last_keyframe_ = steps_at_last_sampling_ = iterations_;
-    try {
-      if (resumed_state_.contains("keyframe_chunks")) {
-        keyframe_chunks_ = KeyframeChunkIndex::from_json(resumed_state_["keyframe_chunks"]);
-        resumed_state_["keyframe_chunks"] = true;  // its tree is ~30 MB after a 10 km drive: not kept
-      }
-    } catch (const std::exception& e) {  // a JSON type error, or the index's own Error
-      fail(file.string(), ": 'keyframe_chunks' is damaged (", e.what(), ")");
-    }
-    if (resumed_state_.contains("rng")) {
-      std::istringstream s(resumed_state_["rng"].get<std::string>());
-      s >> rng_;
-      if (!s) fail(file.string(), ": 'rng' is not a saved random state");
-    }
   }
   keyframes_in_checkpoint_ = keyframes_.size();
   // A map saved before the index existed: a loop correction then visits every chunk.

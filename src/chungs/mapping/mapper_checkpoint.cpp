@@ -76,6 +76,10 @@ void Mapper::checkpoint(const nlohmann::json& run_state, bool behind, TextPieces
   // Also held by the manifest; here they let a lost manifest be rebuilt at the map's own geometry.
   j["chunk_size"] = store_->chunk_size();
   j["sh_degree"] = store_->sh_degree();
+  // What the keyframe list of this checkpoint holds: a list damaged since (lines lost, emptied) is refused
+  // on resume, where it would have dropped the keyframes it no longer names and deleted their images.
+  j["keyframe_list"] = {{"count", keyframes_.size()}, {"last_id", keyframes_.empty() ? 0 : keyframes_.back().id}};
+  j["far_level_distance"] = config_.culling.far_level_distance;
   std::ostringstream s;
   s << rng_;
   j["rng"] = s.str();

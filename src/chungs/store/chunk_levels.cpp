@@ -27,10 +27,14 @@ double settle_far_level_distance(ChunkStore& store, double metres) {
     log::warn(store.manifest_path().string(), ": the map has far-level chunks but its manifest does not say beyond "
               "what distance (rebuilt from the chunk files?); taking culling.far_level_distance, ", metres, " m");
   }
+  record_far_level_distance(store, metres);
+  return metres;
+}
+
+void record_far_level_distance(ChunkStore& store, double metres) {
   char text[32];
   const auto end = std::to_chars(text, text + sizeof text, metres).ptr;  // shortest that reads back
   store.set_config(kFarLevelKey, std::string(text, end));
-  return metres;
 }
 
 }  // namespace chungs

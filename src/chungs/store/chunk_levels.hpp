@@ -17,6 +17,9 @@ double map_far_level_distance(const ChunkStore& store);
 // has, leaves its own: 0 for one made before levels. A map with far-level chunks but no entry (its
 // manifest rebuilt from the chunk files) gets `metres`, with a warning. Returns the distance the map keeps.
 double settle_far_level_distance(ChunkStore& store, double metres);
+// Writes the map's distance into its manifest's settings (committed with the next commit): for a
+// manifest rebuilt from the chunk files, the distance the map's run state kept.
+void record_far_level_distance(ChunkStore& store, double metres);
 
 // For a reader that draws the map one way from everywhere (a PLY file, a point cloud): a far level
 // whose cube has a near level too, left out so that no place is drawn twice; a place seen only from

@@ -109,20 +109,22 @@ void ChunkStore::reconcile(bool have_manifest) {
       ++report_.entries_adopted;
     } else if (named && c == chosen.end()) {
       ++report_.entries_dropped;
-      if (!generations.count(named->generation)) missing.push_back(chunk_file(id, named->generation));
+      // Gone without a removal after the commit (a tombstone) to explain it.
+      if (!decided && !generations.count(named->generation)) missing.push_back(chunk_file(id, named->generation));
     } else if (named && !(c->second == *named)) {
       ++report_.entries_updated;
     }
   }
-  manifest_.chunks = std::move(chosen);
   // Damage rather than an interrupted session (a committed file goes only after a commit that no
-  // longer names it), so each is named; a few suffice when a whole folder of them is gone.
-  constexpr size_t kNamed = 10;
-  for (size_t i = 0; i < missing.size() && i < kNamed; ++i)
-    log::warn(missing[i].string(), ": listed in the manifest but missing; its chunk is dropped from the map");
-  if (missing.size() > kNamed)
-    log::warn(folder_.string(), ": ", missing.size() - kNamed,
-              " more chunk files listed in the manifest are missing");
+  // longer names it). Dropping the chunk would lose its Gaussians, and the repair would delete its
+  // older files with them, which a rebuild from the chunk files can still use: refused, as the readers
+  // refuse it, before anything in the folder changes.
+  if (!missing.empty())
+    fail(missing.front().string(), ": listed in ", manifest_path().string(), " but missing",
+         missing.size() > 1 ? cat(" (and ", missing.size() - 1, " more chunk files)") : std::string(),
+         "; the map is left as it is (to go on without them, delete manifest.txt, and `run --resume` rebuilds "
+         "it from the chunk files that are there)");
+  manifest_.chunks = std::move(chosen);
   if (have_manifest && (report_.repaired() || report_.files_rejected))
     log::warn(folder_.string(), ": manifest was behind the chunk files (interrupted session): adopted ",
               report_.entries_adopted, ", updated ", report_.entries_updated, ", dropped ",
