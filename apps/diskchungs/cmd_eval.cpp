@@ -181,7 +181,12 @@ int run_ate(const EvalArgs& a) {
 int run_images(const EvalArgs& a) {
   const auto pairs = match_image_pairs(a.ref, a.test, ImageRole::Colour);
   Image8 mask;
-  if (!a.mask.empty()) mask = read_mask(a.mask);
+  if (!a.mask.empty()) {
+    mask = read_mask(a.mask);
+    // An empty mask scores nothing: PSNR and SSIM of no pixel were printed as nan with exit 0.
+    if (std::all_of(mask.data(), mask.data() + mask.size(), [](uint8_t v) { return v == 0; }))
+      fail(a.mask, ": the mask is 0 everywhere, so no pixel would be scored");
+  }
   const LpipsSetting lpips = lpips_setting(a.lpips_weights, "--lpips-weights");
   const ImageSetResult r = evaluate_image_pairs(pairs, a.mask.empty() ? nullptr : &mask, {}, &lpips);
   if (a.json) {
@@ -208,6 +213,10 @@ nlohmann::json depth_json(const DepthMetrics& m) {
 
 int run_depth(const EvalArgs& a) {
   const DepthSetResult r = evaluate_depth_pairs(match_image_pairs(a.gt, a.est, ImageRole::Depth), a.gt_scale, a.est_scale);
+  // Metrics over no pixel were printed as nan with exit 0.
+  if (r.pooled.pixels == 0)
+    fail("no pixel has a valid depth in both ", a.gt, " and ", a.est, " (", r.pooled.gt_valid,
+         " valid ground-truth pixels at --gt-scale ", a.gt_scale, "): nothing to score");
   if (a.json) {
     nlohmann::json j = {{"gt", a.gt}, {"est", a.est}, {"gt_scale", a.gt_scale}, {"est_scale", a.est_scale},
                         {"pooled", depth_json(r.pooled)}};

@@ -34,6 +34,7 @@ const Command cmd{"export", "write a map (whole, one chunk, or a box) as a 3DGS 
       require_flag(ok, "--box", "finite XMIN YMIN ZMIN XMAX YMAX ZMAX with each minimum at most its maximum",
                    cat(b[0], " ", b[1], " ", b[2], " ", b[3], " ", b[4], " ", b[5]));
     }
+    require_flag(!a->out.empty(), "--out", "a PLY file", "an empty path");
     refuse_inside_map(a->out, a->map, "--out");
     ChunkStore store(a->map, reader_config());  // a reader never repairs or rewrites the map
     PlySelection s;

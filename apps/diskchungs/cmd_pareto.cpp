@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <iomanip>
 
 #include "chungs/common/log.hpp"
 #include "chungs/common/text_file.hpp"
@@ -169,9 +170,13 @@ const Command cmd{
           }
           rows.push_back(pareto_row(p.setting, report));
           const nlohmann::json& r = rows.back();
-          std::printf("  %.3f FPS over %.1f s, held-out PSNR %.3f dB, keyframes PSNR %.3f dB%s\n",
+          auto db = [](const nlohmann::json& q) {  // null where no frame was scored
+            if (!q.is_object() || !q["psnr"].is_number()) return std::string("n/a");
+            return cat(std::fixed, std::setprecision(3), q["psnr"].get<double>(), " dB");
+          };
+          std::printf("  %.3f FPS over %.1f s, held-out PSNR %s, keyframes PSNR %s%s\n",
                       r["processing_fps"].get<double>(), r["mapping_s"].get<double>(),
-                      r["held_out"]["psnr"].get<double>(), r["keyframes_eval"]["psnr"].get<double>(),
+                      db(r["held_out"]).c_str(), db(r["keyframes_eval"]).c_str(),
                       r.contains("stopped")
                           ? (" (stopped early: " + r["stopped"]["reason"].get<std::string>() + ")").c_str()
                           : "");

@@ -147,7 +147,7 @@ const Command synth_cmd("synth", "render synthetic sequences (room, street, a me
   street->add_option("--frames", a->max_frames, "stop after this many frames (0: whole route)");
   size_opts(street);
   auto* mesh = app.add_subcommand("mesh", "render a vertex-coloured PLY mesh along a trajectory file");
-  mesh->add_option("--mesh", a->mesh, "PLY mesh with vertex colours")->required();
+  mesh->add_option("--mesh", a->mesh, "PLY mesh, with vertex colours (without them it is drawn flat grey, lit)")->required();
   mesh->add_option("--traj", a->traj, "trajectory: TUM, KITTI or 4x4-per-line (Replica traj.txt)")->required();
   mesh->add_option("--intrinsics", a->intrinsics, "fx,fy,cx,cy,width,height or a cam_params.json")->required();
   mesh->add_option("--out", a->out, "output folder")->required();

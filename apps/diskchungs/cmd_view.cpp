@@ -29,6 +29,9 @@ struct ViewArgs {
 int run_view(const ViewArgs& a) {
   const StopSignal signal("");
   const std::atomic<bool>& g_stop = signal.stop();
+  // A file is no map folder that a run could make: waiting for it would never end.
+  if (a.wait && std::filesystem::exists(a.map) && !std::filesystem::is_directory(a.map))
+    fail(a.map, ": is a file, not a map folder (--wait waits for a run's folder)");
   if (a.wait && !std::filesystem::exists(std::filesystem::path(a.map) / "manifest.txt")) {
     log::info("waiting for ", a.map, "'s first checkpoint (Ctrl-C stops)");
     while (!g_stop && !std::filesystem::exists(std::filesystem::path(a.map) / "manifest.txt"))
@@ -86,9 +89,10 @@ const Command cmd{"view", "serve a map folder to the browser viewer (http://127.
   return [a, &app]() {
     if (given(app, "--port")) require_flag(a->port >= 0 && a->port <= 65535, "--port", "in 0..65535", a->port);
     require_flag(!a->host.empty(), "--host", "an address", "''");
+    // 0 is off; below 0.01 s the follower would poll the folder without a pause (30 % of a core at 1e-300).
     if (given(app, "--follow"))
-      require_flag(std::isfinite(a->follow_s) && a->follow_s >= 0 && a->follow_s <= 3600, "--follow",
-                   "in [0, 3600] seconds", a->follow_s);
+      require_flag(std::isfinite(a->follow_s) && (a->follow_s == 0 || (a->follow_s >= 0.01 && a->follow_s <= 3600)),
+                   "--follow", "0 (off) or in [0.01, 3600] seconds", a->follow_s);
     return run_view(*a);
   };
 }};

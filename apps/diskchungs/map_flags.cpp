@@ -1,6 +1,7 @@
 #include "map_flags.hpp"
 
 #include <cmath>
+#include <cstdint>
 
 #include "chungs/config/presets.hpp"
 #include "chungs/datasets/mono_view.hpp"
@@ -51,7 +52,8 @@ RunOptions map_flags_options(const CLI::App& app, const MapFlags& f) {
   apply_preset(c, f.preset, o.dataset);
   if (!f.config_file.empty()) c = load_config(f.config_file, c);
   if (given(app, "--budget")) {
-    require_flag(f.budget >= 1, "--budget", "at least 1 Gaussian", f.budget);
+    const auto most = uint64_t(double(UINT32_MAX) / (1 + c.residency.pool_headroom));  // the pool's 32-bit slots
+    require_flag(f.budget >= 1 && uint64_t(f.budget) <= most, "--budget", cat("1 to ", most, " Gaussians"), f.budget);
     c.residency.budget_gaussians = size_t(f.budget);
   }
   if (given(app, "--chunk-size")) {
@@ -68,7 +70,9 @@ RunOptions map_flags_options(const CLI::App& app, const MapFlags& f) {
     c.mapper.final_iterations = f.final_iterations;
   }
   if (given(app, "--fill-depth")) {
-    require_flag(std::isfinite(f.fill_depth) && f.fill_depth >= 0, "--fill-depth", "0 or more metres", f.fill_depth);
+    // Beyond the far plane its points would be culled from every view (and at 1e300 m outside any chunk).
+    require_flag(std::isfinite(f.fill_depth) && f.fill_depth >= 0 && f.fill_depth <= c.culling.far, "--fill-depth",
+                 cat("0 to culling.far (", c.culling.far, ") metres"), f.fill_depth);
     c.sampler.fill_depth = f.fill_depth;
   }
   if (given(app, "--max-frames")) {

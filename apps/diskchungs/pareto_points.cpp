@@ -43,9 +43,11 @@ nlohmann::json lpips_or_null(const nlohmann::json& eval) {
 nlohmann::json quality(const nlohmann::json& report, const char* key) {
   if (!report.contains(key)) return nullptr;
   const nlohmann::json& e = report[key];
-  nlohmann::json q = {{"psnr", e.value("mean_psnr", NAN)},
-                      {"ssim", e.value("mean_ssim", NAN)},
-                      {"lpips", lpips_or_null(e)},
+  // No frame scored (a run of fewer frames than the hold-out period): no quality, not a quality of 0.
+  const bool scored = e.value("count", 0) > 0;
+  nlohmann::json q = {{"psnr", scored ? e.value("mean_psnr", nlohmann::json()) : nlohmann::json()},
+                      {"ssim", scored ? e.value("mean_ssim", nlohmann::json()) : nlohmann::json()},
+                      {"lpips", scored ? lpips_or_null(e) : nlohmann::json()},
                       {"frames", e.value("count", 0)}};
   if (q["lpips"].is_null()) q["lpips_unavailable"] = e.value("lpips_unavailable", std::string("not in the report"));
   return q;

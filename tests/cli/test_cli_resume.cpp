@@ -3,6 +3,7 @@
 // restart at frame 0 on top of the map, or resume with no keyframes).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -251,6 +252,31 @@ TEST(CliResume, AMapRebuiltFromItsChunkFilesKeepsItsFarLevelDistance) {
   EXPECT_EQ(r.out.find("(one level)"), std::string::npos) << r.out;
   EXPECT_NE(read_all(map / "manifest.txt").find("config far_level_distance 70\n"), std::string::npos)
       << read_all(map / "manifest.txt");
+}
+
+// A run that failed before its first checkpoint leaves an empty manifest: the README says a new run may
+// use that folder, but it was refused as "already holds a map" (and with --resume took the failed run's
+// chunk size).
+TEST(CliResume, AFolderARunLeftBeforeItsFirstCheckpointTakesANewRun) {
+  chungs::test::TempDir dir;
+  const fs::path room = dir / "room", map = dir / "map";
+  auto r = run_cli("-q synth room --out " + room.string() + " --frames 6 --width 48 --height 32");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::vector<fs::path> frames;
+  for (const auto& e : fs::directory_iterator(room / "rgb")) frames.push_back(e.path());
+  std::sort(frames.begin(), frames.end());
+  const std::string good = read_all(frames[4]);
+  { std::ofstream(frames[4], std::ios::binary) << "not a png"; }
+  const std::string run = "run --dataset tum:" + room.string() + " --poses gt --device cpu --no-eval --out " + map.string();
+  r = run_cli(run + " --chunk-size 4");
+  ASSERT_NE(r.code, 0) << r.out;
+  ASSERT_TRUE(fs::exists(map / "manifest.txt"));
+  ASSERT_FALSE(fs::exists(map / "keyframes.txt"));
+  { std::ofstream(frames[4], std::ios::binary) << good; }
+  r = run_cli(run);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("before its first checkpoint; starting the map afresh"), std::string::npos) << r.out;
+  EXPECT_NE(read_all(map / "manifest.txt").find("chunk_size 10"), std::string::npos) << read_all(map / "manifest.txt");
 }
 
 }  // namespace

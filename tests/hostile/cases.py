@@ -229,13 +229,13 @@ def number_cases():
                              quick=quick_first and i == 0))
 
     flags("num.run", lambda flag: run_without(flag) + " --dataset %s --out out" % STREET, [
-        ("--budget", ["-1", "0", "nan", "abc", "99999999999999999999"]),
+        ("--budget", ["-1", "0", "nan", "abc", "99999999999999999999", "3500000000"]),
         ("--chunk-size", ["-1", "0", "nan", "inf", "abc"]),
         ("--resolution", ["-0.5", "0", "1.5", "nan", "inf", "abc"]),
         ("--iterations", ["-1", "abc", "99999999999"]),
         ("--final-iterations", ["-1", "abc"]),
         ("--speed", ["0", "-1", "nan", "inf", "abc"]),
-        ("--fill-depth", ["-1", "nan", "inf"]),
+        ("--fill-depth", ["-1", "nan", "inf", "1e300"]),
         ("--max-frames", ["0", "-1", "abc"]),
         ("--pacing", ["sometimes", ""]),
         ("--depth", ["lidar"]),
@@ -291,7 +291,7 @@ def number_cases():
     flags("num.synth_mesh", mesh, [
         ("--intrinsics", ["50,50,32,24", "a,b,c,d,e,f", "50,50,32,24,0,48", "50,50,32,24,64.5,48",
                           "nan,50,32,24,64,48", "50,50,32,24,1e12,48", "50,50,32,24,100000,100000", "",
-                          "missing.json"]),
+                          "missing.json", "50,50,32,24,64,48,"]),
     ], mesh_setup)
 
     render = "render --map map --poses traj.txt --out r"
@@ -315,8 +315,14 @@ def number_cases():
                               ("box_nan", "--box nan 0 0 1 1 1", "--box"),
                               ("box_inverted", "--box 1 1 1 0 0 0", "--box"),
                               ("box_inf", "--box -inf 0 0 inf 1 1", "--box"),
-                              ("box_five_values", "--box 0 0 0 1 1", "--box")]:
+                              ("box_five_values", "--box 0 0 0 1 1", "--box"),
+                              ("box_empty_value", "--box '' -5 -5 10 5 5", "--box")]:
         c.append(err("num.export_" + name, export + " " + extra, word, a_map(), watch=["map"]))
+    c.append(err("num.export--out=empty", "export --map map --out ''", "--out", a_map(), watch=["map"]))
+    # Below 0.01 s the follower polled the folder without a pause; a file given with --wait waited forever.
+    c.append(err("num.view--follow=1e-300", "view map --port 0 --follow 1e-300", "--follow", a_map(), watch=["map"]))
+    c.append(err("num.view_wait_on_a_file", "view notes.txt --port 0 --wait", "notes.txt", file_in("notes.txt", "x\n"),
+                 timeout=20))
 
     demo = "demo --out out"
     flags("num.demo", demo, [
@@ -385,6 +391,7 @@ def synth_cases():
         ("vertex_nan", MESH_PLY.replace("-1 -1 0 255", "nan -1 0 255")),
         ("vertex_inf", MESH_PLY.replace("-1 -1 0 255", "inf -1 0 255")),
         ("vertex_word", MESH_PLY.replace("-1 -1 0 255", "minus -1 0 255")),
+        ("colour_beyond_uchar", MESH_PLY.replace("-1 -1 0 255", "-1 -1 0 300")),
         ("no_vertex_element", "ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\n"
                               "end_header\n"),
     ]:
@@ -393,7 +400,8 @@ def synth_cases():
                  timeout=30))
     c.append(err("synth.mesh_is_folder", cmd, "mesh.ply", both(setup(), lambda d, s: forge.make_dir(d / "mesh.ply"))))
     for name, traj in [("empty", ""), ("nan", "0 nan 0 -2 0 0 0 1\n"), ("zero_quaternion", "0 0 0 -2 0 0 0 0\n"),
-                       ("words", "zero one two\n"), ("seven_fields", "0 0 0 -2 0 0 1\n")]:
+                       ("words", "zero one two\n"), ("seven_fields", "0 0 0 -2 0 0 1\n"),
+                       ("matrix_last_row_not_0001", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 8\n")]:
         c.append(err("synth.traj_" + name, cmd, "traj.txt", setup(traj=traj)))
     # The sequence writes its folder's trajectory: --traj out/poses.txt --out out was rewritten as the new one.
     c.append(err("synth.traj_in_the_output_folder", "synth mesh --mesh mesh.ply --traj out/poses.txt --out out " + intr,
@@ -1015,6 +1023,12 @@ def trajectory_cases():
     return c
 
 
+def png_size(path):
+    """Width and height from a PNG's header."""
+    head = path.read_bytes()[16:24]
+    return int.from_bytes(head[:4], "big"), int.from_bytes(head[4:], "big")
+
+
 def image_set_cases():
     c = []
     cmd = "eval images --ref ref --test test"
@@ -1031,6 +1045,9 @@ def image_set_cases():
         ("test_is_fifo", lambda d, s: forge.make_fifo(d / "test/1.png"), "1.png"),
         ("ref_is_dev_zero", lambda d, s: forge.link_to(d / "ref/0.png", "/dev/zero"), "0.png"),
         ("mask_other_size", lambda d, s: forge.write(d / "mask.png", png(32, 24, channels=1)), "mask"),
+        # A mask of zeros scores no pixel: PSNR and SSIM were printed as nan with exit 0.
+        ("mask_all_zero", lambda d, s: forge.write(d / "mask.png", png(*png_size(d / "ref/0.png"), channels=1, fill=0)),
+         "mask.png"),
     ]:
         extra = " --mask mask.png" if name.startswith("mask") else ""
         known = PNG_BOMB if "huge" in name else None

@@ -424,6 +424,8 @@ void validate_sections_without_checks(const Config& c) {
     fail("culling: cache_translation must be 0 or more, got ", k.cache_translation);
   if (!(std::isfinite(k.cache_rotation_rad) && k.cache_rotation_rad >= 0))
     fail("culling: cache_rotation_rad must be 0 or more, got ", k.cache_rotation_rad);
+  if (!(c.sampler.fill_depth <= k.far))
+    fail("sampler: fill_depth must be at most culling.far (", k.far, " m), got ", c.sampler.fill_depth);
   const KeyframeStoreConfig& f = c.keyframes;
   if (f.zstd_level < 1 || f.zstd_level > 22)
     fail("keyframes: zstd_level must be in [1, 22], got ", f.zstd_level);

@@ -66,6 +66,12 @@ Trajectory read_kitti_trajectory(const std::filesystem::path& file, const std::v
   for (size_t i = 0; i < lines.size(); ++i) {
     const auto& l = lines[i];
     if (l.tokens.size() != 12 && l.tokens.size() != 16) l.fail_here(cat("expected 12 or 16 numbers, found ", l.tokens.size()));
+    // A 4x4 pose's last row is 0 0 0 1: anything else is no rigid pose (or a line of another format).
+    if (l.tokens.size() == 16)
+      for (int c = 0; c < 4; ++c)
+        if (std::abs(l.number_at(12 + c) - (c == 3 ? 1.0 : 0.0)) > 1e-6)
+          l.fail_here(cat("a 4x4 pose's last row must be 0 0 0 1, found ", l.tokens[12], " ", l.tokens[13], " ",
+                          l.tokens[14], " ", l.tokens[15]));
     tr.push_back(stamps.empty() ? double(i) / rate_hz : stamps[i], pose_from_row_major(l, 3));
   }
   return tr;

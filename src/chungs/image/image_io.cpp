@@ -220,11 +220,17 @@ void prepare_parent(const std::filesystem::path& file) {
 
 // Encodes into a temporary file beside `file` and renames it over `file` once whole, so that a failed
 // write (a full disk) leaves the earlier file, or none, never a truncated or empty one.
+// A link is followed (its target is replaced, not the link); a device or FIFO is written in place.
 template <class Encode>
 void write_whole(const std::filesystem::path& file, const char* kind, Encode encode) {
   prepare_parent(file);
-  std::filesystem::path part = file;
-  part += ".part";
+  std::error_code ec;
+  std::filesystem::path target = file;
+  if (std::filesystem::is_symlink(file, ec)) target = std::filesystem::weakly_canonical(file, ec);
+  if (ec) target = file;
+  const bool in_place = std::filesystem::exists(target, ec) && !std::filesystem::is_regular_file(target, ec);
+  std::filesystem::path part = target;
+  if (!in_place) part += ".part";
   FILE* f = std::fopen(part.c_str(), "wb");
   if (!f) fail(file.string(), ": cannot open for writing (", std::strerror(errno), ")");
   ErrBuf err;
@@ -234,13 +240,12 @@ void write_whole(const std::filesystem::path& file, const char* kind, Encode enc
   else if (std::fflush(f) != 0)
     why = cat("write failed (", std::strerror(errno), ")");
   if (std::fclose(f) != 0 && why.empty()) why = cat("write failed (", std::strerror(errno), ")");
-  std::error_code ec;
-  if (why.empty()) {
-    std::filesystem::rename(part, file, ec);
+  if (!in_place && why.empty()) {
+    std::filesystem::rename(part, target, ec);
     if (ec) why = cat("cannot replace it (", ec.message(), ")");
   }
   if (!why.empty()) {
-    std::filesystem::remove(part, ec);
+    if (!in_place) std::filesystem::remove(part, ec);
     fail(file.string(), ": ", why);
   }
 }

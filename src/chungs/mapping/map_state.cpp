@@ -12,6 +12,7 @@
 #include "chungs/image/image.hpp"
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/chunk_id.hpp"
+#include "chungs/store/manifest.hpp"
 
 namespace chungs {
 
@@ -72,6 +73,19 @@ std::vector<KeyframeRecord> read_keyframe_records(const std::filesystem::path& f
 std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint64_t seq,
                                       const std::string& final_name) {
   return folder / cat("checkpoint-", seq, "-", final_name);
+}
+
+bool holds_a_map(const std::filesystem::path& folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(folder / "keyframes.txt", ec)) return true;
+  if (!fs::exists(folder / "manifest.txt", ec)) return false;
+  try {
+    const Manifest m = Manifest::read(folder / "manifest.txt");
+    return !m.chunks.empty() || m.config.count("checkpoint") > 0;
+  } catch (const Error&) {
+    return true;
+  }
 }
 
 void require_folder_for_new_map(const std::filesystem::path& folder) {

@@ -49,6 +49,10 @@ std::filesystem::path checkpoint_file(const std::filesystem::path& folder, uint6
 std::filesystem::path committed_file(const std::filesystem::path& folder, uint64_t seq,
                                      const std::string& final_name);
 
+// Whether the folder holds a map to resume: a keyframe list, or a manifest naming a checkpoint or a
+// chunk. What a run left before its first checkpoint (an empty manifest) is no map: a new run starts
+// there afresh, as the README says. A manifest that does not read back counts as a map (the store names it).
+bool holds_a_map(const std::filesystem::path& folder);
 // A new map goes into a new or empty folder, or one a run left before its first checkpoint (its
 // chunks folder, and only files a run makes); any other folder is refused naming a few of its
 // files, since the run would write its report, trajectory and plots over files of the same names.

@@ -78,11 +78,19 @@ void require_whole_keyframe_list(const nlohmann::json& state, const fs::path& st
 Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     : folder_(folder), config_(config), selector_(config.selector), rng_(config.mapper.seed) {
   device_ = resolve_device(config_.mapper.device);  // before anything is written to the folder
-  const bool existing = fs::exists(folder / "manifest.txt") || fs::exists(folder / "keyframes.txt");
+  const bool existing = holds_a_map(folder);
   if (existing && !resume)
     fail(folder.string(), " already holds a map: pass --resume to continue it, or choose another folder");
   // With --resume too: there is no map to resume, so a map would be new among the user's files.
-  if (!existing) require_folder_for_new_map(folder);
+  if (!existing) {
+    require_folder_for_new_map(folder);
+    // The empty manifest of a run that ended before its first checkpoint: its chunk size and SH degree
+    // would bind the new map. It names nothing; the new map writes its own.
+    if (fs::exists(folder / "manifest.txt")) {
+      log::info(folder.string(), ": a run ended here before its first checkpoint; starting the map afresh");
+      fs::remove(folder / "manifest.txt");
+    }
+  }
   // The map rolls back to the last checkpoint after a crash, so it always matches the keyframe list
   // and run state committed with it (no Gaussians of frames that a resumed run processes again).
   ChunkStoreConfig store_config = config_.store;

@@ -95,7 +95,7 @@ uint64_t export_ply(const ChunkStore& store, const std::filesystem::path& file, 
     const ChunkId near = near_level_of(*select.chunk);
     if (store.contains(near)) ids.push_back(near);
     else if (store.contains(far_level_of(near))) ids.push_back(far_level_of(near));
-    else fail("export: the map has no chunk ", chunk_name(near));
+    else fail("export: the map has no ", chunk_name(near));
   } else {
     for (ChunkId id : store.ids()) {
       if (far_level_with_near_twin(store, id)) continue;

@@ -408,22 +408,26 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const size_t done = stopped_at ? *stopped_at + 1 : n;  // frames the map covers
   // The folder keeps what the run committed, and a new run into it is refused as into any map, while
   // --resume would end the same way: say so, or the next command is a second puzzle.
-  const std::string left_as_is =
-      cat("; ", o.out.string(), " is left with that empty map: remove it, or choose another --out, before running again");
+  // Before its first checkpoint the folder holds no map (map_state.hpp), and a new run starts there afresh.
+  const auto left_as_is = [&] {
+    return holds_a_map(o.out) ? cat("; ", o.out.string(), " is left with that empty map: remove it, or choose "
+                                    "another --out, before running again")
+                              : cat("; nothing was committed to ", o.out.string(), " (a new run there starts afresh)");
+  };
   if (mapper.keyframes().empty()) {
     const std::string why = feed->why_no_pose();
-    fail("dataset ", o.dataset, ": no frame with a pose became a keyframe", why.empty() ? "" : "; " + why, left_as_is);
+    fail("dataset ", o.dataset, ": no frame with a pose became a keyframe", why.empty() ? "" : "; " + why, left_as_is());
   }
   if (mapper.total_gaussians() == 0 && mapper.refused_gaussians() > 0)
     fail("--budget ", cfg.residency.budget_gaussians, ": the map is empty, as every new Gaussian (",
          mapper.refused_gaussians(), ") was refused because its chunk could not hold it under the budget; a "
          "budget of at least ", mapper.largest_refusal(), " holds the largest of them, and a budget that holds "
-         "whole views (several times that) maps well", left_as_is);
+         "whole views (several times that) maps well", left_as_is());
   // An empty map scored as if it were one (4 dB held-out, exit 0) hid the cause behind a warning.
   if (multiview && mapper.total_gaussians() == 0)
     fail("dataset ", o.dataset, ": no keyframe got depth from its neighbours (one camera needs two keyframes that "
          "see the same textured scene from places apart; the camera moved ", std::round((base.path_m + path_m) * 1000) / 1000,
-         " m over its ", done, done == 1 ? " frame" : " frames", "), so the map is empty", left_as_is);
+         " m over its ", done, done == 1 ? " frame" : " frames", "), so the map is empty", left_as_is());
   nlohmann::json refinement;  // the steps after the last frame, when there were any
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
     const uint64_t refine_steps = mc.refinement_steps(mapper.keyframes().size());

@@ -1,5 +1,6 @@
 // ResidencyConfig: its checks, and the sizes it leaves at 0 (automatic) as Residency uses them.
 #include <algorithm>
+#include <cstdint>
 #include <thread>
 
 #include "chungs/common/error.hpp"
@@ -48,6 +49,13 @@ void ResidencyConfig::validate() const {
   if (checkpoint_threads < 1 || checkpoint_threads > 256)
     fail("residency: checkpoint_threads must be in [1, 256], got ", checkpoint_threads);
   if (!(pool_headroom >= 0 && pool_headroom <= 4)) fail("residency: pool_headroom must be in [0, 4], got ", pool_headroom);
+  // The pool holds the budget and its headroom in slots of 32-bit indices: a budget beyond them was
+  // accepted here and refused mid-start by the pool, naming neither the budget nor the headroom.
+  const double slots = double(budget_gaussians) * (1 + pool_headroom);
+  if (slots > double(UINT32_MAX))
+    fail("residency: budget_gaussians ", budget_gaussians, " with pool_headroom ", pool_headroom, " needs ",
+         size_t(slots), " pool slots, beyond the ", UINT32_MAX, " that 32-bit slot indices address (at most ",
+         size_t(double(UINT32_MAX) / (1 + pool_headroom)), " Gaussians)");
 }
 
 size_t in_flight_max_gaussians(const ResidencyConfig& config) {

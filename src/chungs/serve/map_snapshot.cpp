@@ -40,7 +40,9 @@ MapSnapshot::MapSnapshot(const fs::path& folder) : folder_(folder) {
   // A read of the keyframe list and sky must fit between two commits; on a loaded machine beside a
   // mapper that commits every few keyframes, a fair share of attempts do not (5 gave up in a test run).
   constexpr int kAttempts = 20;
+  std::string sky_damage;  // the final sky.bin not read, in the last attempt
   for (int attempt = 1;; ++attempt) {
+    sky_damage.clear();
     store_ = std::make_unique<ChunkStore>(folder, reader_config());
     checkpoint_ = checkpoint_tag(store_->manifest().config);
     keyframes_.clear();
@@ -80,10 +82,14 @@ MapSnapshot::MapSnapshot(const fs::path& folder) : folder_(folder) {
     if (!sky_read && fs::exists(folder / "sky.bin")) try {
         sky_ = read_sky_file(folder / "sky.bin");
       } catch (const Error& e) {
-        // Replaced by the next checkpoint's while read (the check below reads again), or damaged.
-        log::debug("viewer: sky left out: ", e.what());
+        // Replaced by the next checkpoint's while read (the check below reads again), or damaged:
+        // said once the read is known to be of one commit.
+        sky_damage = e.what();
       }
-    if (checkpoint_tag(Manifest::read(folder / "manifest.txt").config) == checkpoint_) break;
+    if (checkpoint_tag(Manifest::read(folder / "manifest.txt").config) == checkpoint_) {
+      if (!sky_damage.empty()) log::warn("viewer: the map's sky is left out, as its file does not read back: ", sky_damage);
+      break;
+    }
     if (attempt == kAttempts) fail(folder.string(), ": the map changed faster than it could be read; try again");
     log::info(folder.string(), ": the map was committed again while it was read; reading the new commit");
   }

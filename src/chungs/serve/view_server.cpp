@@ -4,6 +4,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cstdlib>
@@ -163,12 +164,21 @@ void ViewServer::routes() {
     res.set_content(map->timeline_json().dump(), kJson);
   });
 
-  s.Get("/api/events", [follower](const httplib::Request& req, httplib::Response& res) {
+  // Each open stream holds one of the 32 threads: past half of them, more streams (34 curls) left no
+  // thread for /api/map and the chunks until they closed.
+  constexpr int kMaxEventStreams = 16;
+  auto streams = std::make_shared<std::atomic<int>>(0);
+  s.Get("/api/events", [follower, streams](const httplib::Request& req, httplib::Response& res) {
     uint64_t since = follower->version();
     if (req.has_param("since")) {
       const std::string v = req.get_param_value("since");
       if (!parse_whole(v, 0, UINT64_MAX, since))
         return json_error(res, 400, "since " + quoted(v) + " is not a version (a whole number)");
+    }
+    if (streams->fetch_add(1) >= kMaxEventStreams) {
+      streams->fetch_sub(1);
+      return json_error(res, 503, "too many open event streams (" + std::to_string(kMaxEventStreams) +
+                                      "); close a viewer page and try again");
     }
     res.set_header("Cache-Control", "no-store");
     res.set_chunked_content_provider("text/event-stream", [follower, since](size_t, httplib::DataSink& sink) mutable {
@@ -183,7 +193,7 @@ void ViewServer::routes() {
       }
       if (text.empty()) text = ": waiting\n\n";  // also finds a client that has gone
       return sink.write(text.data(), text.size());
-    });
+    }, [streams](bool) { streams->fetch_sub(1); });
   });
 
   s.Get(R"(/api/chunk/([^/]*))", [follower](const httplib::Request& req, httplib::Response& res) {

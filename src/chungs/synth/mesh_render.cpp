@@ -53,6 +53,8 @@ Camera parse_intrinsics(const std::string& spec) {
   std::vector<double> v;
   std::stringstream ss(spec);
   std::string tok;
+  // getline drops a last empty field: "...,48," would pass as six numbers.
+  if (!spec.empty() && spec.back() == ',') fail("intrinsics '", spec, "': ends with a comma");
   while (std::getline(ss, tok, ',')) {
     char* end = nullptr;
     double x = std::strtod(tok.c_str(), &end);

@@ -241,7 +241,12 @@ Mesh read_ply(const std::filesystem::path& file) {
             double v = vals[i];
             if (!std::isfinite(v))
               fail(body.where(), ": vertex ", k, " has ", e.props[i].name, " = ", v, ", not a finite colour");
-            if (e.props[i].type == Type::F32 || e.props[i].type == Type::F64) v *= 255.0;
+            if (e.props[i].type == Type::F32 || e.props[i].type == Type::F64) {
+              v *= 255.0;  // 0..1; a float a little beyond (1.0000001) is rounding, kept at the end
+            } else if (!(v >= 0 && v <= 255)) {
+              // An integer colour outside 0..255 (300, -7) is a damaged file, not a brighter colour.
+              fail(body.where(), ": vertex ", k, " has ", e.props[i].name, " = ", v, ", outside the colour range 0 to 255");
+            }
             return uint8_t(v < 0 ? 0 : v > 255 ? 255 : v + 0.5);
           };
           mesh.colors.push_back({c8(ir), c8(ig), c8(ib)});
