@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <thread>
+#include <vector>
 
 #include "chungs/serve/map_follower.hpp"
 #include "chungs/serve/view_server.hpp"
@@ -145,6 +146,63 @@ TEST(MapFollower, TheServerStreamsEachCheckpointToAnEventClient) {
   EXPECT_LT(seconds, 2.0);  // the bound for a committed chunk to reach the page
 
   f->stop();  // ends the stream's loop, then the server
+  while (!done) {
+    server.stop();
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  t.join();
+}
+
+// Each open event stream holds a server thread: 34 streams left none of the 32 for /api/map, which
+// timed out until they closed. Past 16 a stream is refused, and the map is still served.
+TEST(MapFollower, EventStreamsBeyondSixteenAreRefusedAndTheMapIsStillServed) {
+  test::TempDir dir;
+  const fs::path map = dir / "map";
+  commit(map, 1, {{0, 6}});
+  auto f = std::make_shared<MapFollower>(std::make_shared<MapSnapshot>(map));
+  ViewServer server(f, ViewServerOptions{"127.0.0.1", 0, {}});
+  server.bind();
+  std::atomic<bool> done{false};
+  std::thread t([&] {
+    server.run();
+    done = true;
+  });
+  f->start(std::chrono::milliseconds(20));
+  // Sends `path` on a new connection and returns it with what came within `wait` (the headers at least).
+  auto ask = [&](const std::string& path, std::chrono::milliseconds wait) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(uint16_t(server.port()));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    const std::string req = "GET " + path + " HTTP/1.1\r\nHost: x\r\n\r\n";
+    EXPECT_EQ(write(fd, req.data(), req.size()), ssize_t(req.size()));
+    timeval tv{0, 100000};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    std::string got;
+    const auto t0 = std::chrono::steady_clock::now();
+    while (got.find("\r\n\r\n") == std::string::npos && std::chrono::steady_clock::now() - t0 < wait) {
+      char buf[4096];
+      const ssize_t n = read(fd, buf, sizeof buf);
+      if (n > 0) got.append(buf, size_t(n));
+    }
+    return std::pair{fd, got};
+  };
+  std::vector<int> streams;
+  for (int i = 0; i < 16; ++i) {
+    auto [fd, got] = ask("/api/events", std::chrono::seconds(5));
+    EXPECT_NE(got.find("text/event-stream"), std::string::npos) << i << ": " << got;
+    streams.push_back(fd);
+  }
+  auto [extra, refused] = ask("/api/events", std::chrono::seconds(5));
+  EXPECT_NE(refused.find("503"), std::string::npos) << refused;
+  close(extra);
+  auto [fd, answer] = ask("/api/map", std::chrono::seconds(5));  // no thread left: nothing within 5 s
+  close(fd);
+  EXPECT_NE(answer.find("200 OK"), std::string::npos) << answer;
+  for (int s : streams) close(s);
+  f->stop();
   while (!done) {
     server.stop();
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
