@@ -1,10 +1,10 @@
 #include "dataset_spec.hpp"
 
-#include <cctype>
 #include <cerrno>
 #include <cstdlib>
 #include <set>
 
+#include "chungs/common/decimal.hpp"
 #include "chungs/common/error.hpp"
 #include "chungs/synth/street_dataset.hpp"
 
@@ -18,9 +18,7 @@ double number(const std::string& spec, const std::string& key, const std::string
   char* end = nullptr;
   errno = 0;
   const double v = std::strtod(value.c_str(), &end);
-  // strtod also takes hexadecimal (0x10) and skips leading blanks: a value must read as it shows.
-  if (value.empty() || *end != '\0' || errno == ERANGE || std::isspace(static_cast<unsigned char>(value[0])) ||
-      value.find_first_of("xX") != std::string::npos)
+  if (!shows_a_decimal_number(value) || *end != '\0' || errno == ERANGE)
     fail("dataset '", spec, "': value '", value, "' of ", key, " is not a number");
   return v;
 }

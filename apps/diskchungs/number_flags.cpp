@@ -1,6 +1,5 @@
 #include "number_flags.hpp"
 
-#include <cctype>
 #include <charconv>
 #include <cstdint>
 #include <limits>
@@ -59,22 +58,13 @@ const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
   return nullptr;
 }
 
-// Text a decimal flag reads as the number it shows: not empty, no blanks around it (strtod skips leading
-// ones), not hexadecimal (strtod takes 0x10 and 0x1p3).
-bool decimal_text(std::string_view text) {
-  if (text.empty() || std::isspace(static_cast<unsigned char>(text.front())) ||
-      std::isspace(static_cast<unsigned char>(text.back())))
-    return false;
-  return text.find_first_of("xX") == std::string_view::npos;
-}
-
 std::string misread_in(const CLI::Option& option) {
   if (option.count() == 0) return {};
   const std::string type = read_as(option);
   for (const std::string& text : option.results()) {
     if (type == "INT" && !reads_as_written<int64_t>(text)) return refusal(option, text, false);
     if (type == "UINT" && !reads_as_written<uint64_t>(text)) return refusal(option, text, true);
-    if (type == "FLOAT" && !decimal_text(text))
+    if (type == "FLOAT" && !shows_a_decimal_number(text))
       return cat(option.get_name(), " must be a number written in decimal, got ",
                  text.empty() ? std::string("an empty value") : "'" + text + "'");
   }

@@ -104,53 +104,82 @@ TEST(MapFollower, AClientFarBehindIsToldToReload) {
   EXPECT_EQ(f.events_after(250, std::chrono::milliseconds(0)).size(), 10u);
 }
 
+namespace {
+
+// A server of the follower's map on a free port, run on a thread of its own while in scope.
+class ServedMap {
+ public:
+  explicit ServedMap(std::shared_ptr<MapFollower> f) : follower_(std::move(f)), server_(follower_, {"127.0.0.1", 0, {}}) {
+    server_.bind();
+    thread_ = std::thread([this] {
+      server_.run();
+      done_ = true;
+    });
+    follower_->start(std::chrono::milliseconds(20));
+  }
+  ~ServedMap() {
+    follower_->stop();  // ends the event streams' loops, then the server
+    while (!done_) {
+      server_.stop();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    thread_.join();
+  }
+  // A connection that has sent GET `path`, read with a timeout of 100 ms a call.
+  int ask(const std::string& path) const {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(uint16_t(server_.port()));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    const std::string req = "GET " + path + " HTTP/1.1\r\nHost: x\r\n\r\n";
+    EXPECT_EQ(write(fd, req.data(), req.size()), ssize_t(req.size()));
+    timeval tv{0, 100000};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    return fd;
+  }
+
+ private:
+  std::shared_ptr<MapFollower> follower_;
+  ViewServer server_;
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
+
+// What `fd` gives until `enough` says so or `wait` has passed.
+template <class Enough>
+std::string read_until(int fd, Enough enough, std::chrono::milliseconds wait) {
+  std::string got;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (!enough(got) && std::chrono::steady_clock::now() - t0 < wait) {
+    char buf[4096];
+    const ssize_t n = read(fd, buf, sizeof buf);
+    if (n > 0) got.append(buf, size_t(n));
+  }
+  return got;
+}
+
+}  // namespace
+
 TEST(MapFollower, TheServerStreamsEachCheckpointToAnEventClient) {
   test::TempDir dir;
   const fs::path map = dir / "map";
   commit(map, 1, {{0, 6}});
-  auto f = std::make_shared<MapFollower>(std::make_shared<MapSnapshot>(map));
-  ViewServer server(f, ViewServerOptions{"127.0.0.1", 0, {}});
-  server.bind();
-  std::atomic<bool> done{false};
-  std::thread t([&] {
-    server.run();
-    done = true;
-  });
-  f->start(std::chrono::milliseconds(20));
-
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(uint16_t(server.port()));
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-  const std::string req = "GET /api/events?since=0 HTTP/1.1\r\nHost: x\r\n\r\n";
-  ASSERT_EQ(write(fd, req.data(), req.size()), ssize_t(req.size()));
+  ServedMap served(std::make_shared<MapFollower>(std::make_shared<MapSnapshot>(map)));
+  const int fd = served.ask("/api/events?since=0");
   commit(map, 2, {{5, 9}});
   const auto t0 = std::chrono::steady_clock::now();
-  std::string got;
-  timeval tv{0, 200000};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  while (got.find("event: checkpoint") == std::string::npos ||
-         got.find("\n\n", got.find("event: checkpoint")) == std::string::npos) {
-    char buf[4096];
-    const ssize_t n = read(fd, buf, sizeof buf);
-    if (n > 0) got.append(buf, size_t(n));
-    if (std::chrono::steady_clock::now() - t0 > std::chrono::seconds(10)) break;
-  }
+  const std::string got = read_until(fd, [](const std::string& g) {
+    const size_t at = g.find("event: checkpoint");
+    return at != std::string::npos && g.find("\n\n", at) != std::string::npos;
+  }, std::chrono::seconds(10));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   close(fd);
   EXPECT_NE(got.find("text/event-stream"), std::string::npos) << got;
   EXPECT_NE(got.find("id: 1"), std::string::npos) << got;
   EXPECT_NE(got.find("\"added\":[\"" + std::to_string(cid(5)) + "\"]"), std::string::npos) << got;
   EXPECT_LT(seconds, 2.0);  // the bound for a committed chunk to reach the page
-
-  f->stop();  // ends the stream's loop, then the server
-  while (!done) {
-    server.stop();
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  t.join();
 }
 
 // Each open event stream holds a server thread: 34 streams left none of the 32 for /api/map, which
@@ -159,53 +188,21 @@ TEST(MapFollower, EventStreamsBeyondSixteenAreRefusedAndTheMapIsStillServed) {
   test::TempDir dir;
   const fs::path map = dir / "map";
   commit(map, 1, {{0, 6}});
-  auto f = std::make_shared<MapFollower>(std::make_shared<MapSnapshot>(map));
-  ViewServer server(f, ViewServerOptions{"127.0.0.1", 0, {}});
-  server.bind();
-  std::atomic<bool> done{false};
-  std::thread t([&] {
-    server.run();
-    done = true;
-  });
-  f->start(std::chrono::milliseconds(20));
-  // Sends `path` on a new connection and returns it with what came within `wait` (the headers at least).
-  auto ask = [&](const std::string& path, std::chrono::milliseconds wait) {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_port = htons(uint16_t(server.port()));
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-    const std::string req = "GET " + path + " HTTP/1.1\r\nHost: x\r\n\r\n";
-    EXPECT_EQ(write(fd, req.data(), req.size()), ssize_t(req.size()));
-    timeval tv{0, 100000};
-    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-    std::string got;
-    const auto t0 = std::chrono::steady_clock::now();
-    while (got.find("\r\n\r\n") == std::string::npos && std::chrono::steady_clock::now() - t0 < wait) {
-      char buf[4096];
-      const ssize_t n = read(fd, buf, sizeof buf);
-      if (n > 0) got.append(buf, size_t(n));
-    }
-    return std::pair{fd, got};
-  };
+  ServedMap served(std::make_shared<MapFollower>(std::make_shared<MapSnapshot>(map)));
+  auto headers = [](const std::string& g) { return g.find("\r\n\r\n") != std::string::npos; };
   std::vector<int> streams;
   for (int i = 0; i < 16; ++i) {
-    auto [fd, got] = ask("/api/events", std::chrono::seconds(5));
+    streams.push_back(served.ask("/api/events"));
+    const std::string got = read_until(streams.back(), headers, std::chrono::seconds(5));
     EXPECT_NE(got.find("text/event-stream"), std::string::npos) << i << ": " << got;
-    streams.push_back(fd);
   }
-  auto [extra, refused] = ask("/api/events", std::chrono::seconds(5));
-  EXPECT_NE(refused.find("503"), std::string::npos) << refused;
+  const int extra = served.ask("/api/events");
+  const std::string refused = read_until(extra, headers, std::chrono::seconds(5));
   close(extra);
-  auto [fd, answer] = ask("/api/map", std::chrono::seconds(5));  // no thread left: nothing within 5 s
+  EXPECT_NE(refused.find("503"), std::string::npos) << refused;
+  const int fd = served.ask("/api/map");
+  const std::string answer = read_until(fd, headers, std::chrono::seconds(5));  // no thread left: nothing in 5 s
   close(fd);
   EXPECT_NE(answer.find("200 OK"), std::string::npos) << answer;
   for (int s : streams) close(s);
-  f->stop();
-  while (!done) {
-    server.stop();
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  t.join();
 }

@@ -147,7 +147,7 @@ nlohmann::json read_json_file(const std::filesystem::path& file) {
 }
 
 void validate_run_state(const nlohmann::json& j, const std::filesystem::path& file) {
-  auto bad = [&](const char* key, const char* what) {
+  auto bad = [&](const char* key, const std::string& what) {
     fail(file.string(), ": '", key, "' must be ", what, ", got ", j[key].dump());
   };
   if (!j.is_object()) fail(file.string(), ": not a run state (a JSON object), got ", j.type_name());
@@ -168,9 +168,9 @@ void validate_run_state(const nlohmann::json& j, const std::filesystem::path& fi
     return j[key].is_number() && j[key].get<double>() >= lo && j[key].get<double>() <= hi;
   };
   if (j.contains("chunk_size") && !number_in("chunk_size", kMinChunkSize, kMaxChunkSize))
-    bad("chunk_size", "a chunk size in [0.01, 10000] metres");
+    bad("chunk_size", cat("a chunk size in [", kMinChunkSize, ", ", kMaxChunkSize, "] metres"));
   if (j.contains("sh_degree") && !(j["sh_degree"].is_number_unsigned() && j["sh_degree"].get<uint64_t>() <= kMaxShDegree))
-    bad("sh_degree", "a whole number in [0, 3]");
+    bad("sh_degree", cat("a whole number in [0, ", kMaxShDegree, "]"));
   if (j.contains("far_level_distance") && !number_in("far_level_distance", 0, 1e6))
     bad("far_level_distance", "0 or a positive number of metres");
   if (j.contains("keyframe_list")) {
