@@ -417,7 +417,11 @@ struct LiveMapper::Impl {
       }
       if (has_keyframes()) {
         const size_t keyframes = keyframe_count();
-        const uint64_t steps = config.mapper.refinement_steps(keyframes);
+        uint64_t steps = 0;
+        {
+          std::lock_guard lock(map_mutex);
+          steps = mapper->refinement_steps();
+        }
         if (steps > 0) {
           // The refinement takes minutes after a long drive, and a launch that ends kills the node
           // (roslaunch: SIGTERM 15 s after SIGINT): every frame mapped is committed before it starts,

@@ -182,6 +182,25 @@ TEST(Config, RefinementStepsAreOneAKeyframeInEitherPacingOrAsGiven) {
   EXPECT_EQ(config_from_yaml("mapper: {refinement_rounds: 16}").mapper.refinement_rounds, 16);
 }
 
+TEST(Config, AutomaticRefinementGivesEveryGroupItsStepsUpToSixteenAKeyframe) {
+  Config c;  // 128 steps a group when there are several
+  EXPECT_EQ(c.mapper.refinement_group_steps, 128);
+  EXPECT_EQ(c.mapper.refinement_steps(1034, 1), 1034u);
+  EXPECT_EQ(c.mapper.refinement_steps(1034, 5), 1034u);       // 640 < one a keyframe
+  EXPECT_EQ(c.mapper.refinement_steps(1034, 100), 12800u);
+  EXPECT_EQ(c.mapper.refinement_steps(1034, 162), 16544u);    // 2 km street under 100 k: 16 a keyframe
+  EXPECT_EQ(c.mapper.refinement_steps(1, 2), 120u);           // fixed pacing's least
+  c = config_from_yaml("mapper: {refinement_group_steps: 3}");
+  EXPECT_EQ(c.mapper.refinement_steps(100, 50), 150u);
+  c = config_from_yaml("mapper: {pacing: anytime, refinement_group_steps: 0}");
+  EXPECT_EQ(c.mapper.refinement_steps(500, 20), 500u);
+  c = config_from_yaml("mapper: {pacing: anytime}");
+  EXPECT_EQ(c.mapper.refinement_steps(500, 20), 2560u);
+  // Steps given are the steps run, whatever the groups.
+  EXPECT_EQ(config_from_yaml("mapper: {final_iterations: 7}").mapper.refinement_steps(1034, 162), 7u);
+  EXPECT_THROW(config_from_yaml("mapper: {refinement_group_steps: -1}"), chungs::Error);
+}
+
 TEST(Config, DepthRefinementKeysLoadAndBadRangesAreRefusedByName) {
   const chungs::Config c = chungs::config_from_yaml(
       "multiview:\n  refine: on\n  refine_rgbd_range: 0.1\n  refine_stereo_range: 0.02\n", "r.yaml");

@@ -124,6 +124,9 @@ void fields(V& v, MapperConfig& c) {
   v("refinement_rounds", c.refinement_rounds,
     "rounds over the refinement's groups of keyframes: more mix the places' views better, and load each "
     "group's chunks once a round");
+  v("refinement_group_steps", c.refinement_group_steps,
+    "with final_iterations -1: steps each refinement group gets at least when a budget below the map makes "
+    "several (at most 16 a keyframe)");
   v("refinement_min_visit_steps", c.refinement_min_visit_steps,
     "a group is visited at most once per this many of its refinement steps");
   v("speed", c.speed, "anytime pacing: frames arrive at the dataset rate times this");

@@ -36,6 +36,8 @@
 
 namespace chungs {
 
+struct RefinementGroup;
+
 struct StepStats {
   uint32_t keyframe = 0;
   double loss = 0;
@@ -95,6 +97,10 @@ class Mapper {
   };
   RefineStats refine(uint64_t steps, const std::function<void(uint32_t keyframe)>& after_step = {},
                      const std::function<bool()>& stop = {});
+  // mapper.final_iterations resolved for this map: MapperConfig::refinement_steps of its keyframes and of
+  // the groups the refinement would train in turn (1 when the views fit the budget together; more the
+  // smaller the budget), which the automatic steps grow with. Culls every keyframe's view when automatic.
+  uint64_t refinement_steps();
   // Renders the map from any pose (pins the visible chunks meanwhile). A copy of the output.
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
 
@@ -208,6 +214,8 @@ class Mapper {
   std::vector<ChunkId> visible_chunks(const Camera& camera, const SE3& pose, std::vector<ChunkId>* left_out = nullptr);
   // Every visible chunk that holds Gaussians, nearest first, with its count.
   std::vector<ChunkCount> nearest_visible(const Camera& camera, const SE3& pose);
+  // The refinement's groups for `steps` steps (refinement_plan.hpp), from every keyframe's view.
+  std::vector<RefinementGroup> plan_refinement_groups(uint64_t steps);
   void note_view_over_budget(uint64_t needed);  // warns when a view needs more than the budget
   // Counts new Gaussians the residency refused (their chunk cannot hold them under the budget) and warns.
   void note_refused(uint32_t keyframe, ChunkId chunk, uint64_t gaussians, const PinResult& why);

@@ -7,7 +7,7 @@
 
 namespace chungs {
 
-uint64_t MapperConfig::refinement_steps(size_t keyframes) const {
+uint64_t MapperConfig::refinement_steps(size_t keyframes, size_t groups) const {
   if (final_iterations >= 0) return uint64_t(final_iterations);
   // New Gaussians start nearly transparent and need about a hundred steps to take their colours; a
   // camera that stood still made one keyframe, which fixed pacing trained for one keyframe's steps
@@ -15,7 +15,15 @@ uint64_t MapperConfig::refinement_steps(size_t keyframes) const {
   // 33.5 after 30 + 120). Under anytime pacing the intake's idle time already trains it, and steps
   // after the intake would lower the rate that keeps up with it.
   const uint64_t least = pacing == "fixed" ? 4 * uint64_t(std::max(iterations_per_keyframe, 0)) : 0;
-  return std::max(uint64_t(keyframes), least);
+  // Under a budget the groups are places of a few views each, and one step a keyframe visits each group
+  // once or twice: what a map that fits the budget gets from its whole cell, views of a place trained in
+  // turn with those of others, a budgeted map gets only from the rounds over the groups. So each group
+  // gets at least refinement_group_steps, up to kMaxRefinementStepsPerKeyframe a keyframe.
+  const uint64_t mixed =
+      groups > 1 ? std::min(uint64_t(groups) * uint64_t(std::max(refinement_group_steps, 0)),
+                            kMaxRefinementStepsPerKeyframe * uint64_t(keyframes))
+                 : 0;
+  return std::max({uint64_t(keyframes), least, mixed});
 }
 
 void MapperConfig::validate() const {
@@ -27,6 +35,8 @@ void MapperConfig::validate() const {
     fail("mapper: final_iterations must be >= 0, or -1 for one a keyframe, got ", final_iterations);
   if (refinement_rounds < 1 || refinement_rounds > 1000)
     fail("mapper: refinement_rounds must be in [1, 1000], got ", refinement_rounds);
+  if (refinement_group_steps < 0 || refinement_group_steps > 1'000'000)
+    fail("mapper: refinement_group_steps must be in [0, 1000000], got ", refinement_group_steps);
   if (refinement_min_visit_steps < 1 || refinement_min_visit_steps > 1'000'000)
     fail("mapper: refinement_min_visit_steps must be in [1, 1000000], got ", refinement_min_visit_steps);
   // An infinite speed would make every frame arrive at once: anytime pacing would train on none.

@@ -9,6 +9,8 @@ namespace chungs {
 // The slowest intake anytime pacing takes: a hundredth of the recorded rate. Slower, a run of a few
 // frames waited for ever (--speed 1e-320 put the second frame 1e319 s after the first).
 inline constexpr double kMinSpeed = 0.01;
+// The automatic refinement's steps a keyframe at most, however many groups a small budget makes.
+inline constexpr uint64_t kMaxRefinementStepsPerKeyframe = 16;
 
 struct MapperConfig {
   std::string pacing = "fixed";     // fixed: iterations_per_keyframe steps per keyframe (deterministic);
@@ -30,6 +32,12 @@ struct MapperConfig {
   // each of its keyframes, so that more steps never train one view several times in a row (refinement_plan.hpp).
   int refinement_rounds = 16;
   int refinement_min_visit_steps = 4;
+  // With final_iterations -1, the refinement's steps a group gets at least when the map is refined in
+  // several groups (a budget below the map), up to kMaxRefinementStepsPerKeyframe a keyframe; a map
+  // that fits is one group and keeps one step a keyframe. 2 km street at 620x188 under 100 k (162 groups of
+  // 6.5 views, GPU, fixed pacing): 1,034 steps 27.13 dB held-out, 8,000 27.74, 10,368 (64 a group)
+  // 27.86, against 28.39 without a budget (which 10,368 steps would take to 28.77) (bench/README.md, issue 19).
+  int refinement_group_steps = 128;
   double speed = 1.0;               // anytime: frames arrive at the dataset rate times this (>= kMinSpeed)
   // A training frame becomes a keyframe when any rule that is on (> 0) fires; the first always does.
   // By default the view must have changed: moved by a share of the scene's depth (parallax) or
@@ -72,8 +80,9 @@ struct MapperConfig {
   // step uploads nothing; never more keyframes than selector.max_candidates (400, as the paper keeps).
   // 2 GB holds ~620 KITTI keyframes at full resolution, so the 400 fit (1.3 GB).
   int gpu_keyframe_cache_mb = 2048;
-  // final_iterations resolved for a map of this many keyframes.
-  uint64_t refinement_steps(size_t keyframes) const;
+  // final_iterations resolved for a map of this many keyframes, refined in this many groups
+  // (Mapper::refinement_groups).
+  uint64_t refinement_steps(size_t keyframes, size_t groups = 1) const;
   void validate() const;
 };
 

@@ -10,6 +10,20 @@
 
 namespace chungs {
 
+std::vector<RefinementGroup> Mapper::plan_refinement_groups(uint64_t steps) {
+  // 0.8: room for the chunks read ahead while a group's last steps still hold theirs.
+  const uint64_t fit = std::max<uint64_t>(1, uint64_t(0.8 * double(residency_->budget())));
+  PackedViews views;  // every view at once for the plan only (its memory grows with the drive: refinement_plan.hpp)
+  for (const KeyframeRecord& kf : keyframes_) views.add(nearest_visible(kf.camera, kf.pose));
+  return plan_refinement(views, fit, steps);
+}
+
+uint64_t Mapper::refinement_steps() {
+  const MapperConfig& mc = config_.mapper;
+  const size_t groups = mc.final_iterations < 0 && !keyframes_.empty() ? plan_refinement_groups(0).size() : 1;
+  return mc.refinement_steps(keyframes_.size(), groups);
+}
+
 Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint32_t)>& after_step,
                                    const std::function<bool()>& stop) {
   RefineStats stats;
@@ -24,14 +38,7 @@ Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint
     Mapper* m;
     ~Leave() { m->refining_ = false; }
   } leave{this};
-  // 0.8: room for the chunks read ahead while a group's last steps still hold theirs.
-  const uint64_t fit = std::max<uint64_t>(1, uint64_t(0.8 * double(residency_->budget())));
-  std::vector<RefinementGroup> groups;
-  {  // every view at once for the plan only (its memory grows with the drive: refinement_plan.hpp)
-    PackedViews views;
-    for (const KeyframeRecord& kf : keyframes_) views.add(nearest_visible(kf.camera, kf.pose));
-    groups = plan_refinement(views, fit, steps);
-  }
+  const std::vector<RefinementGroup> groups = plan_refinement_groups(steps);
   const size_t ahead = size_t(std::max(1, config_.mapper.read_ahead_steps));
   for (const RefinementGroup& g : groups) stats.groups += g.steps > 0;
   // The steps to come, a pass at a time, so that the read-ahead reaches into the next pass and the next

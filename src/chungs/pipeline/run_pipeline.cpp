@@ -430,7 +430,7 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
          " m over its ", done, done == 1 ? " frame" : " frames", "), so the map is empty", left_as_is());
   nlohmann::json refinement;  // the steps after the last frame, when there were any
   if (!(prev.is_object() && prev.value("finished", false)) || start < n) {
-    const uint64_t refine_steps = mc.refinement_steps(mapper.keyframes().size());
+    const uint64_t refine_steps = mapper.refinement_steps();
     Progress refine("refining", (long long)refine_steps);
     const auto t0 = std::chrono::steady_clock::now();
     const Mapper::StepTimes steps_before = mapper.step_times();
