@@ -57,6 +57,11 @@ int run_track(const TrackArgs& a) {
   prepare_output_file(a.out, "trajectory");
   // One camera measures no scale: the map's unit is set at initialisation and ATE aligns with a similarity.
   const bool mono = !ds->info().has_right && !ds->info().has_depth;
+  // The virtual baseline stands in for a right camera: with one (or no depth) the flag was ignored unsaid.
+  if (a.rgbd_baseline > 0 && (ds->info().has_right || !ds->info().has_depth))
+    fail("--rgbd-baseline ", a.rgbd_baseline, ": ", a.dataset, " is tracked ",
+         ds->info().has_right ? "as stereo, with its own baseline" : "from one camera, without depth",
+         "; the flag weights RGB-D depth only");
   const TrajectoryFormat format = parse_trajectory_format(a.format);
   tracking::TrackerOptions opt;
   opt.local_ba = !a.no_ba;

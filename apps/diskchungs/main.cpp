@@ -65,8 +65,9 @@ int main(int argc, char** argv) {
   CLI::App cli{"DiskChunGS: Gaussian-splatting SLAM with out-of-core chunked maps"};
   cli.require_subcommand(1);
   bool quiet = false, verbose = false;
-  cli.add_flag("-q,--quiet", quiet, "only warnings and errors");
-  cli.add_flag("-v,--verbose", verbose, "debug messages");
+  CLI::Option* quiet_flag = cli.add_flag("-q,--quiet", quiet, "only warnings and errors");
+  // Both together asked for two levels of messages at once; the later setting won without a word.
+  cli.add_flag("-v,--verbose", verbose, "debug messages")->excludes(quiet_flag);
 
   auto cmds = app::commands();
   std::sort(cmds.begin(), cmds.end(), [](auto* a, auto* b) { return a->name < b->name; });

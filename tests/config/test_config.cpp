@@ -196,6 +196,10 @@ TEST(Config, AutomaticRefinementGivesEveryGroupItsStepsUpToSixteenAKeyframe) {
   EXPECT_EQ(c.mapper.refinement_steps(500, 20), 500u);
   c = config_from_yaml("mapper: {pacing: anytime}");
   EXPECT_EQ(c.mapper.refinement_steps(500, 20), 2560u);
+  // Never more than the drive's own steps: 5 a keyframe over 500 keyframes.
+  EXPECT_EQ(c.mapper.refinement_steps(500, 20, 2500), 2500u);
+  EXPECT_EQ(c.mapper.refinement_steps(500, 20, 100), 500u);  // one a keyframe still
+  EXPECT_EQ(Config().mapper.refinement_steps(1034, 162, 31020), 16544u);  // 2 km street, 30 a keyframe
   // Steps given are the steps run, whatever the groups.
   EXPECT_EQ(config_from_yaml("mapper: {final_iterations: 7}").mapper.refinement_steps(1034, 162), 7u);
   EXPECT_THROW(config_from_yaml("mapper: {refinement_group_steps: -1}"), chungs::Error);

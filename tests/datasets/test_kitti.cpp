@@ -181,6 +181,23 @@ TEST(KittiBadInput, FewerPosesThanImagesIsAnError) {
   test::expect_error([&] { open_dataset("kitti:" + tmp.path().string()); }, {"poses.txt", "1 poses for 4 images"});
 }
 
+// An excerpt from the start of a sequence beside its whole pose file: taken, with a warning that says so
+// (a folder that lost its last images looks the same).
+TEST(KittiBadInput, MorePosesThanImagesAreTakenFromTheStartWithAWarning) {
+  test::TempDir tmp;
+  make_kitti(tmp.path(), 4);
+  std::string poses;
+  for (int i = 0; i < 6; ++i) poses += "1 0 0 0 0 1 0 0 0 0 1 " + std::to_string(i) + "\n";
+  test::write_text(tmp / "poses.txt", poses);
+  testing::internal::CaptureStderr();
+  const auto ds = open_dataset("kitti:" + tmp.path().string());
+  const std::string said = testing::internal::GetCapturedStderr();
+  EXPECT_NE(said.find("6 poses for 4 images"), std::string::npos) << said;
+  ASSERT_EQ(ds->size(), 4u);
+  ASSERT_TRUE(ds->gt_pose(3).has_value());
+  EXPECT_NEAR(ds->gt_pose(3)->t.z(), 3.0, 1e-9);
+}
+
 TEST(KittiBadInput, LeftRightCountMismatchNamesFolders) {
   test::TempDir tmp;
   make_kitti(tmp.path(), 3);

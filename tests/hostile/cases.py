@@ -145,6 +145,7 @@ def chunk(fn):
     return lambda root: fn(first_chunk(root))
 
 
+
 def manifest(fn):
     """Rewrites the manifest body with fn and signs it again, so the parser reaches the field."""
     def damage(root):
@@ -190,7 +191,8 @@ def cli_cases():
         ok("cli.quiet_after_command", "info -q", quick=True),
         ok("cli.verbose_after_command", "inspect tum:ds -v", dataset("tum")),
         ok("cli.quiet_after_synth_scene", "synth room --out out --frames 2 --width 32 --height 32 -q"),
-        ok("cli.quiet_and_verbose", "-q info -v"),
+        # Both asked for two levels of messages; the later one won without a word.
+        err("cli.quiet_and_verbose", "-q info -v", ("--quiet", "--verbose")),
         ok("cli.help", "--help"),
         ok("cli.run_help", "run --help"),
     ]
@@ -551,6 +553,8 @@ def tum_cases():
         ds_err(k, "rgb_txt_binary", put("rgb.txt", bytes(range(256)) * 8), "rgb.txt"),
         ds_err(k, "rgb_listed_image_missing", rm(TUM_RGB2), "0.066667.png", run=True),
         ds_err(k, "rgb_first_image_missing", rm(TUM_RGB0), "0.000000.png"),
+        # inspect counted a frame whose listed file is gone; run stopped at it.
+        ds_err(k, "rgb_listed_image_missing_inspect", rm(TUM_RGB2), ["rgb.txt", "0.066667.png"]),
         ds_err(k, "depth_txt_missing", rm("depth.txt"), "depth.txt"),
         ds_err(k, "depth_txt_stamps_far", lines("depth.txt", lambda d: ["%d %s" % (100 + i, x.split()[1])
                                                                           for i, x in enumerate(d)]), "depth.txt"),
@@ -614,6 +618,9 @@ def kitti_cases():
         ok("ds.kitti.valid_inspect", INSPECT.format(kind=k), dataset(k), watch=["ds"], quick=True),
         ok("ds.kitti.valid_run", RUN_DS.format(kind=k), dataset(k), watch=["ds"]),
         ok("ds.street.valid_inspect", "inspect kitti:ds", dataset("street"), watch=["ds"]),
+        # A stereo pair has its own baseline: the RGB-D flag was ignored unsaid.
+        err("ds.kitti.track_rgbd_baseline_on_stereo", "track --dataset kitti:ds --out t.txt --rgbd-baseline 0.1",
+            ["--rgbd-baseline", "stereo"], dataset(k), watch=["ds"]),
         ds_err(k, "calib_missing", rm("calib.txt"), "calib.txt", quick=True),
         ds_err(k, "calib_empty", put("calib.txt", ""), "calib.txt"),
         ds_err(k, "calib_p2_eleven_numbers", lines("calib.txt", lambda d: d[:2] + [d[2].rsplit(" ", 1)[0]] + d[3:]),
@@ -897,7 +904,7 @@ def map_cases():
         raw=forge.chunk_payload_bytes(1 << 28, forge.chunk_header(p)["flags"]))), ".chunk", known=STORE_HEADER)
     c += reader("chunk_sh_degree_differs", chunk(lambda p: forge.resign_chunk(p, sh=1)), ".chunk")
     c += reader("keyframes_txt_words", put("keyframes.txt", "first second third\n"), "keyframes.txt", export=False)
-    c += reader("keyframes_txt_empty", put("keyframes.txt", ""), "keyframes", export=False)
+    c += reader("keyframes_txt_empty", put("keyframes.txt", ""), ["keyframes.txt", "lists no keyframe"], export=False)
     c += reader("keyframes_width_nan", keyframes_field(3, "nan"), "keyframes.txt", export=False)
     c += reader("keyframes_width_zero", keyframes_field(3, "0"), "keyframes.txt", export=False)
     c += reader("keyframes_width_huge", [keyframes_field(3, "1000000"), keyframes_field(4, "1000000")],

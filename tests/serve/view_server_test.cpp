@@ -217,6 +217,9 @@ TEST_F(ViewServerTest, UnknownChunksAndBadValuesGetJsonErrorsNamingThem) {
     EXPECT_EQ(r.status, 400) << sh;
     EXPECT_NE(r.body.find("sh '"), std::string::npos) << r.body;
   }
+  const Reply twice = get(port(), "/api/chunk/" + std::to_string(cid(0)) + "?sh=0&sh=3");
+  EXPECT_EQ(twice.status, 400);
+  EXPECT_NE(twice.body.find("sh is given more than once"), std::string::npos) << twice.body;
   const Reply api = get(port(), "/api/nothing");
   EXPECT_EQ(api.status, 404);
   EXPECT_TRUE(nlohmann::json::parse(api.body).contains("error"));

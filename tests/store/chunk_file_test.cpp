@@ -228,6 +228,27 @@ TEST(ChunkFile, FailedReadLeavesOutputUntouched) {
   EXPECT_TRUE(test::same_bits(keep, copy));
 }
 
+// A reader sizes its room from the manifest; a file of another chunk copied over this one said "room for
+// 175 Gaussians given for 186". It now names the chunk the file holds.
+TEST(ChunkFile, AReadIntoRoomOfAnotherCountNamesTheChunkTheFileHolds) {
+  test::TempDir dir;
+  const fs::path f = dir / "x.chunk";
+  write_chunk_file(f, kId, test::random_block(12, 5), {true, 1, true, false});
+  GaussianBlock room;
+  std::string said;
+  try {
+    read_chunk_file(open_for_reading(f), f, [&](uint64_t, int sh) {
+      room.sh_degree = sh;
+      room.resize(9);
+      return block_arrays(room);
+    });
+  } catch (const Error& e) {
+    said = e.what();
+  }
+  for (const std::string& part : {std::string("x.chunk"), "holds 12 Gaussians of " + chunk_name(kId), std::string("where 9 were expected")})
+    EXPECT_NE(said.find(part), std::string::npos) << said;
+}
+
 TEST(ChunkFile, RewriteLeavesNoTemporaries) {
   test::TempDir dir;
   const fs::path f = dir / "x.chunk";

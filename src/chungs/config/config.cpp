@@ -126,7 +126,7 @@ void fields(V& v, MapperConfig& c) {
     "group's chunks once a round");
   v("refinement_group_steps", c.refinement_group_steps,
     "with final_iterations -1: steps each refinement group gets at least when a budget below the map makes "
-    "several (at most 16 a keyframe)");
+    "several (at most 16 a keyframe, and at most the steps the drive took)");
   v("refinement_min_visit_steps", c.refinement_min_visit_steps,
     "a group is visited at most once per this many of its refinement steps");
   v("speed", c.speed, "anytime pacing: frames arrive at the dataset rate times this");

@@ -188,6 +188,11 @@ class KittiDataset : public SequenceDataset {
     Trajectory tr = read_kitti_trajectory(*file);
     if (tr.size() < left_.size())
       fail(file->string(), ": ", tr.size(), " poses for ", left_.size(), " images");
+    // An excerpt of a sequence beside its whole pose file is a fair use; a folder that lost images is not,
+    // and only the counts tell them apart: say so.
+    if (tr.size() > left_.size())
+      log::warn(file->string(), ": ", tr.size(), " poses for ", left_.size(), " images; the first ", left_.size(),
+                " are taken as theirs (an excerpt from the start of a longer sequence)");
     SE3 cam0_to_left(Eigen::Matrix3d::Identity(), -offset(pl));
     std::vector<std::optional<SE3>> gt(left_.size());
     for (size_t i = 0; i < gt.size(); ++i) gt[i] = tr.poses[i] * cam0_to_left;

@@ -37,6 +37,10 @@ Indexed read_index(const fs::path& dir, const std::string& name) {
       l.fail_here(cat("timestamp ", std::fixed, std::setprecision(6), t, " is not after ", out.stamps.back(),
                       " on line ", previous_line, "; frames must be listed in time order"));
     previous_line = l.number;
+    // Here, not when the frame is read: inspect counted such a frame, and a run stopped at it hours in.
+    std::error_code ec;
+    if (!fs::is_regular_file(dir / l.tokens[1], ec))
+      l.fail_here(cat((dir / l.tokens[1]).string(), " is not a file", ec ? " (" + ec.message() + ")" : std::string()));
     out.stamps.push_back(t);
     out.files.push_back(dir / l.tokens[1]);
   }

@@ -7,7 +7,7 @@
 
 namespace chungs {
 
-uint64_t MapperConfig::refinement_steps(size_t keyframes, size_t groups) const {
+uint64_t MapperConfig::refinement_steps(size_t keyframes, size_t groups, uint64_t drive_steps) const {
   if (final_iterations >= 0) return uint64_t(final_iterations);
   // New Gaussians start nearly transparent and need about a hundred steps to take their colours; a
   // camera that stood still made one keyframe, which fixed pacing trained for one keyframe's steps
@@ -18,11 +18,11 @@ uint64_t MapperConfig::refinement_steps(size_t keyframes, size_t groups) const {
   // Under a budget the groups are places of a few views each, and one step a keyframe visits each group
   // once or twice: what a map that fits the budget gets from its whole cell, views of a place trained in
   // turn with those of others, a budgeted map gets only from the rounds over the groups. So each group
-  // gets at least refinement_group_steps, up to kMaxRefinementStepsPerKeyframe a keyframe.
+  // gets at least refinement_group_steps, up to kMaxRefinementStepsPerKeyframe a keyframe and never more
+  // than the drive's own steps (a run that chose few steps a keyframe for speed keeps that choice).
+  const uint64_t most = std::min(kMaxRefinementStepsPerKeyframe * uint64_t(keyframes), drive_steps);
   const uint64_t mixed =
-      groups > 1 ? std::min(uint64_t(groups) * uint64_t(std::max(refinement_group_steps, 0)),
-                            kMaxRefinementStepsPerKeyframe * uint64_t(keyframes))
-                 : 0;
+      groups > 1 ? std::min(uint64_t(groups) * uint64_t(std::max(refinement_group_steps, 0)), most) : 0;
   return std::max({uint64_t(keyframes), least, mixed});
 }
 

@@ -33,10 +33,11 @@ struct MapperConfig {
   int refinement_rounds = 16;
   int refinement_min_visit_steps = 4;
   // With final_iterations -1, the refinement's steps a group gets at least when the map is refined in
-  // several groups (a budget below the map), up to kMaxRefinementStepsPerKeyframe a keyframe; a map
-  // that fits is one group and keeps one step a keyframe. 2 km street at 620x188 under 100 k (162 groups of
-  // 6.5 views, GPU, fixed pacing): 1,034 steps 27.13 dB held-out, 8,000 27.74, 10,368 (64 a group)
-  // 27.86, against 28.39 without a budget (which 10,368 steps would take to 28.77) (bench/README.md, issue 19).
+  // several groups (a budget below the map), up to kMaxRefinementStepsPerKeyframe a keyframe and at most
+  // the steps the drive took; a map that fits is one group and keeps one step a keyframe. 2 km street at
+  // 620x188 under 100 k (136-175 groups of ~6.5 views, GPU): fixed pacing 27.13 dB held-out with 1,034
+  // steps, 27.86 with 64 a group, 27.98 with 128 (16,544, the cap), against 28.38 without a budget; 72 km/h
+  // -0.35 dB, 36 km/h -0.67 dB of the default budget (bench/README.md, issue 19).
   int refinement_group_steps = 128;
   double speed = 1.0;               // anytime: frames arrive at the dataset rate times this (>= kMinSpeed)
   // A training frame becomes a keyframe when any rule that is on (> 0) fires; the first always does.
@@ -80,9 +81,9 @@ struct MapperConfig {
   // step uploads nothing; never more keyframes than selector.max_candidates (400, as the paper keeps).
   // 2 GB holds ~620 KITTI keyframes at full resolution, so the 400 fit (1.3 GB).
   int gpu_keyframe_cache_mb = 2048;
-  // final_iterations resolved for a map of this many keyframes, refined in this many groups
-  // (Mapper::refinement_groups).
-  uint64_t refinement_steps(size_t keyframes, size_t groups = 1) const;
+  // final_iterations resolved for a map of this many keyframes, refined in this many groups, after a
+  // drive of this many steps (Mapper::refinement_steps).
+  uint64_t refinement_steps(size_t keyframes, size_t groups = 1, uint64_t drive_steps = UINT64_MAX) const;
   void validate() const;
 };
 

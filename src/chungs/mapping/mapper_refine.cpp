@@ -21,7 +21,7 @@ std::vector<RefinementGroup> Mapper::plan_refinement_groups(uint64_t steps) {
 uint64_t Mapper::refinement_steps() {
   const MapperConfig& mc = config_.mapper;
   const size_t groups = mc.final_iterations < 0 && !keyframes_.empty() ? plan_refinement_groups(0).size() : 1;
-  return mc.refinement_steps(keyframes_.size(), groups);
+  return mc.refinement_steps(keyframes_.size(), groups, iterations_);
 }
 
 Mapper::RefineStats Mapper::refine(uint64_t steps, const std::function<void(uint32_t)>& after_step,

@@ -94,7 +94,11 @@ MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
 MapRenderer::~MapRenderer() = default;
 
 const Camera& MapRenderer::mapping_camera() const {
-  if (keyframes_.empty()) fail("map ", impl_->store.folder().string(), ": no keyframes.txt, so no camera to render with");
+  if (keyframes_.empty()) {
+    const fs::path folder = impl_->store.folder();
+    fail("map ", folder.string(), fs::exists(folder / "keyframes.txt") ? ": keyframes.txt lists no keyframe" : ": no keyframes.txt",
+         ", so no camera to render with");
+  }
   return keyframes_.front().camera;
 }
 

@@ -170,6 +170,7 @@ void ViewServer::routes() {
   auto streams = std::make_shared<std::atomic<int>>(0);
   s.Get("/api/events", [follower, streams](const httplib::Request& req, httplib::Response& res) {
     uint64_t since = follower->version();
+    if (req.get_param_value_count("since") > 1) return json_error(res, 400, "since is given more than once");
     if (req.has_param("since")) {
       const std::string v = req.get_param_value("since");
       if (!parse_whole(v, 0, UINT64_MAX, since))
@@ -206,6 +207,8 @@ void ViewServer::routes() {
     const ChunkStore& store = map->store();
     if (!store.contains(id)) return json_error(res, 404, "chunk " + text + " is not in this map");
     int degree = store.sh_degree();
+    // ?sh=0&sh=3 took the first: one value, or a clear refusal.
+    if (req.get_param_value_count("sh") > 1) return json_error(res, 400, "sh is given more than once");
     if (req.has_param("sh")) {
       const std::string v = req.get_param_value("sh");
       uint64_t d = 0;

@@ -248,7 +248,11 @@ ChunkFileInfo read_chunk_file(const FileDescriptor& fd, const fs::path& file, co
       fail(file.string(), ": cannot seek: ", std::strerror(errno));
   }
   const BlockArrays b = place(h.count, int(h.sh_degree));
-  if (b.count != h.count) fail(file.string(), ": room for ", b.count, " Gaussians given for ", h.count);
+  // The reader sized its room from the manifest: a file of another chunk (copied over this one) shows here
+  // first, so name the chunk its header holds.
+  if (b.count != h.count)
+    fail(file.string(), ": holds ", h.count, " Gaussians of ", chunk_name(ChunkId(h.chunk_id)), " where ", b.count,
+         " were expected (a file of another chunk or another commit)");
   const uint32_t half = h.flags & kChunkFlagsHalf;
   if (zstd) {
     ZstdReader unpack(fd, file, h.payload_bytes);
