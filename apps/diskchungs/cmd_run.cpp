@@ -59,6 +59,10 @@ const Command cmd{
         if (given(app, "--speed") && c.mapper.pacing == "fixed")
           log::warn("--speed ", a->speed, " sets the intake rate of anytime pacing and changes nothing under fixed "
                     "pacing (the default); add --pacing anytime to map at that rate");
+        if (given(app, "--iterations") && c.mapper.pacing == "anytime")
+          log::warn("--iterations ", a->iterations, " sets the steps a keyframe of fixed pacing and changes nothing under "
+                    "anytime pacing, where the time between frames sets them (at least mapper.min_steps_per_keyframe, ",
+                    c.mapper.min_steps_per_keyframe, ")");
         // A map keeps the chunk size it was made with: a typed other one would be ignored, not used.
         if (o.resume && given(app, "--chunk-size") && std::filesystem::exists(o.out / "manifest.txt")) {
           const double has = Manifest::read(o.out / "manifest.txt").chunk_size;

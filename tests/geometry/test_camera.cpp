@@ -57,3 +57,23 @@ TEST(Camera, ValidateNamesTheSource) {
     EXPECT_NE(std::string(e.what()).find("calib.txt"), std::string::npos);
   }
 }
+
+// Finite but absurd intrinsics (fx or cx 1e308 in a calibration file) passed: a run then sampled
+// nothing, or failed far away naming neither the file nor the field.
+TEST(Camera, ValidateRefusesFocalLengthsAndPrincipalPointsNoCameraHas) {
+  const auto said = [](const Camera& c) {
+    try {
+      c.validate("cam.yaml");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(said(Camera(640, 480, 525, 525, 319.5, 239.5)), "");
+  EXPECT_EQ(said(Camera(640, 480, 525, 525, -600, 900)), "");  // a crop of a larger image: within an image
+  EXPECT_NE(said(Camera(640, 480, 1e308, 525, 319.5, 239.5)).find("focal"), std::string::npos);
+  EXPECT_NE(said(Camera(640, 480, 525, 7e6, 319.5, 239.5)).find("focal"), std::string::npos);
+  EXPECT_NE(said(Camera(640, 480, 525, 525, 1e308, 239.5)).find("principal point"), std::string::npos);
+  EXPECT_NE(said(Camera(640, 480, 525, 525, 319.5, -481)).find("principal point"), std::string::npos);
+  EXPECT_NE(said(Camera(640, 480, 525, 525, 1281, 239.5)).find("cam.yaml"), std::string::npos);
+}

@@ -446,6 +446,20 @@ def config_cases():
         ("hysteresis_nan", "residency:\n  eviction_hysteresis: .nan\n", "eviction_hysteresis"),
         ("keyframes_in_memory_negative", "keyframes:\n  max_in_memory: -1\n", "max_in_memory"),
         ("keyframes_zstd_level", "keyframes:\n  zstd_level: 9999\n", "zstd_level"),
+        # Refused only after the run made its map folder, naming neither file nor key.
+        ("keyframes_in_memory_zero", "keyframes:\n  max_in_memory: 0\n", "max_in_memory"),
+        # Infinite values passed `> 0` checks and changed the run without a word.
+        ("sampler_density_inf", "sampler:\n  density: .inf\n", "density"),
+        ("sampler_min_scale_inf", "sampler:\n  min_scale_px: .inf\n", "min_scale_px"),
+        ("sampler_max_scale_inf", "sampler:\n  max_scale_fraction: .inf\n", "max_scale_fraction"),
+        ("adam_eps_inf", "adam:\n  eps: .inf\n", "eps"),
+        ("keyframe_rules_inf", "mapper:\n  keyframe_every: 0\n  keyframe_translation: .inf\n  keyframe_parallax: .inf\n"
+         "  keyframe_rotation_deg: .inf\n", "keyframe_"),
+        ("pose_update_translation_inf", "mapper:\n  pose_update_min_translation: .inf\n", "pose_update_min_translation"),
+        ("culling_max_distance_inf", "culling:\n  max_distance: .inf\n", "max_distance"),
+        ("stereo_max_depth_inf", "stereo:\n  max_depth: .inf\n", "max_depth"),
+        ("stereo_min_disparity_nan", "stereo:\n  min_disparity_px: .nan\n", "min_disparity_px"),
+        ("stereo_min_confidence_nan", "stereo:\n  min_confidence: .nan\n", "min_confidence"),
         ("culling_near_negative", "culling:\n  near: -1\n", "near"),
         ("culling_far_nan", "culling:\n  far: .nan\n", "far"),
         ("culling_far_below_near", "culling:\n  near: 10\n  far: 1\n", "far"),
@@ -672,6 +686,9 @@ def replica_cases():
         ds_err(k, "cam_params_not_object", put("cam_params.json", "[1, 2, 3]"), "cam_params.json"),
         ds_err(k, "cam_params_w_string", sub("cam_params.json", '"w": 64', '"w": "64"'), "camera.w"),
         ds_err(k, "cam_params_fx_negative", sub("cam_params.json", '"fx": 52.5', '"fx": -52.5'), "fx"),
+        # Finite but absurd: inspect took it, and run failed far away naming neither file nor field.
+        ds_err(k, "cam_params_cx_huge", sub("cam_params.json", '"cx": 31.5', '"cx": 1e308'), ["cam_params.json", "principal point"]),
+        ds_err(k, "cam_params_fx_huge", sub("cam_params.json", '"fx": 52.5', '"fx": 1e308'), ["cam_params.json", "focal"]),
         ds_err(k, "cam_params_w_huge", sub("cam_params.json", '"w": 64', '"w": 1e12'), "cam_params.json"),
         ds_err(k, "cam_params_scale_zero", sub("cam_params.json", '"scale": 5000.0', '"scale": 0'), "scale"),
         ds_err(k, "cam_params_cx_nan", sub("cam_params.json", '"cx": 31.5', '"cx": NaN'), "cam_params.json"),
@@ -867,6 +884,10 @@ def map_cases():
         ok("map.resume.empty_folder", RESUME, both(lambda d, s: (d / "map").mkdir(), seed("tum"))),
         err("map.resume.other_dataset", RUN + " --dataset kitti:ds --out map --resume", "kitti:ds",
             both(a_map(name="map_half"), dataset("kitti")), watch=["map"]),
+        # Frames held out by one rule and trained by the other were scored as never seen.
+        err("map.resume.other_holdout", RESUME + " --config h.yaml", "holdout_every",
+            both(a_map(name="map_half"), seed("tum"), file_in("h.yaml", "mapper: {holdout_every: 2}\n")),
+            watch=["map"]),
     ]
     c += reader("manifest_missing", rm("manifest.txt"), "manifest", quick=True)
     c += reader("manifest_empty", put("manifest.txt", ""), "manifest.txt")

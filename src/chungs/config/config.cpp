@@ -420,7 +420,8 @@ void validate_sections_without_checks(const Config& c) {
   // with "degenerate view-projection matrix", naming no key.
   if (k.far > k.near * 1e12)
     fail("culling: far must be at most 1e12 times near (", k.near, " m), got ", k.far);
-  if (!(k.max_distance > 0)) fail("culling: max_distance must be positive, got ", k.max_distance);
+  if (!(std::isfinite(k.max_distance) && k.max_distance > 0))
+    fail("culling: max_distance must be a positive number of metres, got ", k.max_distance);
   if (!(std::isfinite(k.far_level_distance) && k.far_level_distance >= 0))
     fail("culling: far_level_distance must be 0 (one level) or a positive number of metres, got ", k.far_level_distance);
   if (!(std::isfinite(k.cache_translation) && k.cache_translation >= 0))
@@ -432,6 +433,8 @@ void validate_sections_without_checks(const Config& c) {
   const KeyframeStoreConfig& f = c.keyframes;
   if (f.zstd_level < 1 || f.zstd_level > 22)
     fail("keyframes: zstd_level must be in [1, 22], got ", f.zstd_level);
+  // The store refused 0 only once the run had made its map folder, naming neither file nor key.
+  if (f.max_in_memory < 1) fail("keyframes: max_in_memory must be at least 1, got ", f.max_in_memory);
 }
 
 }  // namespace

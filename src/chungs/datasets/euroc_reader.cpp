@@ -64,6 +64,7 @@ Sensor read_sensor(const fs::path& dir) {
         require_pixels(res[0], file, "resolution width"), require_pixels(res[1], file, "resolution height"),
         require_positive(intr[0], file, "fu"), require_positive(intr[1], file, "fv"), intr[2], intr[3]);
     for (size_t k = 0; k < dist.size(); ++k) s.camera.dist[k] = dist[k];
+    s.camera.validate(file.string());  // here, naming the file: the rectified camera's message named none
     s.T_BS = SE3::from_matrix(Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(T.data()),
                               cat(file.string(), ": T_BS").c_str());
     s.rate_hz = root["rate_hz"] ? require_positive(root["rate_hz"].as<double>(), file, "rate_hz") : 20.0;

@@ -42,6 +42,7 @@ Intrinsics read_cam_params(const fs::path& file) {
   in.camera = Camera(w, h, require_positive(num("fx"), file, "camera.fx"),
                      require_positive(num("fy"), file, "camera.fy"), num("cx"), num("cy"));
   in.depth_scale = c.contains("scale") ? require_positive(num("scale"), file, "camera.scale") : 6553.5;
+  in.camera.validate(file.string());
   return in;
 }
 

@@ -19,10 +19,17 @@ void StereoDepthConfig::validate() const {
   sgm_params().validate();  // the penalties, the uniqueness margin
   if (speckle_window < 0 || speckle_range < 0)
     fail("stereo depth: speckle_window and speckle_range must be >= 0, got ", speckle_window, " and ", speckle_range);
-  if (!(min_depth > 0) || !(max_depth > min_depth))
-    fail("stereo depth: need 0 < min_depth < max_depth, got ", min_depth, " and ", max_depth);
-  if (!(lr_max_diff >= 0)) fail("stereo depth: lr_max_diff must be >= 0, got ", lr_max_diff);
-  if (!(confidence_sigma2 > 0)) fail("stereo depth: confidence_sigma2 must be > 0, got ", confidence_sigma2);
+  if (!(min_depth > 0) || !(max_depth > min_depth) || !std::isfinite(max_depth))
+    fail("stereo depth: need 0 < min_depth < max_depth, both finite, got ", min_depth, " and ", max_depth);
+  if (!(lr_max_diff >= 0) || !std::isfinite(lr_max_diff))
+    fail("stereo depth: lr_max_diff must be a finite number >= 0, got ", lr_max_diff);
+  if (!(confidence_sigma2 > 0) || !std::isfinite(confidence_sigma2))
+    fail("stereo depth: confidence_sigma2 must be a finite number > 0, got ", confidence_sigma2);
+  // Unchecked, nan turned the filters off (every comparison with it is false).
+  if (!(min_disparity_px >= 0) || !std::isfinite(min_disparity_px))
+    fail("stereo depth: min_disparity_px must be a finite number >= 0, got ", min_disparity_px);
+  if (!(min_confidence >= 0 && min_confidence <= 1))
+    fail("stereo depth: min_confidence must be in [0, 1], got ", min_confidence);
 #if !CHUNGS_WITH_CUDA
   if (cuda) fail("stereo depth: this build has no CUDA backend");
 #endif

@@ -19,6 +19,14 @@ void Camera::validate(const std::string& what) const {
   for (double v : {fx, fy, cx, cy})
     if (!std::isfinite(v)) fail(what, ": non-finite intrinsics");
   if (fx <= 0 || fy <= 0) fail(what, ": focal lengths must be positive, got fx=", fx, " fy=", fy);
+  // Finite but absurd values (fx or cx 1e308) passed: a run then sampled nothing, or failed far away
+  // with a point "outside the chunk id range". A field of view under ~0.01 degrees, or a principal
+  // point more than an image away from the image, is no camera's.
+  if (fx > 1e4 * width || fy > 1e4 * height)
+    fail(what, ": focal lengths beyond 10000 x the image size, got fx=", fx, " fy=", fy, " for ", width, "x", height);
+  if (cx < -width || cx > 2.0 * width || cy < -height || cy > 2.0 * height)
+    fail(what, ": principal point (", cx, ", ", cy, ") lies more than an image away from the ", width, "x", height,
+         " image");
   for (double d : dist)
     if (!std::isfinite(d)) fail(what, ": non-finite distortion coefficient");
 }

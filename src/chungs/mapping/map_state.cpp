@@ -151,7 +151,7 @@ void validate_run_state(const nlohmann::json& j, const std::filesystem::path& fi
     fail(file.string(), ": '", key, "' must be ", what, ", got ", j[key].dump());
   };
   if (!j.is_object()) fail(file.string(), ": not a run state (a JSON object), got ", j.type_name());
-  for (const char* key : {"next_frame", "iterations", "frames"})
+  for (const char* key : {"next_frame", "iterations", "frames", "holdout_every"})
     if (j.contains(key) && !j[key].is_number_unsigned()) bad(key, "a whole number >= 0");
   if (j.contains("seconds") && !(j["seconds"].is_number() && std::isfinite(j["seconds"].get<double>()) &&
                                  j["seconds"].get<double>() >= 0))

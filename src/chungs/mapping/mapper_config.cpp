@@ -43,8 +43,11 @@ void MapperConfig::validate() const {
   if (!(speed >= kMinSpeed) || !std::isfinite(speed))
     fail("mapper: speed must be a finite factor of at least ", kMinSpeed, ", got ", speed);
   if (keyframe_every < 0) fail("mapper: keyframe_every must be >= 0, got ", keyframe_every);
-  if (!(keyframe_translation >= 0) || !(keyframe_parallax >= 0) || !(keyframe_rotation_deg >= 0))
-    fail("mapper: keyframe_translation, keyframe_parallax and keyframe_rotation_deg must be >= 0");
+  // Infinite ones passed, and all three at inf with keyframe_every 0 made a rule that never fires.
+  for (auto [v, name] : {std::pair{keyframe_translation, "keyframe_translation"},
+                         {keyframe_parallax, "keyframe_parallax"},
+                         {keyframe_rotation_deg, "keyframe_rotation_deg"}})
+    if (!(v >= 0) || !std::isfinite(v)) fail("mapper: ", name, " must be a finite number >= 0 (0: off), got ", v);
   if (keyframe_every == 0 && keyframe_translation == 0 && keyframe_parallax == 0 && keyframe_rotation_deg == 0)
     fail("mapper: no keyframe rule is on (keyframe_every, keyframe_translation, keyframe_parallax, "
          "keyframe_rotation_deg are all 0)");
@@ -69,8 +72,10 @@ void MapperConfig::validate() const {
   if (gpu_keyframe_cache_mb < 0 || gpu_keyframe_cache_mb > (1 << 20))
     fail("mapper: gpu_keyframe_cache_mb must be in [0, 1048576], got ", gpu_keyframe_cache_mb);
   if (loop_refine_iterations < 0) fail("mapper: loop_refine_iterations must be >= 0, got ", loop_refine_iterations);
-  if (!(pose_update_min_translation >= 0) || !(pose_update_min_rotation_deg >= 0))
-    fail("mapper: pose update thresholds must be >= 0");
+  if (!(pose_update_min_translation >= 0) || !std::isfinite(pose_update_min_translation))
+    fail("mapper: pose_update_min_translation must be a finite number >= 0, got ", pose_update_min_translation);
+  if (!(pose_update_min_rotation_deg >= 0) || !std::isfinite(pose_update_min_rotation_deg))
+    fail("mapper: pose_update_min_rotation_deg must be a finite number >= 0, got ", pose_update_min_rotation_deg);
   if (eval_keyframe_stride < 0) fail("mapper: eval_keyframe_stride must be >= 0");
   // -1 saved nothing, as 0 does, instead of being refused.
   if (max_saved_renders < 0) fail("mapper: max_saved_renders must be >= 0, got ", max_saved_renders);

@@ -12,11 +12,14 @@
 namespace chungs {
 
 void SamplerConfig::validate() const {
-  if (!(density > 0)) fail("sampler: density must be > 0, got ", density);
+  // Infinite values passed `> 0` and changed the run without a word (density inf sampled 6x the map).
+  if (!(density > 0) || !std::isfinite(density)) fail("sampler: density must be a finite number > 0, got ", density);
   if (!(empty_floor >= 0 && empty_floor <= 1)) fail("sampler: empty_floor must be in [0, 1], got ", empty_floor);
   if (!(init_opacity > 0 && init_opacity < 1)) fail("sampler: init_opacity must be in (0, 1), got ", init_opacity);
-  if (!(min_scale_px > 0)) fail("sampler: min_scale_px must be > 0, got ", min_scale_px);
-  if (!(max_scale_fraction > 0)) fail("sampler: max_scale_fraction must be > 0, got ", max_scale_fraction);
+  if (!(min_scale_px > 0) || !std::isfinite(min_scale_px))
+    fail("sampler: min_scale_px must be a finite number > 0, got ", min_scale_px);
+  if (!(max_scale_fraction > 0) || !(max_scale_fraction <= 1))
+    fail("sampler: max_scale_fraction must be in (0, 1] of the image width, got ", max_scale_fraction);
   if (!(new_per_step >= 0) || !std::isfinite(new_per_step)) fail("sampler: new_per_step must be >= 0, got ", new_per_step);
   if (!(min_per_chunk_per_100k_px >= 0) || !(min_per_chunk_per_100k_px <= 1e5))
     fail("sampler: min_per_chunk_per_100k_px must be in [0, 100000], got ", min_per_chunk_per_100k_px);
@@ -58,6 +61,10 @@ namespace {
 std::vector<ChunkBatch> build_batches(const SamplerConfig& config, const ImageF& image, const Camera& camera, int s,
                                       uint32_t keyframe_id, uint32_t step, const std::vector<Pick>& picks) {
   const double max_px = config.max_scale_fraction * image.width();
+  // Clamped between bounds the wrong way round, every footprint was held to the upper one without a word.
+  if (config.min_scale_px > max_px)
+    fail("sampler: min_scale_px ", config.min_scale_px, " exceeds max_scale_fraction x the image width (",
+         config.max_scale_fraction, " x ", image.width(), " = ", max_px, " px)");
   const int ch = image.channels();
   // Each chunk's block is sized once (growing it a Gaussian at a time cost more than the draws).
   std::map<ChunkId, GaussianBlock> by_chunk;

@@ -24,7 +24,7 @@ void AdamConfig::validate() const {
     fail("Adam config: position_lr_floor must be in [0, 1], got ", position_lr_floor);
   for (auto [v, name] : {std::pair{beta1, "beta1"}, {beta2, "beta2"}})
     if (!(v >= 0 && v < 1)) fail("Adam config: ", name, " must be in [0, 1), got ", v);
-  if (!(eps > 0)) fail("Adam config: eps must be > 0, got ", eps);
+  if (!(eps > 0) || !std::isfinite(eps)) fail("Adam config: eps must be a finite number > 0, got ", eps);
   if (!(small_image_reference_px >= 0) || !std::isfinite(small_image_reference_px))
     fail("Adam config: small_image_reference_px must be >= 0 (0: off), got ", small_image_reference_px);
   if (!(reference_steps >= 0) || !std::isfinite(reference_steps))

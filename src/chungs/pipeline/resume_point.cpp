@@ -1,5 +1,6 @@
 #include "chungs/pipeline/resume_point.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -29,6 +30,15 @@ ResumePoint resume_point(const RunOptions& o, const nlohmann::json& state, size_
   if (const std::optional<double> had_resolution = other_resolution(state, resolution))
     fail("--resolution ", resolution, ": the map in ", o.out.string(), " was made at resolution ", *had_resolution,
          "; --resume goes on at the map's resolution (leave --resolution out or give ", *had_resolution, ")");
+  // Frames held out by one rule and trained by the other would be scored as never seen: the held-out
+  // figures of the resumed map would count frames it was trained on. Maps whose state predates the key
+  // go on unchecked.
+  if (state.is_object() && state.contains("holdout_every") && state["holdout_every"].is_number_unsigned() &&
+      state["holdout_every"].get<uint64_t>() != uint64_t(std::max(o.config.mapper.holdout_every, 0)))
+    fail("mapper.holdout_every ", o.config.mapper.holdout_every, ": the map in ", o.out.string(), " was made holding out ",
+         state["holdout_every"].get<uint64_t>() == 0 ? std::string("no frame")
+                                                     : cat("every ", state["holdout_every"].get<uint64_t>(), "th frame"),
+         "; --resume goes on with the map's rule (give holdout_every ", state["holdout_every"].get<uint64_t>(), ")");
   p.start = resume_frame(state, o.out / "run_state.json", frames);
   // Fewer frames than the map covers would write that smaller count as where it stands: a later
   // --resume would then map the frames between again, on top of their Gaussians.

@@ -160,8 +160,9 @@ nlohmann::json run_mapping(const RunOptions& o, const Dataset& data) {
   const auto t0 = Clock::now();
   auto seconds = [&] { return carried_seconds + since(t0); };
   auto state = [&](size_t next_frame, bool finished) {
-    return nlohmann::json{{"dataset", o.dataset}, {"poses", o.poses},       {"resolution", mc.resolution},
-                          {"next_frame", next_frame}, {"frames", n}, {"finished", finished}, {"seconds", seconds()}};
+    return nlohmann::json{{"dataset", o.dataset},       {"poses", o.poses},          {"resolution", mc.resolution},
+                          {"holdout_every", mc.holdout_every}, {"next_frame", next_frame}, {"frames", n},
+                          {"finished", finished},       {"seconds", seconds()}};
   };
   // The timeline grows with the run, so it goes to run_state.json as text (Mapper::checkpoint).
   auto timeline_member = [&] {
