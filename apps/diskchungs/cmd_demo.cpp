@@ -6,10 +6,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/log.hpp"
 #include "chungs/config/presets.hpp"
+#include "chungs/mapping/map_state.hpp"
 #include "chungs/pipeline/ply_export.hpp"
 #include "chungs/pipeline/run_pipeline.hpp"
 #include "chungs/pipeline/run_report.hpp"
@@ -41,6 +43,35 @@ double since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// The demo marks its --out folder: only there are map/, map.ply and room/ its own to replace. A map
+// folder says nothing of who made it (any run writes manifest.txt), and a `run` map at OUT/map was
+// replaced, and a map.ply beside it overwritten, without a word.
+constexpr const char* kDemoMarker = "demo.txt";
+
+// A demo's map from before the marker: its report names the demo's own dataset.
+bool legacy_demo(const fs::path& out) {
+  try {
+    const std::string dataset = read_json_file(out / "map" / "report.json").value("dataset", std::string());
+    return dataset.rfind("synth-street:", 0) == 0 ? dataset.find(",width=310,height=94,") != std::string::npos
+                                                  : dataset == "tum:" + (out / "room").string();
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+void claim_out(const fs::path& out) {
+  const bool marked = fs::exists(out / kDemoMarker) || legacy_demo(out);
+  for (const char* name : {"map", "map.ply", "room"})
+    if (fs::exists(out / name) && !marked)
+      fail((out / name).string(), " exists and is not from an earlier demo (no ", (out / kDemoMarker).string(),
+           "); choose another --out");
+  fs::create_directories(out);
+  if (fs::exists(out / kDemoMarker)) return;
+  std::ofstream f(out / kDemoMarker);
+  f << "written by diskchungs demo: the next demo here replaces map/, map.ply and room/\n";
+  if (!f.flush()) fail((out / kDemoMarker).string(), ": cannot be written");
+}
+
 // Outputs of an earlier demo are replaced; anything else in the way is left alone and refused.
 void clear_previous(const fs::path& dir, const char* marker) {
   if (!fs::exists(dir)) return;
@@ -63,6 +94,7 @@ int run_demo(const DemoArgs& a) {
     if (!(a.length_m >= 50 && a.length_m <= 100000))
       fail("--length-m must be in [50, 100000], got ", a.length_m);
     if (a.frames) fail("--frames is for --scene room; the street's length is --length-m");
+    claim_out(out);
     clear_previous(map, "manifest.txt");
     o.dataset = cat("synth-street:length=", a.length_m, ",width=310,height=94,seed=", a.seed);
     apply_preset(c, "outdoor", o.dataset);
@@ -75,6 +107,7 @@ int run_demo(const DemoArgs& a) {
   } else {
     const size_t frames = a.frames ? size_t(a.frames) : kRoomFrames;
     if (frames < 8) fail("--frames must be at least 8 (every 8th frame is held out for scoring), got ", frames);
+    claim_out(out);
     clear_previous(room, "rgb.txt");
     clear_previous(map, "manifest.txt");
     const auto t_synth = std::chrono::steady_clock::now();
@@ -170,7 +203,14 @@ const Command cmd{"demo", "synthetic street (or room) -> map larger than its bud
   return [a, &app]() {
     // 0 stands for "the scene's default" inside DemoArgs; typed on the command line it is refused.
     if (given(app, "--budget")) require_flag(a->budget >= 1, "--budget", "at least 1 Gaussian", a->budget);
-    if (given(app, "--frames")) require_flag(a->frames >= 1, "--frames", "at least 1", a->frames);
+    // 99999999999 frames grew to 2 GB before writing one; the room needs 8 (every 8th is held out).
+    if (given(app, "--frames"))
+      require_flag(a->frames >= 8 && uint64_t(a->frames) <= synth::kMaxFrames, "--frames",
+                   cat("8 to ", synth::kMaxFrames), a->frames);
+    // The street's own flags were taken and ignored with the room (--length-m nan ran).
+    if (a->scene == "room")
+      for (const char* flag : {"--length-m", "--seed"})
+        if (given(app, flag)) fail(flag, " is for --scene street; the room has --frames");
     if (given(app, "--resolution"))
       require_flag(std::isfinite(a->resolution) && a->resolution > 0 && a->resolution <= 1, "--resolution",
                    "in (0, 1]", a->resolution);

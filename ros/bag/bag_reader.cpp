@@ -18,6 +18,7 @@
 #include <set>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
 #include "ros/bag/messages.hpp"
 
 // Indexing a bag must not deserialise every image: this type reads only the Header every stamped
@@ -114,10 +115,15 @@ struct BagReader::Impl {
     }
     std::stable_sort(out.begin(), out.end(),
                      [](const Stamped& a, const Stamped& b) { return a.stamp < b.stamp; });
-    // A repeated stamp is the same instant sent twice; a frame needs stamps that increase.
+    // A repeated stamp is the same instant sent twice; a frame needs stamps that increase. Said, since
+    // a bag whose stamps were all one (a driver that never set them) became a single frame unsaid.
+    const size_t before = out.size();
     out.erase(std::unique(out.begin(), out.end(),
                           [](const Stamped& a, const Stamped& b) { return a.stamp == b.stamp; }),
               out.end());
+    if (out.size() < before)
+      log::warn(where(topic), ": ", before - out.size(), " of ", before,
+                " images repeat the header stamp of the one before and are skipped (one image per instant)");
     return out;
   }
 
@@ -160,7 +166,9 @@ struct BagReader::Impl {
     if (stamps.empty())
       fail(file, ": no image on ", stream_topics[0], " has a partner on ", stream_topics[1], " within ",
            topics.sync, " s (sync=)");
-    (void)dropped;
+    if (dropped > 0)
+      log::warn(file, ": ", dropped, " of ", first.size(), " images on ", stream_topics[0], " have no partner on ",
+                stream_topics[1], " within ", topics.sync, " s (sync=) and are skipped");
   }
 
   void read_tf() {

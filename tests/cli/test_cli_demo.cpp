@@ -66,6 +66,33 @@ TEST(CliDemo, RefusesToReplaceAFolderItDidNotMake) {
   EXPECT_TRUE(fs::exists(dir / "room/notes.txt"));
 }
 
+// Any run's map has a manifest: a `run` map at OUT/map was replaced, and a map.ply beside it overwritten,
+// without a word. The demo replaces only what a demo marked as its own.
+TEST(CliDemo, RefusesToReplaceAMapOrAPlyItDidNotMake) {
+  chungs::test::TempDir dir;
+  fs::create_directories(dir / "map");
+  std::ofstream(dir / "map/manifest.txt") << "a run's map";
+  std::ofstream(dir / "map.ply") << "mine";
+  auto r = run_cli("-q demo --scene room --frames 8 --final-iterations 0 --out " + dir.path().string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("not from an earlier demo"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "map/manifest.txt"));
+  std::ifstream ply(dir / "map.ply");
+  std::string text((std::istreambuf_iterator<char>(ply)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, "mine");
+  EXPECT_FALSE(fs::exists(dir / "demo.txt"));
+  // The room's frames are bounded, and the street's flags are not taken with the room.
+  for (const std::string flags : {"--scene room --frames 99999999999", "--scene room --length-m nan",
+                                  "--scene room --seed 3"}) {
+    auto bad = run_cli("-q demo " + flags + " --out " + (dir / "x").string());
+    EXPECT_NE(bad.code, 0) << flags;
+    EXPECT_NE(bad.out.find(flags.substr(flags.rfind("--"), flags.find(' ', flags.rfind("--")) - flags.rfind("--"))),
+              std::string::npos)
+        << flags << ": " << bad.out;
+    EXPECT_FALSE(fs::exists(dir / "x")) << flags;
+  }
+}
+
 TEST(CliDemo, TheStreetOutgrowsItsBudgetAndLoadsChunksBack) {
   chungs::test::TempDir dir;
   auto r = run_cli("-q demo --length-m 150 --budget 1500 --final-iterations 20 --out " + dir.path().string());
@@ -82,6 +109,8 @@ TEST(CliDemo, TheStreetOutgrowsItsBudgetAndLoadsChunksBack) {
   EXPECT_GT(j["pacing"]["training_window"]["narrowed_share"].get<double>(), 0) << r.out;
   EXPECT_NE(r.out.find("training window: the budget narrowed training"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir / "room"));
+  // A demo marks its folder, and a second demo there replaces the first.
+  EXPECT_TRUE(fs::exists(dir / "demo.txt"));
   auto bad = run_cli("-q demo --scene garden --out " + (dir / "x").string());
   EXPECT_NE(bad.code, 0);
   EXPECT_NE(bad.out.find("garden"), std::string::npos) << bad.out;

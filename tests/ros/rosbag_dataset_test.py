@@ -82,7 +82,7 @@ def damaged_bags(cli, bag, tmp):
         f.write(b"#ROSBAG V2.0\n" + os.urandom(4096))
     ok &= expect_error(cli, f"rosbag:{garbage}{stereo}", [garbage], "garbage after the version line")
 
-    def small_bag(path, encoding, data_bytes, info=True):
+    def small_bag(path, encoding, data_bytes, info=True, d=()):
         with rosbag.Bag(path, "w") as b:
             for i in range(3):
                 stamp = rospy.Time(100 + i)
@@ -92,7 +92,8 @@ def damaged_bags(cli, bag, tmp):
                 b.write("/cam/image", img, stamp)
                 if info:
                     ci = CameraInfo(width=8, height=4, K=[5, 0, 4, 0, 5, 2, 0, 0, 1], R=[1, 0, 0, 0, 1, 0, 0, 0, 1],
-                                    P=[5, 0, 4, 0, 0, 5, 2, 0, 0, 0, 1, 0])
+                                    P=[5, 0, 4, 0, 0, 5, 2, 0, 0, 0, 1, 0], D=list(d),
+                                    distortion_model="plumb_bob" if d else "")
                     ci.header.stamp = stamp
                     b.write("/cam/camera_info", ci, stamp)
 
@@ -105,6 +106,11 @@ def damaged_bags(cli, bag, tmp):
     no_info = os.path.join(tmp, "noinfo.bag")
     small_bag(no_info, "mono8", [0] * 32, info=False)
     ok &= expect_error(cli, f"rosbag:{no_info}?left=/cam/image", [no_info, "/cam/camera_info"], "no camera_info")
+    # nan distortion blanked every pixel: a map of no Gaussians whose only message blamed the depth.
+    nan_d = os.path.join(tmp, "nan_distortion.bag")
+    small_bag(nan_d, "mono8", [0] * 32, d=[float("nan")] * 5)
+    ok &= expect_error(cli, f"rosbag:{nan_d}?left=/cam/image", [nan_d, "/cam/camera_info", "distortion"],
+                       "nan distortion")
     if not ok:
         sys.exit("FAIL: a damaged bag was not refused with one clear error")
 

@@ -117,6 +117,12 @@ bool has_distortion(const rosbag_io::CameraInfo& info) {
 
 // Maps a camera_info's raw image onto its rectified projection P (identity when already rectified).
 Remap rectification(const rosbag_io::CameraInfo& info, const std::string& file) {
+  // nan passed `d != 0` and the remap then blanked every pixel: a map of 0 Gaussians whose only message
+  // blamed the depth.
+  for (double d : info.D)
+    if (!std::isfinite(d)) fail(file, ": topic ", info.topic, ": distortion coefficient ", d, " is not finite");
+  for (double r : info.R)
+    if (!std::isfinite(r)) fail(file, ": topic ", info.topic, ": rectification matrix R holds ", r);
   if (!has_distortion(info) && is_identity(info.R) && info.K[0] == info.P[0] && info.K[4] == info.P[5] &&
       info.K[2] == info.P[2] && info.K[5] == info.P[6])
     return {};
