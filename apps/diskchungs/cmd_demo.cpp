@@ -60,12 +60,14 @@ bool legacy_demo(const fs::path& out) {
 }
 
 void claim_out(const fs::path& out) {
+  if (fs::exists(out) && !fs::is_directory(out)) fail("--out ", out.string(), " is not a folder");
   const bool marked = fs::exists(out / kDemoMarker) || legacy_demo(out);
   for (const char* name : {"map", "map.ply", "room"})
     if (fs::exists(out / name) && !marked)
       fail((out / name).string(), " exists and is not from an earlier demo (no ", (out / kDemoMarker).string(),
            "); choose another --out");
-  fs::create_directories(out);
+  std::error_code ec;
+  if (fs::create_directories(out, ec), ec) fail("--out ", out.string(), ": cannot create the folder: ", ec.message());
   if (fs::exists(out / kDemoMarker)) return;
   std::ofstream f(out / kDemoMarker);
   f << "written by diskchungs demo: the next demo here replaces map/, map.ply and room/\n";

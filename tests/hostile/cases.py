@@ -339,6 +339,8 @@ def number_cases():
     ])
     flags("num.demo", demo, [("--seed", ["-1"])])
     flags("num.demo_room", demo + " --scene room", [("--frames", ["0", "3"])])
+    # --out naming a file gave the filesystem's own words, naming no flag.
+    c.append(err("num.demo--out=file", "demo --out notes.txt", "--out", file_in("notes.txt", "x\n"), watch=["notes.txt"]))
 
     ate = "eval ate --gt traj.txt --est traj.txt"
     flags("num.eval_ate", ate, [
