@@ -589,6 +589,8 @@ def tum_cases():
         ds_err(k, "calib_nan", put("calib.txt", "nan 52.5 31.5 23.5\n"), "calib.txt"),
         ds_err(k, "calib_five_numbers", put("calib.txt", "52.5 52.5 31.5 23.5 0.1\n"), "calib.txt"),
         ds_err(k, "calib_two_lines", put("calib.txt", "52.5 52.5 31.5 23.5\n52.5 52.5 31.5 23.5\n"), "calib.txt"),
+        # Finite but absurd distortion looked every pixel up outside the image: black frames, an empty map.
+        ds_err(k, "calib_absurd_distortion", put("calib.txt", "52.5 52.5 31.5 23.5 1e30 1e30 0 0 0\n"), "camera"),
         ds_err(k, "image_1x1_all", [put("rgb/%s.png" % t, png(1, 1)) for t in TUM_STAMPS]
                + [put("depth/%s.png" % t, png(1, 1, channels=1, bit_depth=16)) for t in TUM_STAMPS], "1x1", run=True),
         ds_err(k, "image_1x1_later", put(TUM_RGB2, png(1, 1)), "0.066667.png", run=True),
@@ -762,6 +764,8 @@ def euroc_cases():
         ds_err(k, "t_bs_scaled", sub(y0, "data: [1.0, 0.0, 0.0, 0, 0.0, 1.0", "data: [2.0, 0.0, 0.0, 0, 0.0, 2.0"),
                "T_BS"),
         ds_err(k, "distortion_model", sub(y0, "radial-tangential", "equidistant"), "equidistant"),
+        ds_err(k, "distortion_absurd", sub(y0, "distortion_coefficients: [0.0, 0.0, 0.0, 0.0]",
+                                           "distortion_coefficients: [1e30, 1e30, 0.0, 0.0]"), "sensor.yaml"),
         ds_err(k, "rate_word", sub(y0, "rate_hz: 20", "rate_hz: fast"), "sensor.yaml"),
         ds_err(k, "rate_zero", sub(y0, "rate_hz: 20", "rate_hz: 0"), "rate_hz"),
         ds_err(k, "data_csv_word", field(cam0 + "data.csv", 1, 0, "soon,1050000000.png"), "data.csv"),

@@ -111,6 +111,11 @@ def damaged_bags(cli, bag, tmp):
     small_bag(nan_d, "mono8", [0] * 32, d=[float("nan")] * 5)
     ok &= expect_error(cli, f"rosbag:{nan_d}?left=/cam/image", [nan_d, "/cam/camera_info", "distortion"],
                        "nan distortion")
+    # Finite but absurd coefficients did the same: every pixel looked up outside the raw image.
+    huge_d = os.path.join(tmp, "huge_distortion.bag")
+    small_bag(huge_d, "mono8", [0] * 32, d=[1e30] * 5)
+    ok &= expect_error(cli, f"rosbag:{huge_d}?left=/cam/image", [huge_d, "/cam/camera_info", "distortion"],
+                       "absurd distortion")
     if not ok:
         sys.exit("FAIL: a damaged bag was not refused with one clear error")
 

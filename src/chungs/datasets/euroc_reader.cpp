@@ -190,6 +190,8 @@ class EurocDataset : public SequenceDataset {
     cv::initUndistortRectifyMap(K1, D1, R2, P2, size, CV_32FC1, n1, n2);
     map_left_ = Remap(m1, m2);
     map_right_ = Remap(n1, n2);
+    require_coverage(map_left_, size.width, size.height, (cam1_yaml.parent_path().parent_path() / "cam0" / "sensor.yaml").string());
+    require_coverage(map_right_, size.width, size.height, cam1_yaml.string());
 
     Camera rect(size.width, size.height, P1.at<double>(0, 0), P1.at<double>(1, 1), P1.at<double>(0, 2),
                 P1.at<double>(1, 2));

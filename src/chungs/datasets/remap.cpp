@@ -3,6 +3,10 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+
+#include "chungs/common/error.hpp"
+
 namespace chungs::ds {
 
 namespace {
@@ -25,6 +29,24 @@ ImageF Remap::apply_nearest(const ImageF& img) const {
   cv::Mat dst = view(out, CV_32F);
   cv::remap(view(img, CV_32F), dst, map1_, map2_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(0));
   return out;
+}
+
+double Remap::inside_share(int src_width, int src_height) const {
+  if (empty()) return 1;
+  size_t inside = 0;
+  for (int y = 0; y < map1_.rows; ++y)
+    for (int x = 0; x < map1_.cols; ++x) {
+      const float u = map1_.at<float>(y, x), v = map2_.at<float>(y, x);
+      inside += u >= 0 && v >= 0 && u <= float(src_width - 1) && v <= float(src_height - 1);  // nan is outside
+    }
+  return double(inside) / double(std::max<size_t>(1, map1_.total()));
+}
+
+void require_coverage(const Remap& map, int src_width, int src_height, const std::string& what) {
+  const double share = map.inside_share(src_width, src_height);
+  if (!(share >= 0.1))
+    fail(what, ": its distortion and rectification leave ", 100 * share,
+         " % of the image inside the camera's view (less than 10 %); the calibration is wrong");
 }
 
 cv::Mat camera_matrix(const Camera& cam) {

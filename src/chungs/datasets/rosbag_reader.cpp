@@ -147,7 +147,9 @@ Remap rectification(const rosbag_io::CameraInfo& info, const std::string& file) 
     fail(file, ": topic ", info.topic, ": distortion model '", info.distortion_model,
          "' is not supported (plumb_bob, rational_polynomial, equidistant)");
   }
-  return Remap(m1, m2);
+  Remap map(m1, m2);
+  require_coverage(map, int(info.width), int(info.height), cat(file, ": topic ", info.topic, "'s camera_info"));
+  return map;
 }
 
 

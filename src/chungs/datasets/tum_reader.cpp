@@ -109,7 +109,10 @@ class TumDataset : public SequenceDataset {
     cam.height = first.height();
     cam.validate(dir.string() + " camera");
     channels_ = first.channels();
-    if (cam.distorted()) undistort_ = undistortion(cam);
+    if (cam.distorted()) {
+      undistort_ = undistortion(cam);
+      require_coverage(undistort_, cam.width, cam.height, dir.string() + " camera");
+    }
     cam.dist = {0, 0, 0, 0, 0};
     info_.camera = cam;
     info_.has_depth = true;
