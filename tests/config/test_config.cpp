@@ -182,7 +182,7 @@ TEST(Config, RefinementStepsAreOneAKeyframeInEitherPacingOrAsGiven) {
   EXPECT_EQ(config_from_yaml("mapper: {refinement_rounds: 16}").mapper.refinement_rounds, 16);
 }
 
-TEST(Config, AutomaticRefinementGivesEveryGroupItsStepsUpToSixteenAKeyframe) {
+TEST(Config, AutomaticRefinementGivesEveryGroupItsStepsUpToSixteenAKeyframeOrHalfTheDrive) {
   Config c;  // 128 steps a group when there are several
   EXPECT_EQ(c.mapper.refinement_group_steps, 128);
   EXPECT_EQ(c.mapper.refinement_steps(1034, 1), 1034u);
@@ -200,6 +200,15 @@ TEST(Config, AutomaticRefinementGivesEveryGroupItsStepsUpToSixteenAKeyframe) {
   EXPECT_EQ(c.mapper.refinement_steps(500, 20, 2500), 2500u);
   EXPECT_EQ(c.mapper.refinement_steps(500, 20, 100), 500u);  // one a keyframe still
   EXPECT_EQ(Config().mapper.refinement_steps(1034, 162, 31020), 16544u);  // 2 km street, 30 a keyframe
+  EXPECT_EQ(Config().mapper.refinement_steps(1034, 175, 32881), 16544u);  // 72 km/h, 31.8 a keyframe
+  // A drive of 65 steps a keyframe (36 km/h): 4 x 65 a group, up to half the drive's steps.
+  EXPECT_EQ(Config().mapper.refinement_steps(1034, 134, 67210), 33605u);
+  EXPECT_EQ(Config().mapper.refinement_steps(1034, 100, 67210), 26000u);
+  EXPECT_EQ(Config().mapper.refinement_steps(1034, 10, 67210), 2600u);   // 300 k: 10 groups
+  EXPECT_EQ(Config().mapper.refinement_steps(1034, 2, 67210), 1034u);    // the default budget: one a keyframe
+  // Without the drive's steps the cap is 16 a keyframe and a group gets refinement_group_steps.
+  EXPECT_EQ(Config().mapper.refinement_steps(1034, 300), 16544u);
+  EXPECT_EQ(config_from_yaml("mapper: {refinement_group_steps: 0}").mapper.refinement_steps(1034, 134, 67210), 1034u);
   // Steps given are the steps run, whatever the groups.
   EXPECT_EQ(config_from_yaml("mapper: {final_iterations: 7}").mapper.refinement_steps(1034, 162), 7u);
   EXPECT_THROW(config_from_yaml("mapper: {refinement_group_steps: -1}"), chungs::Error);

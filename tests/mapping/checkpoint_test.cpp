@@ -224,6 +224,35 @@ TEST(MapperCheckpoint, AMapWhoseManifestIsLostIsRebuiltFromItsChunkFilesOnResume
 }
 
 // Every file but the lock, by name: a hash of its contents.
+std::map<std::string, size_t> contents(const fs::path& folder);
+
+// With the chunk files gone too there is nothing to rebuild from: --resume went on from an empty map over
+// the run's keyframes, and wrote a manifest of nothing. It is refused, and the folder left as it was.
+TEST(MapperCheckpoint, AMapWhoseManifestAndChunkFilesAreAllGoneIsNotResumedEmpty) {
+  log::set_level(log::Level::Error);
+  test::TempDir dir;
+  const test::WallSequence seq(10);
+  const Config c = small_config();
+  const fs::path m_dir = dir / "m";
+  {
+    Mapper m(m_dir, c, false);
+    add_frames(m, seq, 0, 4);
+    m.checkpoint({{"next_frame", 4}});
+  }
+  fs::remove(m_dir / "manifest.txt");
+  fs::remove_all(m_dir / "chunks");
+  const auto before = contents(m_dir);
+  try {
+    Mapper m(m_dir, c, true);
+    ADD_FAILURE() << "a map without its Gaussians was resumed";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("every chunk file"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(contents(m_dir), before);
+  EXPECT_FALSE(fs::exists(m_dir / "manifest.txt"));
+}
+
+
 std::map<std::string, size_t> contents(const fs::path& folder) {
   std::map<std::string, size_t> out;
   for (const auto& e : fs::recursive_directory_iterator(folder)) {

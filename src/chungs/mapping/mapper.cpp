@@ -14,6 +14,7 @@
 #include "chungs/mapping/sky_file.hpp"
 #include "chungs/render/render_passes.hpp"
 #include "chungs/render/sky.hpp"
+#include "chungs/store/chunk_file_name.hpp"
 #include "chungs/store/chunk_levels.hpp"
 
 namespace chungs {
@@ -47,6 +48,24 @@ std::optional<double> take_map_geometry(const fs::path& state_file, ChunkStoreCo
   if (j.contains("sh_degree")) c.sh_degree = int(j["sh_degree"].get<uint64_t>());
   if (j.contains("far_level_distance")) return j["far_level_distance"].get<double>();
   return std::nullopt;
+}
+
+bool holds_chunk_files(const fs::path& dir) {
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+    if (const auto name = parse_chunk_file_name(it->path().filename().string()); name && !name->tombstone) return true;
+  return false;
+}
+
+// Whether the run state's keyframes saw chunks: a map whose manifest and chunk files are all gone then
+// lost its Gaussians, and a resumed run would go on from an empty map as if nothing were missing.
+bool state_names_chunks(const fs::path& state_file) {
+  if (!fs::exists(state_file)) return false;
+  const nlohmann::json j = read_json_file(state_file);
+  if (!j.contains("keyframe_chunks") || !j["keyframe_chunks"].is_object()) return false;
+  for (const auto& [id, chunks] : j["keyframe_chunks"].items())
+    if (chunks.is_array() && !chunks.empty()) return true;
+  return false;
 }
 
 // The run state repeats the manifest's geometry: where they differ, one of them was damaged, and
@@ -104,6 +123,11 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
     ChunkStoreConfig rebuild = store_config;
     rebuild.adopt_uncommitted = true;  // on this open only: the session's own files roll back as ever
     rebuilt_far_level = take_map_geometry(folder / "run_state.json", rebuild);
+    // Checked before the rebuild, which writes a manifest: the refused folder must stay as it was found.
+    if (!holds_chunk_files(folder / "chunks") && state_names_chunks(folder / "run_state.json"))
+      fail(folder.string(), ": manifest.txt and every chunk file are gone, but the keyframes in run_state.json saw "
+           "chunks: the map's Gaussians are lost, and --resume would go on from an empty map. Restore chunks/ and "
+           "manifest.txt, or map again without --resume into a new folder");
     const ChunkStore rebuilt(folder, rebuild);
     log::warn(folder.string(), ": manifest.txt is missing; rebuilt it from ", rebuilt.size(), " chunk files, chunks of ",
               rebuilt.chunk_size(), " m (chunks saved after the last checkpoint, if a crash left any, are kept too)");

@@ -20,9 +20,17 @@ uint64_t MapperConfig::refinement_steps(size_t keyframes, size_t groups, uint64_
   // turn with those of others, a budgeted map gets only from the rounds over the groups. So each group
   // gets at least refinement_group_steps, up to kMaxRefinementStepsPerKeyframe a keyframe and never more
   // than the drive's own steps (a run that chose few steps a keyframe for speed keeps that choice).
-  const uint64_t most = std::min(kMaxRefinementStepsPerKeyframe * uint64_t(keyframes), drive_steps);
-  const uint64_t mixed =
-      groups > 1 ? std::min(uint64_t(groups) * uint64_t(std::max(refinement_group_steps, 0)), most) : 0;
+  // A drive of many steps a keyframe (anytime pacing at a slow intake) trained each place that much more
+  // within its window, and needs as much more mixing: a group gets the drive's steps of a few keyframes,
+  // and the refinement up to half the drive's steps.
+  if (groups <= 1 || keyframes == 0) return std::max(uint64_t(keyframes), least);
+  const bool drive_known = drive_steps != UINT64_MAX;
+  const uint64_t per_keyframe = drive_known ? drive_steps / keyframes : 0;
+  const uint64_t group = std::max(uint64_t(std::max(refinement_group_steps, 0)),
+                                  refinement_group_steps > 0 ? kRefinementGroupDriveKeyframes * per_keyframe : 0);
+  const uint64_t most = std::min(
+      std::max(kMaxRefinementStepsPerKeyframe * uint64_t(keyframes), drive_known ? drive_steps / 2 : 0), drive_steps);
+  const uint64_t mixed = std::min(uint64_t(groups) * group, most);
   return std::max({uint64_t(keyframes), least, mixed});
 }
 

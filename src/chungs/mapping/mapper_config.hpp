@@ -9,8 +9,11 @@ namespace chungs {
 // The slowest intake anytime pacing takes: a hundredth of the recorded rate. Slower, a run of a few
 // frames waited for ever (--speed 1e-320 put the second frame 1e319 s after the first).
 inline constexpr double kMinSpeed = 0.01;
-// The automatic refinement's steps a keyframe at most, however many groups a small budget makes.
+// The automatic refinement's steps a keyframe at most, however many groups a small budget makes, unless
+// half the drive's own steps are more (a drive of many steps a keyframe: MapperConfig::refinement_steps).
 inline constexpr uint64_t kMaxRefinementStepsPerKeyframe = 16;
+// A group's steps in the automatic refinement at least, in keyframes of the drive's mean steps a keyframe.
+inline constexpr uint64_t kRefinementGroupDriveKeyframes = 4;
 
 struct MapperConfig {
   std::string pacing = "fixed";     // fixed: iterations_per_keyframe steps per keyframe (deterministic);
@@ -33,11 +36,13 @@ struct MapperConfig {
   int refinement_rounds = 16;
   int refinement_min_visit_steps = 4;
   // With final_iterations -1, the refinement's steps a group gets at least when the map is refined in
-  // several groups (a budget below the map), up to kMaxRefinementStepsPerKeyframe a keyframe and at most
-  // the steps the drive took; a map that fits is one group and keeps one step a keyframe. 2 km street at
-  // 620x188 under 100 k (136-175 groups of ~6.5 views, GPU): fixed pacing 27.13 dB held-out with 1,034
-  // steps, 27.86 with 64 a group, 27.98 with 128 (16,544, the cap), against 28.38 without a budget; 72 km/h
-  // -0.35 dB, 36 km/h -0.67 dB of the default budget (bench/README.md, issue 19).
+  // several groups (a budget below the map), or the drive's steps of kRefinementGroupDriveKeyframes
+  // keyframes where those are more; up to kMaxRefinementStepsPerKeyframe a keyframe or half the drive's
+  // steps, whichever is more, and never more than the drive's steps. A map that fits is one group and
+  // keeps one step a keyframe. 2 km street at 620x188 under 100 k (134-175 groups of ~6.5 views, GPU):
+  // fixed pacing 27.13 dB held-out with 1,034 steps, 27.86 with 64 a group, 27.98 with 128 (16,544, the
+  // cap), against 28.38 without a budget; 36 km/h (65 steps a keyframe in the drive) -0.67 dB with 16,544
+  // steps, -0.47 with 33,088, -0.37 with 49,632 (bench/README.md, issue 19).
   int refinement_group_steps = 128;
   double speed = 1.0;               // anytime: frames arrive at the dataset rate times this (>= kMinSpeed)
   // A training frame becomes a keyframe when any rule that is on (> 0) fires; the first always does.
