@@ -53,6 +53,8 @@ TEST(Progress, LogFormSpeaksWithinAQuietGapBetweenTenths) {
   // Every step came after a quiet gap, so each printed: steps 1-4 (0 %), all within the first tenth.
   EXPECT_GE(lines(out), 4u) << out;
   EXPECT_NE(out.find("refining: 4/1000000 (0%)"), std::string::npos) << out;
+  // Four steps of a million in 0.12 s tell nothing of the time left.
+  EXPECT_EQ(out.find("eta"), std::string::npos) << out;
 }
 
 TEST(Progress, QuietLevelPrintsNothing) {

@@ -54,6 +54,9 @@ void Progress::draw(bool final) {
   double frac = double(done_) / double(total_);
   int decile = int(frac * 10);
   double eta = frac > 0 ? elapsed * (1 - frac) / frac : 0;
+  // One step of 33,732 (its chunks still loading) said "eta 1h04m" for a 75 s refinement: an estimate
+  // waits for a hundredth of the work or two seconds.
+  const bool eta_known = frac >= 0.01 || elapsed >= 2;
   if (tty_) {
     if (!final && now - last_draw_ < std::chrono::milliseconds(100)) return;
     last_draw_ = now;
@@ -62,13 +65,13 @@ void Progress::draw(bool final) {
     std::string bar(filled, '#');
     bar.resize(width, '.');
     std::fprintf(stderr, "\r%s [%s] %lld/%lld %.0fs eta %s ", label_.c_str(), bar.c_str(), done_,
-                 total_, elapsed, duration_words(eta).c_str());
+                 total_, elapsed, eta_known ? duration_words(eta).c_str() : "--");
     if (final) std::fprintf(stderr, "\n");
   } else {
     if (decile == last_decile_ && now - last_draw_ < quiet_gap_) return;  // printed lately
     last_decile_ = decile;
     last_draw_ = now;
-    if (final || done_ == 0 || done_ == total_)
+    if (final || done_ == 0 || done_ == total_ || !eta_known)
       std::fprintf(stderr, "[info] %s: %lld/%lld (%d%%) %.1fs\n", label_.c_str(), done_, total_,
                    int(frac * 100), elapsed);
     else
