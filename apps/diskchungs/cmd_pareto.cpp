@@ -42,7 +42,9 @@ nlohmann::json finished_report(const Point& p, const Dataset& dataset) {
   if (!fs::exists(file)) return nullptr;
   nlohmann::json r;
   try {
-    r = nlohmann::json::parse(read_file_text(file));
+    const std::string text = read_file_text(file);
+    require_json_nesting(text, file);
+    r = nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     fail(file.string(), ": not a readable report (", e.what(), "); remove ", p.options.out.string(),
          " to map this point again");

@@ -309,6 +309,10 @@ def number_cases():
                  both(render_setup, dataset("tum")), watch=["map"]))
     c.append(err("num.render_neither_poses_nor_dataset", "render --map map --out r", "--poses", a_map(),
                  watch=["map"]))
+    # 100,000 '[' in a map's JSON ran the stack out (SIGSEGV) in render.
+    deep = '{"settings": ' + "[" * 100000 + "]" * 100000 + "}\n"
+    c.append(err("map.render_report_json_deep", render, "report.json",
+                 both(a_map(put("report.json", deep)), seed("traj_tum.txt", "traj.txt")), watch=["map"]))
 
     export = "export --map map --out x.ply"
     for name, extra, word in [("chunk_two_values", "--chunk 1 2", "--chunk"),

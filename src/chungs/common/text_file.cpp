@@ -62,9 +62,31 @@ std::string read_file_text(const std::filesystem::path& file) {
   return os.str();
 }
 
+void require_json_nesting(const std::string& text, const std::filesystem::path& file, size_t max_depth) {
+  size_t depth = 0;
+  bool in_string = false, escaped = false;
+  for (const char c : text) {
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_depth) fail(file.string(), ": JSON nested deeper than ", max_depth, " levels");
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+}
+
 std::vector<TextLine> read_text_table(const std::filesystem::path& file, bool comma_separated,
                                       bool skip_header_if_not_numeric) {
-  std::istringstream in(read_file_text(file));
+  std::string text = read_file_text(file);
+  // A UTF-8 byte order mark (an editor's, on Windows) made the first line read as a header, and a
+  // trajectory lost its first pose without a word.
+  if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.erase(0, 3);
+  std::istringstream in(std::move(text));
   std::vector<TextLine> out;
   std::string line;
   int number = 0;

@@ -32,6 +32,10 @@ std::vector<TextLine> read_text_table(const std::filesystem::path& file, bool co
 double parse_double(const std::string& s, const std::string& what);
 bool is_number(const std::string& s);
 
+// Throws naming the file when JSON text nests arrays and objects deeper than max_depth: a report.json of
+// 100,000 '[' crashed a reader (the stack ran out), where a file of its size must give one clear error.
+void require_json_nesting(const std::string& text, const std::filesystem::path& file, size_t max_depth = 256);
+
 // Whole file as a string; throws naming the file when it cannot be read.
 std::string read_file_text(const std::filesystem::path& file);
 

@@ -26,7 +26,9 @@ Intrinsics default_intrinsics() { return {Camera(1200, 680, 600.0, 600.0, 599.5,
 Intrinsics read_cam_params(const fs::path& file) {
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(read_file_text(file));
+    const std::string text = read_file_text(file);
+    require_json_nesting(text, file);
+    j = nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     fail(file.string(), ": invalid JSON (", e.what(), ")");
   }

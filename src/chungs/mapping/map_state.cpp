@@ -139,6 +139,7 @@ void write_text_atomically(const std::filesystem::path& file, const TextPieces& 
 
 nlohmann::json read_json_file(const std::filesystem::path& file) {
   const std::string text = read_file_text(file);
+  require_json_nesting(text, file);
   try {
     return nlohmann::json::parse(text);
   } catch (const std::exception& e) {
@@ -148,7 +149,10 @@ nlohmann::json read_json_file(const std::filesystem::path& file) {
 
 void validate_run_state(const nlohmann::json& j, const std::filesystem::path& file) {
   auto bad = [&](const char* key, const std::string& what) {
-    fail(file.string(), ": '", key, "' must be ", what, ", got ", j[key].dump());
+    // A damaged value may be megabytes: the message shows its start.
+    std::string got = j[key].dump();
+    if (got.size() > 80) got = got.substr(0, 80) + "... (" + std::to_string(got.size()) + " characters)";
+    fail(file.string(), ": '", key, "' must be ", what, ", got ", got);
   };
   if (!j.is_object()) fail(file.string(), ": not a run state (a JSON object), got ", j.type_name());
   for (const char* key : {"next_frame", "iterations", "frames", "holdout_every"})
