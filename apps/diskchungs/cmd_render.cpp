@@ -2,6 +2,7 @@
 // streamed under the budget; with a dataset, each render is also scored against its image.
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <filesystem>
 
 #include "chungs/common/error.hpp"
@@ -58,6 +59,8 @@ int run_render(const RenderArgs& a) {
   if (a.poses_file.empty() == a.dataset.empty())
     fail("render: give exactly one of --poses FILE and --dataset KIND:PATH");
   if (!a.out.empty()) refuse_inside_map(a.out, a.map, "--out");
+  if (std::error_code ec; !a.out.empty() && fs::exists(a.out, ec) && !fs::is_directory(a.out, ec))
+    fail("--out ", a.out, " is not a folder (the renders are written into one)");
   // The map's own budget unless told otherwise (a configuration file's residency.budget_gaussians, then
   // --budget): renders then need no more memory than mapping did.
   Config base;
@@ -160,7 +163,10 @@ const Command cmd{"render", "render a map along a trajectory file or a dataset's
   app.add_flag("--stack", a->stack, "with --dataset: write the render above the image");
   app.add_flag("--json", a->json, "print a JSON summary");
   return [a, &app]() {
-    if (given(app, "--budget")) require_flag(a->budget >= 1, "--budget", "at least 1 Gaussian", a->budget);
+    // The renderer's pool addresses its Gaussians with 32-bit slots.
+    if (given(app, "--budget"))
+      require_flag(a->budget >= 1 && uint64_t(a->budget) < UINT32_MAX, "--budget", cat("1 to ", UINT32_MAX - 1, " Gaussians"),
+                   a->budget);
     if (given(app, "--resolution"))
       require_flag(std::isfinite(a->resolution) && a->resolution > 0 && a->resolution <= 1, "--resolution",
                    "in (0, 1]", a->resolution);

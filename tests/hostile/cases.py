@@ -309,6 +309,21 @@ def number_cases():
                  both(render_setup, dataset("tum")), watch=["map"]))
     c.append(err("num.render_neither_poses_nor_dataset", "render --map map --out r", "--poses", a_map(),
                  watch=["map"]))
+    # A FIFO where a render goes waited for a reader for ever; a link there into the map replaced its manifest.
+    def in_r(make):
+        def setup(d, s):
+            (d / "r").mkdir(exist_ok=True)
+            make(d)
+        return setup
+    c.append(err("out.render_png_is_fifo", render, "render_000000.png",
+                 both(render_setup, in_r(lambda d: forge.make_fifo(d / "r" / "render_000000.png"))), watch=["map"],
+                 timeout=30))
+    c.append(err("out.render_png_links_into_map", render, "render_000000.png",
+                 both(render_setup, in_r(lambda d: forge.link_to(d / "r" / "render_000000.png",
+                                                                 str(d / "map" / "manifest.txt")))), watch=["map"]))
+    # export renamed its file over a FIFO (as root, over /dev/full too: /dev then held a regular file).
+    c.append(err("out.export_over_fifo", "export --map map --out x.ply", "x.ply",
+                 both(a_map(), lambda d, s: forge.make_fifo(d / "x.ply")), watch=["map", "x.ply"]))
     # 100,000 '[' in a map's JSON ran the stack out (SIGSEGV) in render.
     deep = '{"settings": ' + "[" * 100000 + "]" * 100000 + "}\n"
     c.append(err("map.render_report_json_deep", render, "report.json",

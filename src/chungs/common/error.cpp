@@ -16,7 +16,10 @@ void prepare_output_file(const std::filesystem::path& p, const std::string& what
   std::error_code ec;
   if (p.has_parent_path() && !std::filesystem::create_directories(p.parent_path(), ec) && ec)
     fail(p.string(), ": cannot make the folder ", p.parent_path().string(), " for the ", what, ": ", ec.message());
-  if (std::filesystem::is_directory(p, ec)) fail(p.string(), ": is a folder, not a ", what, " to write");
+  if (std::filesystem::is_directory(p, ec)) fail(p.string(), ": is a folder, not a file for the ", what);
+  // Writing a FIFO (or socket) waits for a reader that may never come; a device (/dev/null) is written in place.
+  if (std::filesystem::is_fifo(p, ec) || std::filesystem::is_socket(p, ec))
+    fail(p.string(), ": is a FIFO or socket, not a file for the ", what);
 }
 
 void require_dir(const std::filesystem::path& p, const std::string& what) {

@@ -228,6 +228,9 @@ void write_whole(const std::filesystem::path& file, const char* kind, Encode enc
   std::filesystem::path target = file;
   if (std::filesystem::is_symlink(file, ec)) target = std::filesystem::weakly_canonical(file, ec);
   if (ec) target = file;
+  // Writing a FIFO waited for a reader that never came (a render hung on render_000000.png).
+  if (std::filesystem::is_fifo(target, ec) || std::filesystem::is_socket(target, ec))
+    fail(file.string(), ": is a FIFO or socket, not a file to write the ", kind, " to");
   const bool in_place = std::filesystem::exists(target, ec) && !std::filesystem::is_regular_file(target, ec);
   std::filesystem::path part = target;
   if (!in_place) part += ".part";

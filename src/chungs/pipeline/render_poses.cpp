@@ -6,6 +6,7 @@
 #include <cstdlib>
 
 #include "chungs/common/log.hpp"
+#include "chungs/common/output_paths.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/image/image_io.hpp"
 #include "chungs/mapping/map_state.hpp"
@@ -53,6 +54,8 @@ struct MapRenderer::Impl {
         raster(c.raster),
         background(c.raster.background) {}
 };
+
+const fs::path& MapRenderer::folder() const { return impl_->store.folder(); }
 
 MapRenderer::MapRenderer(const fs::path& folder, const Config& config) {
   require_map_manifest(folder);
@@ -194,10 +197,15 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-fs::path png_name(const fs::path& out, size_t index) {
+// A render's file, never one of the map's: a link left in the output folder (render_000000.png ->
+// MAP/manifest.txt) made a render replace the map's manifest.
+fs::path png_name(const MapRenderer& renderer, const fs::path& out, size_t index) {
   char name[48];
   std::snprintf(name, sizeof name, "render_%06zu.png", index);
-  return out / name;
+  const fs::path file = out / name;
+  if (lies_within(file, renderer.folder()))
+    fail(file.string(), ": leads into the map folder ", renderer.folder().string(), "; a render never writes there");
+  return file;
 }
 
 ImageF clamped_rgb(const RenderOutput<float>& r) {
@@ -232,7 +240,7 @@ RenderPosesSummary render_trajectory(MapRenderer& renderer, const Trajectory& tr
   Progress progress("rendering", (long long)((traj.size() + stride - 1) / stride));
   for (size_t i = 0; i < traj.size(); i += stride) {
     progress.step();
-    write_png(png_name(out, i), to_u8(clamped_rgb(renderer.render(camera, traj.poses[i]))));
+    write_png(png_name(renderer, out, i), to_u8(clamped_rgb(renderer.render(camera, traj.poses[i]))));
     s.views.push_back({i, std::nullopt});
   }
   progress.finish();
@@ -257,7 +265,7 @@ RenderPosesSummary render_dataset(MapRenderer& renderer, const Dataset& dataset,
     const ImageF render = clamped_rgb(renderer.render(m.frame.camera, *poses[i]));
     const ImageF ref = to_rgb_float(m.frame.left);
     s.views.push_back({i, compare_images(ref, render)});
-    write_png(png_name(out, i), stack ? stack_vertically(render, ref) : to_u8(render));
+    write_png(png_name(renderer, out, i), stack ? stack_vertically(render, ref) : to_u8(render));
   }
   progress.finish();
   finish(s, t0);

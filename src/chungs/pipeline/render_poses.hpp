@@ -34,6 +34,7 @@ class MapRenderer {
   RenderOutput<float> render(const Camera& camera, const SE3& pose);
 
   const std::vector<KeyframeRecord>& keyframes() const { return keyframes_; }
+  const std::filesystem::path& folder() const;
   // The camera the map was built with (its first keyframe's); throws when the map has none.
   const Camera& mapping_camera() const;
   uint64_t total_gaussians() const;

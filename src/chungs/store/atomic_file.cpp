@@ -120,6 +120,11 @@ void write_file_atomically(const fs::path& file, std::span<const ConstBuffer> pa
 
 void write_file_atomically(const fs::path& file, ConstBuffer head, const std::function<void(const Append&)>& fill,
                            bool durable, bool start_writeback) {
+  // The new file is renamed over the old: over a device, FIFO or folder that replaced it (`export --out
+  // /dev/full`, run as root, left a regular file in /dev). Only a regular file, or none, is replaced.
+  std::error_code ec;
+  if (const fs::file_status st = fs::status(file, ec); fs::exists(st) && !fs::is_regular_file(st))
+    fail(file.string(), ": exists and is not a regular file (a folder, FIFO, socket or device); give another path");
   const fs::path tmp =
       file.string() + kTmpTag + std::to_string(::getpid()) + "-" + std::to_string(tmp_counter.fetch_add(1));
   FileDescriptor fd(::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
