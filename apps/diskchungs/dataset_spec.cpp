@@ -6,6 +6,7 @@
 
 #include "chungs/common/decimal.hpp"
 #include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
 #include "chungs/synth/street_dataset.hpp"
 
 namespace chungs {
@@ -83,7 +84,12 @@ std::unique_ptr<Dataset> open_street(const std::string& spec, const std::string&
     }
   }
   if (have_width != have_height) fail("dataset '", spec, "': give both width and height, or neither");
-  return std::make_unique<synth::StreetDataset>(o);
+  auto dataset = std::make_unique<synth::StreetDataset>(o);
+  // frames is a most: a street shorter than asked for gave fewer frames without a word.
+  if (o.max_frames > dataset->size())
+    log::warn("dataset '", spec, "': frames=", o.max_frames, " is more than the street's ", dataset->size(),
+              " frames; all ", dataset->size(), " are used");
+  return dataset;
 }
 
 }  // namespace

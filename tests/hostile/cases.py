@@ -828,6 +828,9 @@ def street_spec_cases():
     ]:
         c.append(err("ds.street_spec." + name, RUN + " --dataset synth-street:%s --out out" % spec, word,
                      quick=name == "length_word"))
+    # frames is a most: a street shorter than that gave fewer frames without a word.
+    c.append(Case("ds.street_spec.frames_beyond_the_street", "inspect synth-street:length=12,frames=1000",
+                  "error_or_warning", ["frames"]))
     return c
 
 
