@@ -1,7 +1,9 @@
 // The 3DGS PLY layout: header, 62 float32 per Gaussian, f_rest channel-major.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -90,6 +92,35 @@ TEST(PlyExport, AMapExportHoldsEveryGaussianUnderTheCountItsHeaderNames) {
   const std::string one = read_all(dir / "one.ply");
   EXPECT_EQ(one.find("end_header\n"), end);
   EXPECT_EQ(one.size() - (end + 11), store.count(first) * 62u * 4u);
+}
+
+// A chunk that passed its checksum may still hold nan or inf: those Gaussians are left out and counted,
+// never written as rows a viewer chokes on.
+TEST(PlyExport, GaussiansWithNonFiniteValuesAreLeftOutAndCounted) {
+  test::TempDir dir;
+  ChunkStoreConfig c;
+  c.durable = false;
+  GaussianBlock b = test::random_block(100, 7);
+  b.params.mean[3 * 5 + 1] = std::numeric_limits<float>::quiet_NaN();
+  b.params.sh[48 * 9 + 20] = std::numeric_limits<float>::infinity();
+  b.params.opacity[42] = -std::numeric_limits<float>::infinity();
+  {
+    ChunkStore store(dir / "map", c);
+    store.save(chunk_id({1, 2, 3}), b);
+  }
+  const ChunkStore store(dir / "map", reader_config(c));
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(export_ply(store, dir / "all.ply", {}), 97u);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("3 Gaussians hold nan or infinite values"), std::string::npos) << err;
+  const std::string all = read_all(dir / "all.ply");
+  const size_t body = all.find("end_header\n") + 11;
+  ASSERT_EQ(all.size() - body, 97u * 62u * 4u);
+  for (size_t k = body; k + 4 <= all.size(); k += 4) {
+    float v;
+    std::memcpy(&v, all.data() + k, 4);
+    ASSERT_TRUE(std::isfinite(v)) << "float " << (k - body) / 4;
+  }
 }
 
 // A PLY viewer draws every splat from wherever it looks: each cube goes in once, at its near level, or at

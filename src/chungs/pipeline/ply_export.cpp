@@ -1,10 +1,13 @@
 #include "chungs/pipeline/ply_export.hpp"
 
+#include <cmath>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/store/atomic_file.hpp"
 #include "chungs/store/chunk_levels.hpp"
@@ -42,6 +45,14 @@ void append_row(const GaussianParams& p, size_t i, std::vector<float>& row) {
 }
 
 static_assert(sizeof(float) == 4);
+
+bool finite_gaussian(const GaussianParams& p, size_t i) {
+  bool ok = std::isfinite(p.opacity[i]);
+  for (int k = 0; k < 3; ++k) ok = ok && std::isfinite(p.mean[3 * i + k]) && std::isfinite(p.log_scale[3 * i + k]);
+  for (int k = 0; k < 4; ++k) ok = ok && std::isfinite(p.rotation[4 * i + k]);
+  for (int k = 0; k < 48; ++k) ok = ok && std::isfinite(p.sh[48 * i + k]);
+  return ok;
+}
 
 bool in_box(const GaussianParams& p, size_t i, const PlySelection& s) {
   if (!s.box_lo) return true;
@@ -109,14 +120,29 @@ uint64_t export_ply(const ChunkStore& store, const std::filesystem::path& file, 
   }
   // A 10 km map is thousands of chunk files read and converted: say how far the export is.
   Progress progress("exporting chunks", (long long)ids.size());
-  return write_ply(file, [&](const AddRow& add) {
+  // A chunk file that passed its checksum may still hold nan or inf (written so by a faulty writer):
+  // viewers choke on such rows, so they are left out and counted.
+  uint64_t non_finite = 0;
+  std::optional<ChunkId> first_bad;
+  const uint64_t n = write_ply(file, [&](const AddRow& add) {
     for (ChunkId id : ids) {
       const GaussianBlock b = store.load(id);
-      for (size_t i = 0; i < b.size(); ++i)
-        if (in_box(b.params, i, select)) add(b.params, i);
+      for (size_t i = 0; i < b.size(); ++i) {
+        if (!in_box(b.params, i, select)) continue;
+        if (!finite_gaussian(b.params, i)) {
+          ++non_finite;
+          if (!first_bad) first_bad = id;
+          continue;
+        }
+        add(b.params, i);
+      }
       progress.step();
     }
   });
+  if (non_finite)
+    log::warn(store.folder().string(), ": ", non_finite, " Gaussians hold nan or infinite values (the first in ",
+              chunk_name(*first_bad), "); they were left out of ", file.string(), ": the map is damaged");
+  return n;
 }
 
 }  // namespace chungs
