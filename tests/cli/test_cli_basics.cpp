@@ -52,7 +52,7 @@ TEST(Cli, TrackRefusesAnOutputItCannotWriteBeforeTracking) {
   std::filesystem::create_directories(dir / "folder");
   r = run_cli(street + (dir / "folder").string());
   EXPECT_EQ(r.code, 1) << r.out;
-  EXPECT_NE(r.out.find("folder: is a folder, not a trajectory to write"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("folder: is a folder, not a file for the trajectory"), std::string::npos) << r.out;
 }
 
 // inspect took folders only: the synthetic street every other command takes was an "unknown kind".

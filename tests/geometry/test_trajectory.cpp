@@ -84,6 +84,6 @@ TEST(Trajectory, AFailedWriteNamesTheFileAndTheSystemsReason) {
     write_kitti_trajectory(dir / "taken", random_walk(2, 3));
     FAIL() << "wrote over a folder";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("taken: is a folder, not a trajectory to write"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("taken: is a folder, not a file for the trajectory"), std::string::npos) << e.what();
   }
 }

@@ -2,6 +2,7 @@
 // errors that name the file and line.
 #pragma once
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ struct TextLine {
 // when comma_separated.
 std::vector<TextLine> read_text_table(const std::filesystem::path& file, bool comma_separated = false,
                                       bool skip_header_if_not_numeric = false);
+// The same lines one at a time, for files that may be large; `fn` returns false to stop reading.
+void for_each_text_line(const std::filesystem::path& file, bool comma_separated, bool skip_header_if_not_numeric,
+                        const std::function<bool(const TextLine&)>& fn);
 
 // Parses a string as a finite double; nullopt-free: throws Error naming `what` on failure.
 double parse_double(const std::string& s, const std::string& what);

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <iomanip>
+#include <optional>
 
 #include "chungs/common/error.hpp"
 #include "chungs/common/text_file.hpp"
@@ -35,36 +36,32 @@ SE3 pose_from_tum(const TextLine& line) {
   return SE3(q, t);
 }
 
-void check_increasing(const Trajectory& tr, const std::vector<TextLine>& lines) {
-  for (size_t i = 1; i < tr.stamps.size(); ++i)
-    if (!(tr.stamps[i] > tr.stamps[i - 1]))
-      lines[i].fail_here(cat("timestamp ", tr.stamps[i], " does not increase"));
+void push_increasing(Trajectory& tr, const TextLine& l, double stamp, const SE3& pose) {
+  if (!tr.stamps.empty() && !(stamp > tr.stamps.back()))
+    l.fail_here(cat("timestamp ", stamp, " does not increase"));
+  tr.push_back(stamp, pose);
 }
 
 }  // namespace
 
 Trajectory read_tum_trajectory(const std::filesystem::path& file) {
-  auto lines = read_text_table(file, true, true);
-  if (lines.empty()) fail(file.string(), ": trajectory has no poses");
   Trajectory tr;
-  for (const auto& l : lines) {
+  for_each_text_line(file, true, true, [&](const TextLine& l) {
     l.expect_fields(8);
-    tr.push_back(l.number_at(0), pose_from_tum(l));
-  }
-  check_increasing(tr, lines);
+    push_increasing(tr, l, l.number_at(0), pose_from_tum(l));
+    return true;
+  });
+  if (tr.stamps.empty()) fail(file.string(), ": trajectory has no poses");
   return tr;
 }
 
 Trajectory read_kitti_trajectory(const std::filesystem::path& file, const std::vector<double>& stamps,
                                  double rate_hz) {
-  auto lines = read_text_table(file);
-  if (lines.empty()) fail(file.string(), ": trajectory has no poses");
-  if (!stamps.empty() && stamps.size() != lines.size())
-    fail(file.string(), ": ", lines.size(), " poses but ", stamps.size(), " timestamps");
   if (stamps.empty() && !(rate_hz > 0)) fail(file.string(), ": frame rate must be positive, got ", rate_hz);
   Trajectory tr;
-  for (size_t i = 0; i < lines.size(); ++i) {
-    const auto& l = lines[i];
+  size_t i = 0;
+  for_each_text_line(file, false, false, [&](const TextLine& l) {
+    if (!stamps.empty() && i >= stamps.size()) return ++i, true;  // counted for the message below
     if (l.tokens.size() != 12 && l.tokens.size() != 16) l.fail_here(cat("expected 12 or 16 numbers, found ", l.tokens.size()));
     // A 4x4 pose's last row is 0 0 0 1: anything else is no rigid pose (or a line of another format).
     if (l.tokens.size() == 16)
@@ -73,18 +70,26 @@ Trajectory read_kitti_trajectory(const std::filesystem::path& file, const std::v
           l.fail_here(cat("a 4x4 pose's last row must be 0 0 0 1, found ", l.tokens[12], " ", l.tokens[13], " ",
                           l.tokens[14], " ", l.tokens[15]));
     tr.push_back(stamps.empty() ? double(i) / rate_hz : stamps[i], pose_from_row_major(l, 3));
-  }
+    ++i;
+    return true;
+  });
+  if (tr.stamps.empty()) fail(file.string(), ": trajectory has no poses");
+  if (!stamps.empty() && stamps.size() != i) fail(file.string(), ": ", i, " poses but ", stamps.size(), " timestamps");
   return tr;
 }
 
 Trajectory read_trajectory(const std::filesystem::path& file, double rate_hz) {
-  auto lines = read_text_table(file, true, true);
-  if (lines.empty()) fail(file.string(), ": trajectory has no poses");
-  size_t n = lines[0].tokens.size();
+  std::optional<TextLine> first;  // its field count tells the format
+  for_each_text_line(file, true, true, [&](const TextLine& l) {
+    first = l;
+    return false;
+  });
+  if (!first) fail(file.string(), ": trajectory has no poses");
+  size_t n = first->tokens.size();
   if (n == 8) return read_tum_trajectory(file);
   if (n == 12 || n == 16) return read_kitti_trajectory(file, {}, rate_hz);
-  lines[0].fail_here(cat("cannot tell the trajectory format: ", n,
-                         " fields (TUM has 8, KITTI 12, a 4x4 matrix 16)"));
+  first->fail_here(cat("cannot tell the trajectory format: ", n,
+                       " fields (TUM has 8, KITTI 12, a 4x4 matrix 16)"));
 }
 
 void write_tum_trajectory(const std::filesystem::path& file, const Trajectory& tr, bool monocular) {
