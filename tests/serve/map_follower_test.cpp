@@ -102,6 +102,11 @@ TEST(MapFollower, AClientFarBehindIsToldToReload) {
   ASSERT_EQ(ev.size(), 1u);
   EXPECT_EQ(ev[0]["reload"], true);
   EXPECT_EQ(f.events_after(250, std::chrono::milliseconds(0)).size(), 10u);
+  // A page that knew a later version (the viewer restarted under it) is told at once, not left waiting.
+  const auto ahead = f.events_after(f.version() + 5, std::chrono::seconds(30));
+  ASSERT_EQ(ahead.size(), 1u);
+  EXPECT_EQ(ahead[0]["reload"], true);
+  EXPECT_EQ(ahead[0]["version"], f.version());
 }
 
 namespace {

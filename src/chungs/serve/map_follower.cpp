@@ -142,8 +142,14 @@ bool MapFollower::stopped() const {
 
 std::vector<nlohmann::json> MapFollower::events_after(uint64_t version, std::chrono::milliseconds timeout) const {
   std::unique_lock lock(mutex_);
-  changed_.wait_for(lock, timeout, [&] { return stop_ || version_ > version; });
   std::vector<nlohmann::json> out;
+  // A page that knew a later version than this viewer has (the viewer was restarted under it, its
+  // versions from 0 again) would wait for versions that mean other checkpoints: it reloads the map.
+  if (version > version_) {
+    out.push_back({{"version", version_}, {"reload", true}});
+    return out;
+  }
+  changed_.wait_for(lock, timeout, [&] { return stop_ || version_ > version; });
   if (version_ <= version) return out;
   if (events_.empty() || events_.front()["version"].get<uint64_t>() > version + 1) {
     out.push_back({{"version", version_}, {"reload", true}});

@@ -129,6 +129,36 @@ void ViewServer::routes() {
   s.set_payload_max_length(64 * 1024);  // nothing here takes a body
   s.set_keep_alive_max_count(1000);
 
+  // Before any route or file: what the library would otherwise do on its own.
+  constexpr size_t kMaxHeaders = 200;
+  s.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
+    // Nothing here needs byte ranges, and the library built a multipart body of each one asked for:
+    // 1,000 "0-" ranges of viewer.js took 3 GB. Ranges are ignored (a full 200 is always a valid answer).
+    const_cast<httplib::Request&>(req).ranges.clear();
+    if (req.method != "GET" && req.method != "HEAD") {
+      // Answered before a body is read (a POST announcing 10 GB was read to its end first).
+      res.set_header("Allow", "GET, HEAD");
+      res.set_header("Connection", "close");
+      json_error(res, 405, req.method + " is not served here; only GET and HEAD");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.path.find('\0') != std::string::npos) {  // %00 cut a static path short: index.html%00.js
+      json_error(res, 400, "the path holds a NUL byte");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.headers.size() > kMaxHeaders) {
+      res.set_header("Connection", "close");
+      json_error(res, 431, "more than " + std::to_string(kMaxHeaders) + " request headers");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+  // Static files are served before that handler runs.
+  s.set_file_request_handler([](const httplib::Request& req, httplib::Response& res) {
+    const_cast<httplib::Request&>(req).ranges.clear();
+    res.status = 200;
+  });
+
   const fs::path root = find_web_root(options_.web_root);
   has_page_ = !root.empty();
   if (has_page_) {

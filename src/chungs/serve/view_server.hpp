@@ -20,7 +20,13 @@
 // Requests are answered on a pool of 32 threads; an open event stream keeps one of them.
 // Errors are JSON {"error": "..."}: 404 for an unknown chunk or API path, 400 for a malformed id or
 // query value (named in the message), 500 for a chunk that cannot be read. Paths that climb out of
-// the web root are refused by the library's path check (400) before any file is looked up.
+// the web root find no file (404). Only GET and HEAD are served (405 otherwise, before any body is
+// read); Range headers are ignored (the whole resource, 200); a NUL in the path is a 400 and more than
+// 200 headers a 431. An event stream whose ?since= is ahead of this viewer's versions (it was restarted
+// under an open page) gets a reload event at once.
+// Not defended: slow clients. Each connection holds one of the threads while it trickles its request
+// in (the library's read timeout restarts with every byte), so 32 of them leave none for others;
+// the viewer listens on 127.0.0.1 unless --host says otherwise.
 #pragma once
 #include <atomic>
 #include <filesystem>
