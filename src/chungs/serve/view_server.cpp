@@ -129,7 +129,8 @@ void ViewServer::routes() {
   s.set_payload_max_length(64 * 1024);  // nothing here takes a body
   s.set_keep_alive_max_count(1000);
 
-  // Before any route or file: what the library would otherwise do on its own.
+  // Before any route (the library serves static files even earlier: see the file handler below), what it
+  // would otherwise do on its own.
   constexpr size_t kMaxHeaders = 200;
   s.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
     // Nothing here needs byte ranges, and the library built a multipart body of each one asked for:
@@ -153,7 +154,7 @@ void ViewServer::routes() {
     }
     return httplib::Server::HandlerResponse::Unhandled;
   });
-  // Static files are served before that handler runs.
+  // Static files are served before that handler runs: their ranges are dropped here.
   s.set_file_request_handler([](const httplib::Request& req, httplib::Response& res) {
     const_cast<httplib::Request&>(req).ranges.clear();
     res.status = 200;
