@@ -324,6 +324,8 @@ def number_cases():
     # export renamed its file over a FIFO (as root, over /dev/full too: /dev then held a regular file).
     c.append(err("out.export_over_fifo", "export --map map --out x.ply", "x.ply",
                  both(a_map(), lambda d, s: forge.make_fifo(d / "x.ply")), watch=["map", "x.ply"]))
+    c.append(err("map.export_manifest_link_loop", "export --map map --out x.ply", "manifest.txt",
+                 a_map(lambda root: forge.link_to(root / "manifest.txt", "manifest.txt")), watch=["map"]))
     # 100,000 '[' in a map's JSON ran the stack out (SIGSEGV) in render.
     deep = '{"settings": ' + "[" * 100000 + "]" * 100000 + "}\n"
     c.append(err("map.render_report_json_deep", render, "report.json",
@@ -993,6 +995,10 @@ def map_cases():
                                                   dh=32768, dc=1, raw=32768 * 32768 * 8), "1.keyframe",
                known=STORE_HEADER),
         resume("manifest_flipped", flip("manifest.txt", 30), "manifest.txt"),
+        # A manifest that is a link in a loop was called missing, and --resume rebuilt one over the link.
+        resume("manifest_link_loop", [rm("manifest.txt"), lambda root: forge.link_to(root / "manifest.txt",
+                                                                                      "manifest.txt")],
+               "manifest.txt"),
         # A writer may repair a map, but never without naming what it dropped.
         resume("chunk_missing", chunk(forge.remove), ".chunk", expect="error_or_warning"),
         resume("chunk_payload_flipped", chunk(lambda p: forge.flip_byte(p, 500)), ".chunk"),

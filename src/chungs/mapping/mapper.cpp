@@ -117,6 +117,10 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   // A committed keyframe list without a manifest: the manifest was lost (or deleted after it read back
   // corrupt, as the readers' error advises). Rolling back to "the last commit" would then delete every
   // chunk file; the map is rebuilt from them instead, the newest whole file of each chunk.
+  if (std::error_code ec; resume && fs::exists(fs::symlink_status(folder / "manifest.txt", ec)) &&
+                          !fs::is_regular_file(folder / "manifest.txt", ec))
+    fail((folder / "manifest.txt").string(), ": is not a regular file (a folder, FIFO, device or a link that leads to "
+         "none); the map is left as it is");
   const bool manifest_lost = resume && !fs::exists(folder / "manifest.txt") && fs::exists(folder / "keyframes.txt");
   std::optional<double> rebuilt_far_level;  // the lost manifest's distance, as the run state kept it
   if (manifest_lost) {
