@@ -4,12 +4,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/output_paths.hpp"
 #include "chungs/common/progress.hpp"
 #include "chungs/datasets/dataset.hpp"
 #include "chungs/datasets/mono_view.hpp"
@@ -24,6 +26,8 @@
 
 namespace chungs::app {
 namespace {
+
+namespace fs = std::filesystem;
 
 struct TrackArgs {
   std::string dataset, out, format = "tum", input = "auto";
@@ -46,6 +50,11 @@ void check_flags(const CLI::App& app, const TrackArgs& a) {
   if (given(app, "--kf-max-interval"))
     require_flag(a.kf_max_interval >= 0, "--kf-max-interval", "0 (no limit) or more frames",
                  a.kf_max_interval);
+  // A minimum beyond the maximum left the maximum to win without a word.
+  if (a.kf_min_interval >= 0 && a.kf_max_interval > 0)
+    require_flag(a.kf_min_interval <= a.kf_max_interval, "--kf-min-interval",
+                 cat("at most --kf-max-interval (", a.kf_max_interval, ")"), a.kf_min_interval);
+  require_flag(!a.out.empty(), "--out", "a trajectory file", "an empty path");
   if (given(app, "--rgbd-baseline"))
     require_flag(std::isfinite(a.rgbd_baseline) && a.rgbd_baseline > 0, "--rgbd-baseline",
                  "a positive number of metres", a.rgbd_baseline);
@@ -55,6 +64,12 @@ int run_track(const TrackArgs& a) {
   auto ds = with_input_mode(open_dataset_spec(a.dataset), parse_input_mode(a.input));
   // Before tracking, not after it: `--out FILE/x.txt` failed only once every frame was tracked.
   prepare_output_file(a.out, "trajectory");
+  // The estimate once replaced the ground truth it was scored against (--out DATASET/poses.txt), and a
+  // calib.txt: a file that is already in the dataset's folder is never replaced.
+  if (std::error_code ec; !ds->info().path.empty() && fs::exists(a.out, ec) && lies_within(a.out, ds->info().path))
+    fail("--out ", a.out, " is a file of the dataset ", a.dataset, "; write the trajectory elsewhere or to a new name");
+  // Beside a device or FIFO (--out /dev/null) the side files would land in /dev: only a regular file gets them.
+  const bool side_files = !fs::exists(a.out) || fs::is_regular_file(a.out);
   // One camera measures no scale: the map's unit is set at initialisation and ATE aligns with a similarity.
   const bool mono = !ds->info().has_right && !ds->info().has_depth;
   // The virtual baseline stands in for a right camera: with one (or no depth) the flag was ignored unsaid.
@@ -105,8 +120,8 @@ int run_track(const TrackArgs& a) {
     fail("track ", a.dataset, ": ", tracker.why_not_started(), " (", ds->info().camera.width, "x",
          ds->info().camera.height, " images); nothing was written");
   write_trajectory(a.out, est, format, mono);
-  const std::string quality_file = a.out + ".quality.csv";
-  {
+  const std::string quality_file = side_files ? a.out + ".quality.csv" : "";
+  if (side_files) {
     std::ofstream q(quality_file);
     q << "frame,stamp,state,inliers,doubtful,reasons\n";
     for (const auto& r : quality)
@@ -134,9 +149,11 @@ int run_track(const TrackArgs& a) {
     j["ate"] = to_json(*ate);
     j["gt_path_length"] = gt.path_length();
     // Beside the trajectory: both paths from above and the error along the path (as `eval ate --plot`).
-    const std::string plot = a.out + ".ate.png";
-    write_ate_plot(plot, gt, est, *ate);
-    j["ate_plot"] = plot;
+    if (side_files) {
+      const std::string plot = a.out + ".ate.png";
+      write_ate_plot(plot, gt, est, *ate);
+      j["ate_plot"] = plot;
+    }
   }
   if (a.json) {
     std::printf("%s\n", j.dump(2).c_str());
@@ -156,10 +173,10 @@ int run_track(const TrackArgs& a) {
                 tm.map_segments, tm.reinitialisations);
   std::printf("trajectory written to %s (%s)\n", a.out.c_str(), a.format.c_str());
   if (ate)
-    std::printf("ATE (%s alignment, %zu poses%s): rmse %.4f m (%.2f %% of the path), max %.4f m over a %.1f m path; plot %s.ate.png\n",
+    std::printf("ATE (%s alignment, %zu poses%s): rmse %.4f m (%.2f %% of the path), max %.4f m over a %.1f m path%s\n",
                 alignment_name(ate->align), ate->matched(), mono ? cat(", scale ", ate->alignment.s).c_str() : "",
                 ate->stats.rmse, 100 * ate->stats.rmse / std::max(gt.path_length(), 1e-9), ate->stats.max,
-                gt.path_length(), a.out.c_str());
+                gt.path_length(), side_files ? ("; plot " + a.out + ".ate.png").c_str() : "");
   else
     std::printf("no ground truth: ATE not computed\n");
   return 0;

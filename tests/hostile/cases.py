@@ -256,6 +256,8 @@ def number_cases():
         ("--rgbd-baseline", ["-1", "nan", "inf"]),
         ("--format", ["csv"]),
     ], dataset("tum"), quick_first=True)
+    c.append(err("num.track_kf_min_beyond_max", track + " --kf-min-interval 10 --kf-max-interval 2",
+                 "--kf-min-interval", dataset("tum")))
 
     room = "synth room --out out --frames 2 --width 32 --height 32"
     flags("num.synth_room", "synth room --out out --width 32 --height 32", [
@@ -660,6 +662,9 @@ def kitti_cases():
         # A stereo pair has its own baseline: the RGB-D flag was ignored unsaid.
         err("ds.kitti.track_rgbd_baseline_on_stereo", "track --dataset kitti:ds --out t.txt --rgbd-baseline 0.1",
             ["--rgbd-baseline", "stereo"], dataset(k), watch=["ds"]),
+        # The estimate replaced the ground truth it was then scored against.
+        err("ds.kitti.track_out_over_its_poses", "track --dataset kitti:ds --out ds/poses.txt --format kitti",
+            "--out", dataset(k), watch=["ds"]),
         ds_err(k, "calib_missing", rm("calib.txt"), "calib.txt", quick=True),
         ds_err(k, "calib_empty", put("calib.txt", ""), "calib.txt"),
         ds_err(k, "calib_p2_eleven_numbers", lines("calib.txt", lambda d: d[:2] + [d[2].rsplit(" ", 1)[0]] + d[3:]),
