@@ -47,8 +47,8 @@ const Command cmd{
           c.mapper.iterations_per_keyframe = a->iterations;
         }
         if (given(app, "--speed")) {
-          require_flag(std::isfinite(a->speed) && a->speed >= kMinSpeed, "--speed",
-                       cat("a finite factor of at least ", kMinSpeed), a->speed);
+          require_flag(a->speed >= kMinSpeed && a->speed <= kMaxSpeed, "--speed",
+                       cat("a factor from ", kMinSpeed, " to ", kMaxSpeed), a->speed);
           c.mapper.speed = a->speed;
         }
         // Given means typed, even empty: `--pacing ""` is refused by the check below, not ignored.

@@ -88,8 +88,8 @@ std::vector<ParetoSetting> parse_pareto_settings(const std::string& iterations, 
     for (const std::string& e : entries(speeds, "--speeds")) {
       ParetoSetting s;
       s.anytime = true;
-      if (!parse_whole(e, s.speed) || !std::isfinite(s.speed) || !(s.speed >= kMinSpeed))
-        fail("--speeds entries must be finite factors of at least ", kMinSpeed, ", got '", e, "'");
+      if (!parse_whole(e, s.speed) || !(s.speed >= kMinSpeed && s.speed <= kMaxSpeed))
+        fail("--speeds entries must be factors from ", kMinSpeed, " to ", kMaxSpeed, ", got '", e, "'");
       out.push_back(s);
     }
   if (out.empty()) fail("--iterations and --speeds are both none: there is no point to map");

@@ -140,9 +140,10 @@ TEST(CliPareto, BadListsAreOneErrorNamingTheFlagAndNothingIsWritten) {
       {"--iterations ''", "--iterations must list at least one value"},
       {"--iterations 5,,6", "--iterations has an empty entry in '5,,6'"},
       {"--iterations 10,010", "--iterations lists fixed 10 steps per keyframe twice"},
-      {"--speeds 0", "--speeds entries must be finite factors of at least 0.01, got '0'"},
-      {"--speeds 1e-320", "--speeds entries must be finite factors of at least 0.01, got '1e-320'"},
+      {"--speeds 0", "--speeds entries must be factors from 0.01 to 1000, got '0'"},
+      {"--speeds 1e-320", "--speeds entries must be factors from 0.01 to 1000, got '1e-320'"},
       {"--speeds inf", "got 'inf'"},
+      {"--speeds 1e308", "--speeds entries must be factors from 0.01 to 1000, got '1e308'"},  // was inf km/h
       {"--speeds 1,x", "got 'x'"},
       {"--speeds 1,1.0", "--speeds lists anytime 1x speed twice"},
       {"--speeds ''", "--speeds must list at least one value"},

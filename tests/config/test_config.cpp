@@ -145,7 +145,7 @@ TEST(Config, MapperAdamAndStereoValuesAreRefusedNamingTheKeyAndValue) {
   // speed: .inf was taken; beta1: 1.5 said "betas must be in [0, 1)", stereo said "disparities".
   for (const auto& [yaml, needle] : std::vector<std::pair<std::string, std::string>>{
            {"mapper: {speed: .inf}", "mapper: speed must be"},
-           {"mapper: {speed: 0.001}", "mapper: speed must be a finite factor of at least 0.01, got 0.001"},
+           {"mapper: {speed: 0.001}", "mapper: speed must be a factor from 0.01 to 1000, got 0.001"},
            {"mapper: {final_iterations: -2}", "mapper: final_iterations must be >= 0, or -1 for one a keyframe"},
            {"mapper: {refinement_rounds: 0}", "mapper: refinement_rounds must be in [1, 1000], got 0"},
            {"mapper: {refinement_rounds: 1001}", "mapper: refinement_rounds must be in [1, 1000], got 1001"},

@@ -236,7 +236,7 @@ def number_cases():
         ("--resolution", ["-0.5", "0", "1.5", "nan", "inf", "abc"]),
         ("--iterations", ["-1", "abc", "99999999999"]),
         ("--final-iterations", ["-1", "abc"]),
-        ("--speed", ["0", "-1", "nan", "inf", "abc"]),
+        ("--speed", ["0", "-1", "nan", "inf", "abc", "1e308"]),
         ("--fill-depth", ["-1", "nan", "inf", "1e300"]),
         ("--max-frames", ["0", "-1", "abc"]),
         ("--pacing", ["sometimes", ""]),

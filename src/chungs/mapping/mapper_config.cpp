@@ -48,8 +48,8 @@ void MapperConfig::validate() const {
   if (refinement_min_visit_steps < 1 || refinement_min_visit_steps > 1'000'000)
     fail("mapper: refinement_min_visit_steps must be in [1, 1000000], got ", refinement_min_visit_steps);
   // An infinite speed would make every frame arrive at once: anytime pacing would train on none.
-  if (!(speed >= kMinSpeed) || !std::isfinite(speed))
-    fail("mapper: speed must be a finite factor of at least ", kMinSpeed, ", got ", speed);
+  if (!(speed >= kMinSpeed && speed <= kMaxSpeed))
+    fail("mapper: speed must be a factor from ", kMinSpeed, " to ", kMaxSpeed, ", got ", speed);
   if (keyframe_every < 0) fail("mapper: keyframe_every must be >= 0, got ", keyframe_every);
   // Infinite ones passed, and all three at inf with keyframe_every 0 made a rule that never fires.
   for (auto [v, name] : {std::pair{keyframe_translation, "keyframe_translation"},

@@ -9,6 +9,9 @@ namespace chungs {
 // The slowest intake anytime pacing takes: a hundredth of the recorded rate. Slower, a run of a few
 // frames waited for ever (--speed 1e-320 put the second frame 1e319 s after the first).
 inline constexpr double kMinSpeed = 0.01;
+// The fastest: a thousand times the recorded rate (10 kHz for KITTI). Beyond, 1e308 gave an intake of inf
+// km/h in reports, and every frame arrived at once.
+inline constexpr double kMaxSpeed = 1000;
 // The automatic refinement's steps a keyframe at most, however many groups a small budget makes, unless
 // half the drive's own steps are more (a drive of many steps a keyframe: MapperConfig::refinement_steps).
 inline constexpr uint64_t kMaxRefinementStepsPerKeyframe = 16;
