@@ -380,6 +380,9 @@ def number_cases():
     # 16384 a side passed the side check, then took gigabytes; the readers take 8192 x 8192 at most.
     c.append(err("num.synth_room_area", "synth room --out out --frames 1 --width 16384 --height 16384", "--width"))
     c.append(err("num.synth_room--out=empty", "synth room --out '' --frames 1 --width 32 --height 24", "--out"))
+    # Written into a real dataset, a sequence replaced its calib.txt and poses.txt and left its images beside.
+    c.append(err("num.synth_street_into_a_dataset", "synth street --out ds --length-m 5 --width 32 --height 24", "ds",
+                 dataset("kitti"), watch=["ds"]))
     # Frames are named by their stamps to the microsecond: at 1e300 Hz five frames shared one file.
     c.append(err("num.synth_mesh--rate=1e300", mesh + " " + intr + " --rate 1e300", "--rate", mesh_setup))
     return c

@@ -45,6 +45,24 @@ void close_text(std::ofstream& out, const fs::path& file) {
   if (!out) fail(file, ": write failed");
 }
 
+// The first line of every sequence's camera.txt (write_camera_txt): what marks a folder as one of ours.
+constexpr const char* kCameraHeader = "# synthetic pinhole camera";
+
+// A sequence goes into a new or empty folder, or over an earlier sequence. Written into a real dataset
+// (--out kitti_seq1), it replaced calib.txt and poses.txt and left the dataset's own images beside its
+// frames: a mixed dataset, the real one hidden.
+void claim_folder(const fs::path& out) {
+  std::error_code ec;
+  if (!fs::exists(out, ec)) return;
+  if (!fs::is_directory(out, ec)) fail(out.string(), ": is not a folder; a synthetic sequence is written into one");
+  if (fs::is_empty(out, ec)) return;
+  std::ifstream camera(out / "camera.txt");
+  std::string first;
+  if (camera && std::getline(camera, first) && first.rfind(kCameraHeader, 0) == 0) return;
+  fail(out.string(), " holds files of something other than a synthetic sequence (no camera.txt of one); give a new "
+       "or empty folder");
+}
+
 // Creates `dir` and removes the PNG frames an earlier run left there: a shorter new sequence must
 // not be read back with the old one's tail.
 void prepare_frame_dir(const fs::path& dir) {
@@ -67,7 +85,10 @@ std::string stamp_name(size_t index, double t) {
 class TumWriter : public SequenceWriter {
  public:
   TumWriter(fs::path out, const Camera& cam) : out_(std::move(out)), cam_(cam) {
+    claim_folder(out_);
     prepare_frame_dir(out_ / "rgb");
+    // First, so that a run stopped midway leaves a folder the next run recognises (claim_folder).
+    write_camera_txt(out_ / "camera.txt", cam_, 0, kTumDepthScale);
     prepare_frame_dir(out_ / "depth");
   }
   void add(const FrameOut& f) override {
@@ -96,7 +117,6 @@ class TumWriter : public SequenceWriter {
     list("rgb.txt", "color", "rgb", rgb_);
     list("depth.txt", "depth", "depth", depth_);
     write_tum_trajectory(out_ / "groundtruth.txt", traj_);
-    write_camera_txt(out_ / "camera.txt", cam_, 0, kTumDepthScale);
     // The TUM reader's intrinsics override, so that any synthetic camera reads back as written.
     const fs::path calib = out_ / "calib.txt";
     auto c = open_text(calib);
@@ -115,10 +135,12 @@ class KittiWriter : public SequenceWriter {
  public:
   KittiWriter(fs::path out, const Camera& cam, double baseline, bool depth)
       : out_(std::move(out)), cam_(cam), baseline_(baseline), depth_(depth) {
+    claim_folder(out_);
     prepare_frame_dir(out_ / "image_2");
     prepare_frame_dir(out_ / "image_3");
     if (depth_) prepare_frame_dir(out_ / "depth");
     else if (fs::is_directory(out_ / "depth")) prepare_frame_dir(out_ / "depth");
+    write_camera_txt(out_ / "camera.txt", cam_, baseline_, depth_ ? kKittiDepthScale : 0);  // first: see TumWriter
   }
   void add(const FrameOut& f) override {
     if (!f.left || !f.right) fail("KITTI writer: frame ", f.index, " needs a left and a right image");
@@ -148,7 +170,6 @@ class KittiWriter : public SequenceWriter {
     }
     close_text(t, times);
     write_kitti_trajectory(out_ / "poses.txt", traj_);
-    write_camera_txt(out_ / "camera.txt", cam_, baseline_, depth_ ? kKittiDepthScale : 0);
   }
 
  private:
@@ -172,7 +193,7 @@ std::unique_ptr<SequenceWriter> make_kitti_writer(const fs::path& out, const Cam
 
 void write_camera_txt(const fs::path& file, const Camera& cam, double baseline, double depth_scale) {
   auto o = open_text(file);
-  o << "# synthetic pinhole camera, no distortion; pixel centres at integer coordinates\n"
+  o << kCameraHeader << ", no distortion; pixel centres at integer coordinates\n"
     << "# fx fy cx cy width height baseline_m depth_scale\n";
   char buf[256];
   std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g %.9g %d %d %.9g %.9g\n", cam.fx, cam.fy, cam.cx, cam.cy, cam.width,
