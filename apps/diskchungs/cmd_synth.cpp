@@ -27,6 +27,10 @@ struct SynthArgs {
 void report(const synth::SequenceReport& r, const std::string& out) {
   std::printf("wrote %zu frames to %s in %.1f s (%.1f frames/s rendering), up to %zu triangles drawn\n", r.frames,
               out.c_str(), r.seconds, r.frames / std::max(r.render_seconds, 1e-9), r.max_triangles_drawn);
+  // A mesh of no faces, or of faces with no area, gave a blank sequence with exit 0 and no word.
+  if (r.max_triangles_drawn == 0)
+    log::warn(out, ": no triangle was drawn in any frame; every image is background (an empty or degenerate mesh, "
+              "or a trajectory that never looks at it)");
 }
 
 // The flags a scene was given, range-checked with the flag named before anything is rendered (a

@@ -426,6 +426,9 @@ def synth_cases():
                               "end_header\n"),
     ]:
         c.append(err("synth.mesh_" + name, cmd, "mesh.ply", setup(mesh=mesh)))
+    # A mesh with no faces gave a blank sequence, exit 0, without a word.
+    c.append(Case("synth.mesh_no_faces", cmd, "error_or_warning", ["triangle"],
+                  setup(mesh=MESH_PLY.replace("element face 1", "element face 0").replace("3 0 1 2\n", ""))))
     c.append(err("synth.mesh_is_fifo", cmd, "mesh.ply", both(setup(), lambda d, s: forge.make_fifo(d / "mesh.ply")),
                  timeout=30))
     c.append(err("synth.mesh_is_folder", cmd, "mesh.ply", both(setup(), lambda d, s: forge.make_dir(d / "mesh.ply"))))
