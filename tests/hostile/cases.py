@@ -424,6 +424,9 @@ def synth_cases():
         ("colour_beyond_uchar", MESH_PLY.replace("-1 -1 0 255", "-1 -1 0 300")),
         ("no_vertex_element", "ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\n"
                               "end_header\n"),
+        # A header's count short of its body, and a face line of more values than its length, dropped data unsaid.
+        ("faces_beyond_the_count", MESH_PLY + "3 0 1 2\n3 2 1 0\n"),
+        ("face_line_longer_than_its_length", MESH_PLY.replace("3 0 1 2", "3 0 1 2 7")),
     ]:
         c.append(err("synth.mesh_" + name, cmd, "mesh.ply", setup(mesh=mesh)))
     # A mesh with no faces gave a blank sequence, exit 0, without a word.

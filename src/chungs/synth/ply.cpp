@@ -11,6 +11,7 @@
 #include <string>
 
 #include "chungs/common/error.hpp"
+#include "chungs/common/log.hpp"
 
 namespace chungs::synth {
 namespace {
@@ -79,6 +80,16 @@ class Body {
     return v;
   }
   void set_what(const std::string& w) { what_ = w; }
+  // Whether anything but blanks follows the last declared element: a header whose counts fall short of
+  // its body (a truncated count, a face line of more values than its length says) dropped the rest unsaid.
+  bool more_data() {
+    if (!ascii_) return p_ != end_;
+    while (p_ < end_ && std::isspace(static_cast<unsigned char>(*p_))) {
+      if (*p_ == '\n') ++line_;
+      ++p_;
+    }
+    return p_ != end_;
+  }
   std::string where() const { return ascii_ ? cat(file_.string(), ":", line_) : file_.string(); }
 
  private:
@@ -258,6 +269,12 @@ Mesh read_ply(const std::filesystem::path& file) {
     }
   }
   if (!have_vertices) fail(file, ": PLY has no vertex element");
+  if (body.more_data()) {
+    if (ascii)
+      fail(body.where(), ": data after the elements the header declares (its counts, or a line's values, fall "
+           "short of the body)");
+    log::warn(file.string(), ": bytes after the elements the header declares are ignored");
+  }
 
   Material m;
   if (have_colors) {
