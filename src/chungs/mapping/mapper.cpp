@@ -37,35 +37,26 @@ bool worth_saying_again(uint64_t needed, uint64_t& largest) {
   return say;
 }
 
-// The chunk size, SH degree and far-level distance that a lost manifest held, from the run state
-// committed with it (maps whose state predates them keep the settings' values; the distance then follows
-// the chunks, settle_far_level_distance). A damaged value is refused naming the file.
-std::optional<double> take_map_geometry(const fs::path& state_file, ChunkStoreConfig& c) {
-  if (!fs::exists(state_file)) return std::nullopt;
+// What the run state committed with a lost manifest says of the map: its chunk size, SH degree and far-level
+// distance (maps whose state predates them keep the settings' values; the distance then follows the chunks,
+// settle_far_level_distance), and whether its keyframes saw chunks (a map whose manifest and chunk files are
+// all gone then lost its Gaussians). A damaged value is refused naming the file.
+struct LostMapState {
+  std::optional<double> far_level_distance;
+  bool keyframes_saw_chunks = false;
+};
+LostMapState take_map_geometry(const fs::path& state_file, ChunkStoreConfig& c) {
+  LostMapState out;
+  if (!fs::exists(state_file)) return out;
   const nlohmann::json j = read_json_file(state_file);
   validate_run_state(j, state_file);
   if (j.contains("chunk_size")) c.chunk_size = j["chunk_size"].get<double>();
   if (j.contains("sh_degree")) c.sh_degree = int(j["sh_degree"].get<uint64_t>());
-  if (j.contains("far_level_distance")) return j["far_level_distance"].get<double>();
-  return std::nullopt;
-}
-
-bool holds_chunk_files(const fs::path& dir) {
-  std::error_code ec;
-  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
-    if (const auto name = parse_chunk_file_name(it->path().filename().string()); name && !name->tombstone) return true;
-  return false;
-}
-
-// Whether the run state's keyframes saw chunks: a map whose manifest and chunk files are all gone then
-// lost its Gaussians, and a resumed run would go on from an empty map as if nothing were missing.
-bool state_names_chunks(const fs::path& state_file) {
-  if (!fs::exists(state_file)) return false;
-  const nlohmann::json j = read_json_file(state_file);
-  if (!j.contains("keyframe_chunks") || !j["keyframe_chunks"].is_object()) return false;
-  for (const auto& [id, chunks] : j["keyframe_chunks"].items())
-    if (chunks.is_array() && !chunks.empty()) return true;
-  return false;
+  if (j.contains("far_level_distance")) out.far_level_distance = j["far_level_distance"].get<double>();
+  if (j.contains("keyframe_chunks") && j["keyframe_chunks"].is_object())
+    for (const auto& [id, chunks] : j["keyframe_chunks"].items())
+      out.keyframes_saw_chunks = out.keyframes_saw_chunks || (chunks.is_array() && !chunks.empty());
+  return out;
 }
 
 // The run state repeats the manifest's geometry: where they differ, one of them was damaged, and
@@ -126,9 +117,10 @@ Mapper::Mapper(const fs::path& folder, const Config& config, bool resume)
   if (manifest_lost) {
     ChunkStoreConfig rebuild = store_config;
     rebuild.adopt_uncommitted = true;  // on this open only: the session's own files roll back as ever
-    rebuilt_far_level = take_map_geometry(folder / "run_state.json", rebuild);
+    const LostMapState lost = take_map_geometry(folder / "run_state.json", rebuild);
+    rebuilt_far_level = lost.far_level_distance;
     // Checked before the rebuild, which writes a manifest: the refused folder must stay as it was found.
-    if (!holds_chunk_files(folder / "chunks") && state_names_chunks(folder / "run_state.json"))
+    if (lost.keyframes_saw_chunks && !holds_chunk_files(folder / "chunks"))
       fail(folder.string(), ": manifest.txt and every chunk file are gone, but the keyframes in run_state.json saw "
            "chunks: the map's Gaussians are lost, and --resume would go on from an empty map. Restore chunks/ and "
            "manifest.txt, or map again without --resume into a new folder");

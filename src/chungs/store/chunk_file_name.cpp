@@ -46,4 +46,11 @@ std::optional<ChunkFileName> parse_chunk_file_name(const std::string& name) {
   return std::nullopt;
 }
 
+bool holds_chunk_files(const std::filesystem::path& chunk_dir) {
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(chunk_dir, ec), end; !ec && it != end; it.increment(ec))
+    if (const auto name = parse_chunk_file_name(it->path().filename().string()); name && !name->tombstone) return true;
+  return false;
+}
+
 }  // namespace chungs

@@ -3,6 +3,7 @@
 // version 1 layout's "<id>.chunk", which stands for generation 0.
 #pragma once
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -19,5 +20,7 @@ struct ChunkFileName {
 std::string chunk_file_name(ChunkId id, uint64_t generation, bool tombstone);
 // nullopt for anything else (temporaries, foreign files).
 std::optional<ChunkFileName> parse_chunk_file_name(const std::string& name);
+// Whether a map's chunk folder holds any chunk content file (false when it is missing).
+bool holds_chunk_files(const std::filesystem::path& chunk_dir);
 
 }  // namespace chungs
